@@ -1,0 +1,24 @@
+//! Pure geometry for airborne camera images: no I/O, no threads.
+//!
+//! Conventions (see `CONVENTIONS.md` at the repository root, each pinned by a test):
+//! pixel centres at integer coordinates, u right, v down; angles in radians inside, degrees at
+//! the boundaries; transforms named `a_from_b`; f64 throughout.
+
+pub mod attitude;
+pub mod camera;
+pub mod error;
+pub mod evaluate;
+pub mod homography;
+pub mod rectify;
+
+pub use attitude::SixAngleAttitude;
+pub use camera::{ImageSize, Intrinsics};
+pub use error::GeometryError;
+pub use evaluate::{CheckPoint, CheckPointStats};
+pub use homography::Homography;
+pub use rectify::{AltitudeScale, RectifyGeometry, RectifyLimits};
+
+/// A 3x3 matrix of f64, row-major in memory views and in reports.
+pub type Mat3 = nalgebra::Matrix3<f64>;
+/// A 3-vector of f64.
+pub type Vec3 = nalgebra::Vector3<f64>;
