@@ -4,8 +4,8 @@
 //! `M_air = Ry'(phi) Rx(omega) Rz(kappa)` (aircraft -> ground-parallel). `Rz'` and `Ry'` are the
 //! transposes of the usual right-handed rotations: the paper's signs are kept on purpose.
 
-use crate::error::{GeometryError, require_finite};
 use crate::Mat3;
+use crate::error::{GeometryError, require_finite};
 use serde::{Deserialize, Serialize};
 
 /// The six angles, in radians. Build from degrees with [`SixAngleAttitude::from_degrees`].
@@ -39,12 +39,25 @@ pub struct SixAngleDegrees {
 
 impl SixAngleDegrees {
     /// The field names in the order of the paper: A, alpha, kappa_v, phi, omega, kappa.
-    pub const FIELDS: [&'static str; 6] =
-        ["azimuth", "elevation", "image_rotation", "pitch", "roll", "yaw"];
+    pub const FIELDS: [&'static str; 6] = [
+        "azimuth",
+        "elevation",
+        "image_rotation",
+        "pitch",
+        "roll",
+        "yaw",
+    ];
 
     /// The values in the order of [`Self::FIELDS`].
     pub fn values(&self) -> [f64; 6] {
-        [self.azimuth, self.elevation, self.image_rotation, self.pitch, self.roll, self.yaw]
+        [
+            self.azimuth,
+            self.elevation,
+            self.image_rotation,
+            self.pitch,
+            self.roll,
+            self.yaw,
+        ]
     }
 }
 
@@ -64,7 +77,11 @@ impl SixAngleAttitude {
                 } else {
                     "must lie within [-360, 360] degrees"
                 };
-                return Err(GeometryError::InvalidParameter { field, value, reason });
+                return Err(GeometryError::InvalidParameter {
+                    field,
+                    value,
+                    reason,
+                });
             }
         }
         Ok(Self {
@@ -204,23 +221,47 @@ mod tests {
     #[test]
     fn r_is_product_air_times_cam() {
         let att = SixAngleAttitude::from_degrees(&SixAngleDegrees {
-            azimuth: 10.0, elevation: 30.0, image_rotation: -5.0, pitch: 2.0, roll: -3.0, yaw: 40.0,
+            azimuth: 10.0,
+            elevation: 30.0,
+            image_rotation: -5.0,
+            pitch: 2.0,
+            roll: -3.0,
+            yaw: 40.0,
         })
         .expect("valid angles");
-        let want = paper_eq5(att.pitch, att.roll, att.yaw) * paper_eq3(att.azimuth, att.elevation, att.image_rotation);
+        let want = paper_eq5(att.pitch, att.roll, att.yaw)
+            * paper_eq3(att.azimuth, att.elevation, att.image_rotation);
         assert_relative_eq!(att.ground_from_camera(), want, epsilon = 1e-14);
     }
 
     #[test]
     fn degrees_round_trip_and_validation() {
-        let d = SixAngleDegrees { azimuth: 12.5, elevation: -30.0, image_rotation: 1.0, pitch: 2.0, roll: 3.0, yaw: 359.0 };
-        let back = SixAngleAttitude::from_degrees(&d).expect("valid").to_degrees();
+        let d = SixAngleDegrees {
+            azimuth: 12.5,
+            elevation: -30.0,
+            image_rotation: 1.0,
+            pitch: 2.0,
+            roll: 3.0,
+            yaw: 359.0,
+        };
+        let back = SixAngleAttitude::from_degrees(&d)
+            .expect("valid")
+            .to_degrees();
         for (x, y) in d.values().iter().zip(back.values()) {
             assert_relative_eq!(*x, y, epsilon = 1e-12);
         }
-        let bad = SixAngleDegrees { pitch: f64::NAN, ..d };
-        assert!(matches!(SixAngleAttitude::from_degrees(&bad), Err(GeometryError::InvalidParameter { field: "pitch", .. })));
+        let bad = SixAngleDegrees {
+            pitch: f64::NAN,
+            ..d
+        };
+        assert!(matches!(
+            SixAngleAttitude::from_degrees(&bad),
+            Err(GeometryError::InvalidParameter { field: "pitch", .. })
+        ));
         let bad = SixAngleDegrees { roll: 91.0, ..d };
-        assert!(matches!(SixAngleAttitude::from_degrees(&bad), Err(GeometryError::InvalidParameter { field: "roll", .. })));
+        assert!(matches!(
+            SixAngleAttitude::from_degrees(&bad),
+            Err(GeometryError::InvalidParameter { field: "roll", .. })
+        ));
     }
 }

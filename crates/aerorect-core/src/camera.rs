@@ -28,7 +28,10 @@ impl ImageSize {
 
     /// The image centre ((W-1)/2, (H-1)/2) in the pixel-centre convention.
     pub fn centre(&self) -> [f64; 2] {
-        [(self.width as f64 - 1.0) / 2.0, (self.height as f64 - 1.0) / 2.0]
+        [
+            (self.width as f64 - 1.0) / 2.0,
+            (self.height as f64 - 1.0) / 2.0,
+        ]
     }
 
     /// The centres of the four corner pixels: top-left, top-right, bottom-right, bottom-left.
@@ -76,7 +79,9 @@ impl Intrinsics {
     /// K in focal units: maps a ray (x/f, y/f, -1) of the camera frame to homogeneous pixels.
     /// It is the paper's K (eq. 1) multiplied by f; a homography K R K^-1 is the same for both.
     pub fn pixel_from_camera(&self) -> Mat3 {
-        Mat3::new(self.fx, -self.skew, -self.cx, 0.0, -self.fy, -self.cy, 0.0, 0.0, -1.0)
+        Mat3::new(
+            self.fx, -self.skew, -self.cx, 0.0, -self.fy, -self.cy, 0.0, 0.0, -1.0,
+        )
     }
 
     /// K^-1: homogeneous pixel (u, v, 1) -> camera ray with z = -1.
@@ -107,9 +112,8 @@ impl Intrinsics {
 
     /// Horizontal and vertical full field of view in degrees for an image of `size`.
     pub fn field_of_view_deg(&self, size: ImageSize) -> [f64; 2] {
-        let half = |n: usize, c: f64, f: f64| {
-            ((c + 0.5) / f).atan() + ((n as f64 - 0.5 - c) / f).atan()
-        };
+        let half =
+            |n: usize, c: f64, f: f64| ((c + 0.5) / f).atan() + ((n as f64 - 0.5 - c) / f).atan();
         [
             half(size.width, self.cx, self.fx).to_degrees(),
             half(size.height, self.cy, self.fy).to_degrees(),
@@ -124,7 +128,17 @@ mod tests {
 
     /// The paper's K and K^-1 in millimetres, written from the spec.
     fn paper_k(f: f64, dx: f64, dy: f64, u0: f64, v0: f64) -> (Mat3, Mat3) {
-        let k = Mat3::new(1.0 / dx, 0.0, -u0 / f, 0.0, -1.0 / dy, -v0 / f, 0.0, 0.0, -1.0 / f);
+        let k = Mat3::new(
+            1.0 / dx,
+            0.0,
+            -u0 / f,
+            0.0,
+            -1.0 / dy,
+            -v0 / f,
+            0.0,
+            0.0,
+            -1.0 / f,
+        );
         let kinv = Mat3::new(dx, 0.0, -u0 * dx, 0.0, -dy, v0 * dy, 0.0, 0.0, -f);
         (k, kinv)
     }
@@ -161,11 +175,29 @@ mod tests {
     #[test]
     fn refuses_bad_physical_parameters() {
         let e = Intrinsics::from_physical(0.0, [5.0, 5.0], [0.0, 0.0]).unwrap_err();
-        assert!(matches!(e, GeometryError::InvalidParameter { field: "focal_length_mm", .. }));
+        assert!(matches!(
+            e,
+            GeometryError::InvalidParameter {
+                field: "focal_length_mm",
+                ..
+            }
+        ));
         let e = Intrinsics::from_physical(10.0, [-5.0, 5.0], [0.0, 0.0]).unwrap_err();
-        assert!(matches!(e, GeometryError::InvalidParameter { field: "pixel_pitch_um[0]", .. }));
+        assert!(matches!(
+            e,
+            GeometryError::InvalidParameter {
+                field: "pixel_pitch_um[0]",
+                ..
+            }
+        ));
         let e = Intrinsics::from_physical(10.0, [5.0, f64::NAN], [0.0, 0.0]).unwrap_err();
-        assert!(matches!(e, GeometryError::InvalidParameter { field: "pixel_pitch_um[1]", .. }));
+        assert!(matches!(
+            e,
+            GeometryError::InvalidParameter {
+                field: "pixel_pitch_um[1]",
+                ..
+            }
+        ));
     }
 
     #[test]
@@ -178,6 +210,10 @@ mod tests {
     fn field_of_view_closed_form() {
         let intr = Intrinsics::new(1000.0, 1000.0, 255.5, 255.5).expect("valid");
         let fov = intr.field_of_view_deg(ImageSize::new(512, 512));
-        assert_relative_eq!(fov[0], 2.0 * (256.0f64 / 1000.0).atan().to_degrees(), epsilon = 1e-12);
+        assert_relative_eq!(
+            fov[0],
+            2.0 * (256.0f64 / 1000.0).atan().to_degrees(),
+            epsilon = 1e-12
+        );
     }
 }

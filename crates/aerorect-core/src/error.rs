@@ -32,10 +32,18 @@ pub enum GeometryError {
 /// Checks that `value` is finite and strictly positive.
 pub fn require_positive(field: &'static str, value: f64) -> Result<f64, GeometryError> {
     if !value.is_finite() {
-        return Err(GeometryError::InvalidParameter { field, value, reason: "not a finite number" });
+        return Err(GeometryError::InvalidParameter {
+            field,
+            value,
+            reason: "not a finite number",
+        });
     }
     if value <= 0.0 {
-        return Err(GeometryError::InvalidParameter { field, value, reason: "must be > 0" });
+        return Err(GeometryError::InvalidParameter {
+            field,
+            value,
+            reason: "must be > 0",
+        });
     }
     Ok(value)
 }
@@ -45,6 +53,10 @@ pub fn require_finite(field: &'static str, value: f64) -> Result<f64, GeometryEr
     if value.is_finite() {
         Ok(value)
     } else {
-        Err(GeometryError::InvalidParameter { field, value, reason: "not a finite number" })
+        Err(GeometryError::InvalidParameter {
+            field,
+            value,
+            reason: "not a finite number",
+        })
     }
 }

@@ -25,7 +25,10 @@ pub struct CheckPointStats {
 
 /// Residuals `du = u_p - u_b'`, `dv = v_p - v_b'` of every check point, where (u_b', v_b') is the
 /// standard point mapped by `oblique_from_standard` (G). `None` for a point beyond the horizon.
-pub fn residuals(points: &[CheckPoint], oblique_from_standard: &Homography) -> Vec<Option<[f64; 2]>> {
+pub fn residuals(
+    points: &[CheckPoint],
+    oblique_from_standard: &Homography,
+) -> Vec<Option<[f64; 2]>> {
     points
         .iter()
         .map(|p| {
@@ -47,7 +50,14 @@ pub fn stats(residuals: &[[f64; 2]]) -> Option<CheckPointStats> {
     let dv_max = residuals.iter().map(|r| r[1].abs()).fold(0.0, f64::max);
     let urms = (residuals.iter().map(|r| r[0] * r[0]).sum::<f64>() / n).sqrt();
     let vrms = (residuals.iter().map(|r| r[1] * r[1]).sum::<f64>() / n).sqrt();
-    Some(CheckPointStats { n: residuals.len(), du_max, dv_max, urms, vrms, rmse: urms.hypot(vrms) })
+    Some(CheckPointStats {
+        n: residuals.len(),
+        du_max,
+        dv_max,
+        urms,
+        vrms,
+        rmse: urms.hypot(vrms),
+    })
 }
 
 #[cfg(test)]
@@ -71,7 +81,12 @@ mod tests {
     #[test]
     fn residual_sign_is_observed_minus_mapped() {
         let g = Homography::translation(1.0, 2.0);
-        let p = CheckPoint { u_oblique: 10.0, v_oblique: 10.0, u_standard: 8.5, v_standard: 9.0 };
+        let p = CheckPoint {
+            u_oblique: 10.0,
+            v_oblique: 10.0,
+            u_standard: 8.5,
+            v_standard: 9.0,
+        };
         let r = residuals(&[p], &g);
         assert_eq!(r, vec![Some([0.5, -1.0])]);
     }

@@ -33,14 +33,20 @@ impl Homography {
     }
 
     pub fn identity() -> Self {
-        Self { matrix: Mat3::identity(), inverse: Mat3::identity() }
+        Self {
+            matrix: Mat3::identity(),
+            inverse: Mat3::identity(),
+        }
     }
 
     /// A translation by (tx, ty).
     pub fn translation(tx: f64, ty: f64) -> Self {
         let m = Mat3::new(1.0, 0.0, tx, 0.0, 1.0, ty, 0.0, 0.0, 1.0);
         let i = Mat3::new(1.0, 0.0, -tx, 0.0, 1.0, -ty, 0.0, 0.0, 1.0);
-        Self { matrix: m, inverse: i }
+        Self {
+            matrix: m,
+            inverse: i,
+        }
     }
 
     pub fn matrix(&self) -> &Mat3 {
@@ -49,12 +55,18 @@ impl Homography {
 
     /// The inverse transform `a_from_b`.
     pub fn inverse(&self) -> Self {
-        Self { matrix: self.inverse, inverse: self.matrix }
+        Self {
+            matrix: self.inverse,
+            inverse: self.matrix,
+        }
     }
 
     /// `self` after `first`: (c_from_b) * (b_from_a) = c_from_a. Composition reads right to left.
     pub fn after(&self, first: &Homography) -> Self {
-        Self { matrix: self.matrix * first.matrix, inverse: first.inverse * self.inverse }
+        Self {
+            matrix: self.matrix * first.matrix,
+            inverse: first.inverse * self.inverse,
+        }
     }
 
     /// The homogeneous image of (x, y, 1), not divided.
@@ -76,11 +88,11 @@ impl Homography {
     /// The matrix in row-major order, for reports.
     pub fn row_major(&self) -> [[f64; 3]; 3] {
         let m = &self.matrix;
-        [[m[(0, 0)], m[(0, 1)], m[(0, 2)]], [m[(1, 0)], m[(1, 1)], m[(1, 2)]], [
-            m[(2, 0)],
-            m[(2, 1)],
-            m[(2, 2)],
-        ]]
+        [
+            [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
+            [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
+            [m[(2, 0)], m[(2, 1)], m[(2, 2)]],
+        ]
     }
 }
 
@@ -92,7 +104,8 @@ mod tests {
     #[test]
     fn composition_reads_right_to_left() {
         let t = Homography::translation(3.0, -2.0);
-        let s = Homography::new(Mat3::new(2.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 1.0)).expect("ok");
+        let s =
+            Homography::new(Mat3::new(2.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 1.0)).expect("ok");
         // scale after translate: (1,1) -> (4,-1) -> (8,-2)
         let p = s.after(&t).map(1.0, 1.0).expect("finite");
         assert_relative_eq!(p[0], 8.0);
@@ -104,7 +117,8 @@ mod tests {
 
     #[test]
     fn non_positive_w_has_no_image() {
-        let h = Homography::new(Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, -5.0)).expect("ok");
+        let h =
+            Homography::new(Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, -5.0)).expect("ok");
         assert!(h.map(0.0, 5.0).is_none());
         assert!(h.map(0.0, 4.0).is_none());
         assert!(h.map(0.0, 6.0).is_some());

@@ -1,11 +1,11 @@
 //! The six-angle rectification geometry: F and G (eq. 12-13), altitude normalisation (eq. 14),
 //! and the output grid from the ground footprint (section 3), clipped near the horizon.
 
+use crate::Mat3;
 use crate::attitude::SixAngleAttitude;
 use crate::camera::{ImageSize, Intrinsics};
 use crate::error::{GeometryError, require_positive};
 use crate::homography::Homography;
-use crate::Mat3;
 
 /// The largest output (in pixels) that rectification produces unless told otherwise: 64 Mpx.
 pub const DEFAULT_MAX_OUTPUT_PX: u64 = 64_000_000;
@@ -50,8 +50,28 @@ impl AltitudeScale {
     pub fn base_from_standard(&self, principal_point: [f64; 2]) -> Homography {
         let s = self.factor();
         let [u0, v0] = principal_point;
-        let m = Mat3::new(s, 0.0, u0 * (1.0 - s), 0.0, s, v0 * (1.0 - s), 0.0, 0.0, 1.0);
-        let i = Mat3::new(1.0 / s, 0.0, u0 * (1.0 - 1.0 / s), 0.0, 1.0 / s, v0 * (1.0 - 1.0 / s), 0.0, 0.0, 1.0);
+        let m = Mat3::new(
+            s,
+            0.0,
+            u0 * (1.0 - s),
+            0.0,
+            s,
+            v0 * (1.0 - s),
+            0.0,
+            0.0,
+            1.0,
+        );
+        let i = Mat3::new(
+            1.0 / s,
+            0.0,
+            u0 * (1.0 - 1.0 / s),
+            0.0,
+            1.0 / s,
+            v0 * (1.0 - 1.0 / s),
+            0.0,
+            0.0,
+            1.0,
+        );
         Homography::from_pair(m, i)
     }
 }
@@ -65,7 +85,9 @@ pub struct RectifyLimits {
 
 impl Default for RectifyLimits {
     fn default() -> Self {
-        Self { max_output_px: DEFAULT_MAX_OUTPUT_PX }
+        Self {
+            max_output_px: DEFAULT_MAX_OUTPUT_PX,
+        }
     }
 }
 
@@ -162,7 +184,12 @@ fn grid_bounds(h: &Homography, polygon: &[[f64; 2]]) -> Option<GridBounds> {
         }
     }
     let (u0, v0) = (lo[0].floor(), lo[1].floor());
-    let b = GridBounds { u0, v0, width: hi[0].ceil() - u0 + 1.0, height: hi[1].ceil() - v0 + 1.0 };
+    let b = GridBounds {
+        u0,
+        v0,
+        width: hi[0].ceil() - u0 + 1.0,
+        height: hi[1].ceil() - v0 + 1.0,
+    };
     b.pixels().is_finite().then_some(b)
 }
 

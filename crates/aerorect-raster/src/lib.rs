@@ -1,14 +1,15 @@
-pub fn add(left: u64, right: u64) -> u64 {
-    left + right
-}
+//! Pixel buffers and everything that loops over pixels.
+//!
+//! Buffers are planar ([`Raster`]: one `Vec<T>` per band, row-major). The warp engine maps every
+//! destination pixel to a source position through a [`PixelMap`] (exact f64 coordinates, no
+//! fixed-point tables) and samples it with a kernel chosen once per call.
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+pub mod error;
+pub mod map;
+pub mod raster;
+pub mod warp;
 
-    #[test]
-    fn it_works() {
-        let result = add(2, 2);
-        assert_eq!(result, 4);
-    }
-}
+pub use error::RasterError;
+pub use map::PixelMap;
+pub use raster::{AnyRaster, Raster, Sample};
+pub use warp::{Interp, WarpOptions, warp, warp_into, warp_into_portable};

@@ -1,0 +1,297 @@
+//! Planar rasters of u8, u16 or f32 samples.
+
+use crate::error::RasterError;
+use aerorect_core::ImageSize;
+
+/// A sample type the warp engine can resample.
+pub trait Sample: Copy + Default + Send + Sync + PartialEq + std::fmt::Debug + 'static {
+    /// The type's name in messages and reports.
+    const NAME: &'static str;
+    /// The alpha value of a valid pixel (255, 65535 or 1.0).
+    const OPAQUE: Self;
+    fn to_f32(self) -> f32;
+    /// From an interpolated value: rounded half up and saturated for integer types.
+    fn from_f32(v: f32) -> Self;
+    /// `Some` when `v` is exactly representable (used to validate nodata values).
+    fn from_f64_exact(v: f64) -> Option<Self>;
+}
+
+impl Sample for u8 {
+    const NAME: &'static str = "u8";
+    const OPAQUE: Self = u8::MAX;
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+    #[inline(always)]
+    fn from_f32(v: f32) -> Self {
+        (v + 0.5) as u8 // `as` saturates: negative -> 0, > 255 -> 255, NaN -> 0
+    }
+    fn from_f64_exact(v: f64) -> Option<Self> {
+        (v.fract() == 0.0 && (0.0..=255.0).contains(&v)).then_some(v as u8)
+    }
+}
+
+impl Sample for u16 {
+    const NAME: &'static str = "u16";
+    const OPAQUE: Self = u16::MAX;
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+    #[inline(always)]
+    fn from_f32(v: f32) -> Self {
+        (v + 0.5) as u16
+    }
+    fn from_f64_exact(v: f64) -> Option<Self> {
+        (v.fract() == 0.0 && (0.0..=65535.0).contains(&v)).then_some(v as u16)
+    }
+}
+
+impl Sample for f32 {
+    const NAME: &'static str = "f32";
+    const OPAQUE: Self = 1.0;
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self
+    }
+    #[inline(always)]
+    fn from_f32(v: f32) -> Self {
+        v
+    }
+    fn from_f64_exact(v: f64) -> Option<Self> {
+        let f = v as f32;
+        (f as f64 == v || v.is_nan()).then_some(f)
+    }
+}
+
+/// A planar raster: `bands` planes of `width x height` samples, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Raster<T> {
+    size: ImageSize,
+    planes: Vec<Vec<T>>,
+}
+
+impl<T: Sample> Raster<T> {
+    /// A raster filled with `value`; refuses sizes whose allocation would fail.
+    pub fn filled(size: ImageSize, bands: usize, value: T) -> Result<Self, RasterError> {
+        let n = checked_len::<T>(size, bands)?;
+        let mut planes = Vec::with_capacity(bands);
+        for _ in 0..bands {
+            let mut p = Vec::new();
+            p.try_reserve_exact(n)
+                .map_err(|_| too_large::<T>(size, bands))?;
+            p.resize(n, value);
+            planes.push(p);
+        }
+        Ok(Self { size, planes })
+    }
+
+    /// A raster of default (zero) samples.
+    pub fn new(size: ImageSize, bands: usize) -> Result<Self, RasterError> {
+        Self::filled(size, bands, T::default())
+    }
+
+    /// Wraps planes; each must hold width x height samples.
+    pub fn from_planes(size: ImageSize, planes: Vec<Vec<T>>) -> Result<Self, RasterError> {
+        let n = checked_len::<T>(size, planes.len())?;
+        if let Some(p) = planes.iter().find(|p| p.len() != n) {
+            return Err(length_mismatch(p.len(), n, size, planes.len()));
+        }
+        Ok(Self { size, planes })
+    }
+
+    /// From pixel-interleaved samples (RGBRGB...).
+    pub fn from_interleaved(
+        size: ImageSize,
+        bands: usize,
+        data: &[T],
+    ) -> Result<Self, RasterError> {
+        let n = checked_len::<T>(size, bands)?;
+        if data.len() != n * bands {
+            return Err(length_mismatch(data.len(), n * bands, size, bands));
+        }
+        let planes = (0..bands)
+            .map(|b| data.iter().skip(b).step_by(bands).copied().collect())
+            .collect();
+        Ok(Self { size, planes })
+    }
+
+    /// Pixel-interleaved samples (RGBRGB...).
+    pub fn to_interleaved(&self) -> Vec<T> {
+        let n = self.size.pixels();
+        let mut out = Vec::with_capacity(n * self.bands());
+        for i in 0..n {
+            out.extend(self.planes.iter().map(|p| p[i]));
+        }
+        out
+    }
+
+    pub fn size(&self) -> ImageSize {
+        self.size
+    }
+
+    pub fn width(&self) -> usize {
+        self.size.width
+    }
+
+    pub fn height(&self) -> usize {
+        self.size.height
+    }
+
+    pub fn bands(&self) -> usize {
+        self.planes.len()
+    }
+
+    /// Band `b` as a row-major slice. Panics if `b` is out of range.
+    pub fn plane(&self, b: usize) -> &[T] {
+        &self.planes[b]
+    }
+
+    pub fn plane_mut(&mut self, b: usize) -> &mut [T] {
+        &mut self.planes[b]
+    }
+
+    pub fn planes(&self) -> &[Vec<T>] {
+        &self.planes
+    }
+
+    pub(crate) fn planes_mut(&mut self) -> &mut [Vec<T>] {
+        &mut self.planes
+    }
+
+    /// Sample of band `b` at column `x`, row `y`, if inside.
+    pub fn get(&self, b: usize, x: usize, y: usize) -> Option<T> {
+        (x < self.size.width && y < self.size.height)
+            .then(|| self.planes.get(b).map(|p| p[y * self.size.width + x]))
+            .flatten()
+    }
+
+    /// Applies `f` to every sample, producing a raster of another type.
+    pub fn map_samples<U: Sample>(&self, f: impl Fn(T) -> U) -> Raster<U> {
+        Raster {
+            size: self.size,
+            planes: self
+                .planes
+                .iter()
+                .map(|p| p.iter().map(|&v| f(v)).collect())
+                .collect(),
+        }
+    }
+}
+
+fn checked_len<T>(size: ImageSize, bands: usize) -> Result<usize, RasterError> {
+    if size.width == 0 || size.height == 0 || bands == 0 {
+        return Err(RasterError::Empty);
+    }
+    let bytes =
+        size.width as u128 * size.height as u128 * bands as u128 * std::mem::size_of::<T>() as u128;
+    if bytes > isize::MAX as u128 / 2 {
+        return Err(too_large::<T>(size, bands));
+    }
+    Ok(size.width * size.height)
+}
+
+fn too_large<T>(size: ImageSize, bands: usize) -> RasterError {
+    let bytes =
+        size.width as u128 * size.height as u128 * bands as u128 * std::mem::size_of::<T>() as u128;
+    RasterError::TooLarge {
+        width: size.width,
+        height: size.height,
+        bands,
+        sample: std::any::type_name::<T>(),
+        bytes,
+    }
+}
+
+fn length_mismatch(got: usize, want: usize, size: ImageSize, bands: usize) -> RasterError {
+    RasterError::LengthMismatch {
+        got,
+        want,
+        width: size.width,
+        height: size.height,
+        bands,
+    }
+}
+
+/// A raster of any supported sample type, as read from or written to files.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AnyRaster {
+    U8(Raster<u8>),
+    U16(Raster<u16>),
+    F32(Raster<f32>),
+}
+
+impl AnyRaster {
+    pub fn size(&self) -> ImageSize {
+        match self {
+            AnyRaster::U8(r) => r.size(),
+            AnyRaster::U16(r) => r.size(),
+            AnyRaster::F32(r) => r.size(),
+        }
+    }
+
+    pub fn bands(&self) -> usize {
+        match self {
+            AnyRaster::U8(r) => r.bands(),
+            AnyRaster::U16(r) => r.bands(),
+            AnyRaster::F32(r) => r.bands(),
+        }
+    }
+
+    /// "u8", "u16" or "f32".
+    pub fn sample_name(&self) -> &'static str {
+        match self {
+            AnyRaster::U8(_) => u8::NAME,
+            AnyRaster::U16(_) => u16::NAME,
+            AnyRaster::F32(_) => f32::NAME,
+        }
+    }
+
+    /// Band `b` as f32 values (for metrics).
+    pub fn plane_f32(&self, b: usize) -> Vec<f32> {
+        match self {
+            AnyRaster::U8(r) => r.plane(b).iter().map(|&v| v.to_f32()).collect(),
+            AnyRaster::U16(r) => r.plane(b).iter().map(|&v| v.to_f32()).collect(),
+            AnyRaster::F32(r) => r.plane(b).to_vec(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interleaved_round_trip() {
+        let size = ImageSize::new(3, 2);
+        let data: Vec<u8> = (0..18).collect();
+        let r = Raster::from_interleaved(size, 3, &data).expect("fits");
+        assert_eq!(r.plane(1), &[1, 4, 7, 10, 13, 16]);
+        assert_eq!(r.get(2, 2, 1), Some(17));
+        assert_eq!(r.to_interleaved(), data);
+    }
+
+    #[test]
+    fn rounding_is_half_up_and_saturating() {
+        assert_eq!(u8::from_f32(1.49), 1);
+        assert_eq!(u8::from_f32(1.5), 2);
+        assert_eq!(u8::from_f32(-7.0), 0);
+        assert_eq!(u8::from_f32(300.0), 255);
+        assert_eq!(u16::from_f32(65535.6), 65535);
+        assert_eq!(u8::from_f64_exact(256.0), None);
+        assert_eq!(u8::from_f64_exact(1.5), None);
+        assert_eq!(f32::from_f64_exact(0.1), None);
+        assert_eq!(f32::from_f64_exact(-9999.0), Some(-9999.0));
+    }
+
+    #[test]
+    fn huge_sizes_are_refused_not_aborted() {
+        let e = Raster::<u8>::new(ImageSize::new(usize::MAX / 4, 8), 1).unwrap_err();
+        assert!(matches!(e, RasterError::TooLarge { .. }));
+        assert_eq!(
+            Raster::<u8>::new(ImageSize::new(0, 8), 1).unwrap_err(),
+            RasterError::Empty
+        );
+    }
+}

@@ -1,0 +1,299 @@
+//! Resampling kernels: prepare each destination pixel's taps once, then apply them to every band.
+
+use crate::map::PixelMap;
+use crate::raster::{Raster, Sample};
+
+/// What the kernels need to know of the source image.
+pub(crate) struct SourceGeometry {
+    width: usize,
+    height: usize,
+    /// Offset to the right neighbour (0 for a one-column image).
+    step_x: usize,
+    /// Offset to the neighbour below (0 for a one-row image).
+    step_y: usize,
+    /// Use the AVX2 build of the row loop.
+    simd: bool,
+}
+
+impl SourceGeometry {
+    /// The geometry of `src`; `allow_simd` false forces the portable build (tests compare both).
+    pub(crate) fn of<T: Sample>(src: &Raster<T>, allow_simd: bool) -> Self {
+        let (width, height) = (src.width(), src.height());
+        Self {
+            width,
+            height,
+            step_x: usize::from(width > 1),
+            step_y: if height > 1 { width } else { 0 },
+            simd: allow_simd && simd_available(),
+        }
+    }
+
+    /// Inside the pixel footprints: -0.5 <= x < W - 0.5 (false for NaN).
+    #[inline(always)]
+    fn inside(&self, x: f64, y: f64) -> bool {
+        x >= -0.5 && x < self.width as f64 - 0.5 && y >= -0.5 && y < self.height as f64 - 0.5
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+fn simd_available() -> bool {
+    is_x86_feature_detected!("avx2")
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn simd_available() -> bool {
+    false
+}
+
+/// A resampling kernel: per-pixel taps, prepared once and applied to each band.
+pub(crate) trait Kernel {
+    type Tap: Copy + Default + Send;
+    /// Writes the taps of source position (x, y); false when (x, y) is outside the image.
+    fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut Self::Tap) -> bool;
+    fn apply<T: Sample>(plane: &[T], g: &SourceGeometry, tap: &Self::Tap) -> T;
+}
+
+/// Destination pixels handled per block: coordinates, taps and all bands stay in L1.
+const BLOCK: usize = 256;
+
+/// Per-task buffers, one block long, reused block after block.
+pub(crate) struct Scratch<K: Kernel> {
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    taps: Vec<K::Tap>,
+    valid: Vec<bool>,
+}
+
+impl<K: Kernel> Scratch<K> {
+    pub(crate) fn new() -> Self {
+        Self {
+            xs: vec![0.0; BLOCK],
+            ys: vec![0.0; BLOCK],
+            taps: vec![K::Tap::default(); BLOCK],
+            valid: vec![false; BLOCK],
+        }
+    }
+}
+
+/// One destination row inside a task's chunks (one chunk per band, alpha last).
+pub(crate) struct RowOut<'a, 'b, T> {
+    pub(crate) chunks: &'a mut [&'b mut [T]],
+    /// Index of the row's first pixel in each chunk.
+    pub(crate) start: usize,
+    pub(crate) row: usize,
+    pub(crate) width: usize,
+    pub(crate) alpha: bool,
+}
+
+/// Resamples one destination row. Uses the AVX2 build of the same loop where the CPU has it.
+pub(crate) fn row<T: Sample, K: Kernel, M: PixelMap>(
+    src: &Raster<T>,
+    map: &M,
+    g: &SourceGeometry,
+    scratch: &mut Scratch<K>,
+    nodata: T,
+    out: RowOut<'_, '_, T>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if g.simd {
+        // SAFETY: `g.simd` is only set after `is_x86_feature_detected!("avx2")` returned true.
+        unsafe { row_avx2::<T, K, M>(src, map, g, scratch, nodata, out) };
+        return;
+    }
+    row_body::<T, K, M>(src, map, g, scratch, nodata, out);
+}
+
+/// The same loop compiled for AVX2 (wider f64 division and conversions in the coordinate loop).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn row_avx2<T: Sample, K: Kernel, M: PixelMap>(
+    src: &Raster<T>,
+    map: &M,
+    g: &SourceGeometry,
+    scratch: &mut Scratch<K>,
+    nodata: T,
+    out: RowOut<'_, '_, T>,
+) {
+    row_body::<T, K, M>(src, map, g, scratch, nodata, out);
+}
+
+#[inline(always)]
+fn row_body<T: Sample, K: Kernel, M: PixelMap>(
+    src: &Raster<T>,
+    map: &M,
+    g: &SourceGeometry,
+    scratch: &mut Scratch<K>,
+    nodata: T,
+    out: RowOut<'_, '_, T>,
+) {
+    let Scratch {
+        xs,
+        ys,
+        taps,
+        valid,
+    } = scratch;
+    let mut c0 = 0;
+    while c0 < out.width {
+        let n = BLOCK.min(out.width - c0);
+        let (xs, ys, taps, valid) = (&mut xs[..n], &mut ys[..n], &mut taps[..n], &mut valid[..n]);
+        map.source_row(out.row, c0, xs, ys);
+        for (((x, y), tap), ok) in xs
+            .iter()
+            .zip(ys.iter())
+            .zip(taps.iter_mut())
+            .zip(valid.iter_mut())
+        {
+            *ok = K::prepare(g, *x, *y, tap);
+        }
+        let range = out.start + c0..out.start + c0 + n;
+        for b in 0..src.bands() {
+            let plane = src.plane(b);
+            let dst = &mut out.chunks[b][range.clone()];
+            for ((d, tap), &ok) in dst.iter_mut().zip(taps.iter()).zip(valid.iter()) {
+                *d = if ok { K::apply(plane, g, tap) } else { nodata };
+            }
+        }
+        if out.alpha {
+            let dst = &mut out.chunks[src.bands()][range];
+            for (d, &ok) in dst.iter_mut().zip(valid.iter()) {
+                *d = if ok { T::OPAQUE } else { T::default() };
+            }
+        }
+        c0 += n;
+    }
+}
+
+pub(crate) struct Nearest;
+
+impl Kernel for Nearest {
+    type Tap = usize;
+
+    #[inline(always)]
+    fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut usize) -> bool {
+        if !g.inside(x, y) {
+            return false;
+        }
+        let xi = ((x + 0.5).floor() as usize).min(g.width - 1);
+        let yi = ((y + 0.5).floor() as usize).min(g.height - 1);
+        *tap = yi * g.width + xi;
+        true
+    }
+
+    #[inline(always)]
+    fn apply<T: Sample>(plane: &[T], _g: &SourceGeometry, tap: &usize) -> T {
+        plane[*tap]
+    }
+}
+
+pub(crate) struct Bilinear;
+
+#[derive(Clone, Copy, Default)]
+pub(crate) struct BilinearTap {
+    offset: usize,
+    fx: f32,
+    fy: f32,
+}
+
+impl Kernel for Bilinear {
+    type Tap = BilinearTap;
+
+    #[inline(always)]
+    fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut BilinearTap) -> bool {
+        if !g.inside(x, y) {
+            return false;
+        }
+        let (x0, fx) = left_neighbour(x, g.width);
+        let (y0, fy) = left_neighbour(y, g.height);
+        *tap = BilinearTap {
+            offset: y0 * g.width + x0,
+            fx,
+            fy,
+        };
+        true
+    }
+
+    #[inline(always)]
+    fn apply<T: Sample>(plane: &[T], g: &SourceGeometry, t: &BilinearTap) -> T {
+        let o = t.offset;
+        let p00 = plane[o].to_f32();
+        let p01 = plane[o + g.step_x].to_f32();
+        let p10 = plane[o + g.step_y].to_f32();
+        let p11 = plane[o + g.step_y + g.step_x].to_f32();
+        let top = p00 + t.fx * (p01 - p00);
+        let bottom = p10 + t.fx * (p11 - p10);
+        T::from_f32(top + t.fy * (bottom - top))
+    }
+}
+
+/// The left (upper) neighbour index and the fraction towards the next one, with the edge
+/// repeated: x is clamped to [0, n - 1] and the index to [0, n - 2].
+#[inline(always)]
+fn left_neighbour(x: f64, n: usize) -> (usize, f32) {
+    let xc = x.clamp(0.0, (n - 1) as f64);
+    let i = (xc as usize).min(n.saturating_sub(2));
+    (i, (xc - i as f64) as f32)
+}
+
+pub(crate) struct Bicubic;
+
+#[derive(Clone, Copy, Default)]
+pub(crate) struct BicubicTap {
+    cols: [u32; 4],
+    rows: [usize; 4],
+    wx: [f32; 4],
+    wy: [f32; 4],
+}
+
+/// Keys' cubic convolution kernel with a = -0.5 at distance d.
+#[inline(always)]
+fn keys(d: f64) -> f64 {
+    const A: f64 = -0.5;
+    let d = d.abs();
+    if d <= 1.0 {
+        ((A + 2.0) * d - (A + 3.0)) * d * d + 1.0
+    } else if d < 2.0 {
+        ((A * d - 5.0 * A) * d + 8.0 * A) * d - 4.0 * A
+    } else {
+        0.0
+    }
+}
+
+/// The four Keys weights of taps floor(x)-1 .. floor(x)+2 for fraction t = x - floor(x).
+pub fn keys_weights(t: f64) -> [f64; 4] {
+    [keys(1.0 + t), keys(t), keys(1.0 - t), keys(2.0 - t)]
+}
+
+impl Kernel for Bicubic {
+    type Tap = BicubicTap;
+
+    #[inline(always)]
+    fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut BicubicTap) -> bool {
+        if !g.inside(x, y) {
+            return false;
+        }
+        let (xf, yf) = (x.floor(), y.floor());
+        let (wx, wy) = (keys_weights(x - xf), keys_weights(y - yf));
+        let clamp = |v: f64, n: usize| v.clamp(0.0, (n - 1) as f64) as usize;
+        for k in 0..4 {
+            tap.cols[k] = clamp(xf - 1.0 + k as f64, g.width) as u32;
+            tap.rows[k] = clamp(yf - 1.0 + k as f64, g.height) * g.width;
+            tap.wx[k] = wx[k] as f32;
+            tap.wy[k] = wy[k] as f32;
+        }
+        true
+    }
+
+    #[inline(always)]
+    fn apply<T: Sample>(plane: &[T], _g: &SourceGeometry, t: &BicubicTap) -> T {
+        let mut acc = 0.0f32;
+        for j in 0..4 {
+            let row = &plane[t.rows[j]..];
+            let mut s = 0.0f32;
+            for i in 0..4 {
+                s += t.wx[i] * row[t.cols[i] as usize].to_f32();
+            }
+            acc += t.wy[j] * s;
+        }
+        T::from_f32(acc)
+    }
+}

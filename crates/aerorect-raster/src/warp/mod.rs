@@ -1,0 +1,184 @@
+//! The warp engine: inverse mapping with nearest, bilinear or bicubic (Keys, a = -0.5) sampling.
+//!
+//! Sampling convention: a source position (x, y) is inside the image when
+//! -0.5 <= x < W - 0.5 and -0.5 <= y < H - 0.5 (the pixel footprints); inside, neighbours past
+//! the edge repeat the edge pixel. Outside, the destination gets the nodata value and, when asked,
+//! a zero in the alpha band (which is OPAQUE where valid).
+
+mod kernel;
+
+use crate::error::RasterError;
+use crate::map::PixelMap;
+use crate::raster::{Raster, Sample};
+use aerorect_core::ImageSize;
+use rayon::prelude::*;
+
+pub use kernel::keys_weights;
+
+/// The interpolation kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Interp {
+    Nearest,
+    #[default]
+    Bilinear,
+    /// Keys' cubic convolution with a = -0.5.
+    Bicubic,
+}
+
+impl Interp {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Interp::Nearest => "nearest",
+            Interp::Bilinear => "bilinear",
+            Interp::Bicubic => "bicubic",
+        }
+    }
+}
+
+impl std::str::FromStr for Interp {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "nearest" => Ok(Interp::Nearest),
+            "bilinear" => Ok(Interp::Bilinear),
+            "bicubic" => Ok(Interp::Bicubic),
+            _ => Err(format!(
+                "unknown interpolation '{s}': expected nearest, bilinear or bicubic"
+            )),
+        }
+    }
+}
+
+/// How to warp.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WarpOptions {
+    pub interp: Interp,
+    /// The value written where the source has no pixel (must fit the sample type).
+    pub nodata: f64,
+    /// Append an alpha band: OPAQUE where the source had the pixel, 0 elsewhere.
+    pub alpha: bool,
+}
+
+impl Default for WarpOptions {
+    fn default() -> Self {
+        Self {
+            interp: Interp::Bilinear,
+            nodata: 0.0,
+            alpha: false,
+        }
+    }
+}
+
+impl WarpOptions {
+    /// The nodata value in the sample type, or an error when it does not fit.
+    pub fn nodata_as<T: Sample>(&self) -> Result<T, RasterError> {
+        T::from_f64_exact(self.nodata).ok_or(RasterError::InvalidNodata {
+            value: self.nodata,
+            sample: T::NAME,
+        })
+    }
+
+    /// Bands of the destination for a source of `bands` bands.
+    pub fn output_bands(&self, bands: usize) -> usize {
+        bands + usize::from(self.alpha)
+    }
+}
+
+/// Warps `src` into a new `size` raster; `map` gives each destination pixel's source position.
+pub fn warp<T: Sample, M: PixelMap>(
+    src: &Raster<T>,
+    map: &M,
+    size: ImageSize,
+    opts: &WarpOptions,
+) -> Result<Raster<T>, RasterError> {
+    let mut dst = Raster::new(size, opts.output_bands(src.bands()))?;
+    warp_into(src, map, opts, &mut dst)?;
+    Ok(dst)
+}
+
+/// Warps `src` into `dst` (which fixes the output size); rows are shared out over rayon's pool.
+pub fn warp_into<T: Sample, M: PixelMap>(
+    src: &Raster<T>,
+    map: &M,
+    opts: &WarpOptions,
+    dst: &mut Raster<T>,
+) -> Result<(), RasterError> {
+    warp_into_impl(src, map, opts, dst, true)
+}
+
+/// [`warp_into`] with the portable (non-SIMD) build of the kernels, for agreement tests.
+#[doc(hidden)]
+pub fn warp_into_portable<T: Sample, M: PixelMap>(
+    src: &Raster<T>,
+    map: &M,
+    opts: &WarpOptions,
+    dst: &mut Raster<T>,
+) -> Result<(), RasterError> {
+    warp_into_impl(src, map, opts, dst, false)
+}
+
+fn warp_into_impl<T: Sample, M: PixelMap>(
+    src: &Raster<T>,
+    map: &M,
+    opts: &WarpOptions,
+    dst: &mut Raster<T>,
+    allow_simd: bool,
+) -> Result<(), RasterError> {
+    let want = opts.output_bands(src.bands());
+    if dst.bands() != want {
+        return Err(RasterError::BandMismatch {
+            got: dst.bands(),
+            want,
+        });
+    }
+    let nodata = opts.nodata_as::<T>()?;
+    let g = kernel::SourceGeometry::of(src, allow_simd);
+    match opts.interp {
+        Interp::Nearest => run::<T, M, kernel::Nearest>(src, map, &g, nodata, opts.alpha, dst),
+        Interp::Bilinear => run::<T, M, kernel::Bilinear>(src, map, &g, nodata, opts.alpha, dst),
+        Interp::Bicubic => run::<T, M, kernel::Bicubic>(src, map, &g, nodata, opts.alpha, dst),
+    }
+    Ok(())
+}
+
+/// About this many destination pixels per rayon task.
+const PIXELS_PER_TASK: usize = 32 * 1024;
+
+fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
+    src: &Raster<T>,
+    map: &M,
+    g: &kernel::SourceGeometry,
+    nodata: T,
+    alpha: bool,
+    dst: &mut Raster<T>,
+) {
+    let width = dst.width();
+    let rows_per_task = (PIXELS_PER_TASK / width).max(1);
+    let n_tasks = dst.height().div_ceil(rows_per_task);
+    let mut tasks: Vec<Vec<&mut [T]>> = (0..n_tasks).map(|_| Vec::new()).collect();
+    for plane in dst.planes_mut() {
+        for (task, chunk) in tasks
+            .iter_mut()
+            .zip(plane.chunks_mut(rows_per_task * width))
+        {
+            task.push(chunk);
+        }
+    }
+    tasks.into_par_iter().enumerate().for_each_init(
+        kernel::Scratch::<K>::new,
+        |scratch, (t, mut chunks)| {
+            let first_row = t * rows_per_task;
+            let rows = chunks[0].len() / width;
+            for r in 0..rows {
+                let out = kernel::RowOut {
+                    chunks: &mut chunks,
+                    start: r * width,
+                    row: first_row + r,
+                    width,
+                    alpha,
+                };
+                kernel::row::<T, K, M>(src, map, g, scratch, nodata, out);
+            }
+        },
+    );
+}

@@ -1,0 +1,203 @@
+//! The fast warp against the slow oracle of aerorect-testkit, and exact closed-form cases.
+#![allow(clippy::unwrap_used)]
+
+use aerorect_core::{Homography, ImageSize, Mat3};
+use aerorect_raster::{Interp, Raster, Sample, WarpOptions, warp};
+use aerorect_testkit::{oracle_warp, textured_scene};
+
+const INTERPS: [Interp; 3] = [Interp::Nearest, Interp::Bilinear, Interp::Bicubic];
+
+/// A homography with rotation, shear and perspective that leaves part of the output uncovered.
+fn test_homography() -> Homography {
+    Homography::new(Mat3::new(
+        0.93, 0.21, -12.3, -0.17, 1.04, 9.7, 4.1e-4, -2.3e-4, 1.0,
+    ))
+    .unwrap()
+}
+
+fn compare<T: Sample>(src: &Raster<T>, interp: Interp, tol: f64) {
+    let h = test_homography();
+    let size = ImageSize::new(83, 71);
+    let opts = WarpOptions {
+        interp,
+        nodata: 7.0,
+        alpha: true,
+    };
+    let fast = warp(src, &h, size, &opts).unwrap();
+    let slow = oracle_warp(src, &h, size, interp);
+    let (mut valid, mut invalid) = (0, 0);
+    for b in 0..src.bands() {
+        for i in 0..size.pixels() {
+            let f = fast.plane(b)[i].to_f32() as f64;
+            let alpha = fast.plane(src.bands())[i];
+            match slow[b][i] {
+                Some(v) => {
+                    valid += 1;
+                    // integers: the oracle's exact value rounds to within 1 of ours
+                    assert!(
+                        (f - v).abs() <= tol,
+                        "{interp:?} {} band {b} px {i}: {f} vs {v}",
+                        T::NAME
+                    );
+                    assert_eq!(alpha, T::OPAQUE);
+                }
+                None => {
+                    invalid += 1;
+                    assert_eq!(f, 7.0);
+                    assert_eq!(alpha, T::default());
+                }
+            }
+        }
+    }
+    assert!(
+        valid > 1000 && invalid > 100,
+        "the case covers both: {valid} valid, {invalid} invalid"
+    );
+}
+
+#[test]
+fn u8_gray_rgb_rgba_match_the_oracle() {
+    for bands in [1, 3, 4] {
+        let src: Raster<u8> = textured_scene(ImageSize::new(64, 57), bands, 255.0, bands as u64);
+        for interp in INTERPS {
+            compare(&src, interp, 0.5 + 1e-3);
+        }
+    }
+}
+
+#[test]
+fn u16_matches_the_oracle() {
+    let src: Raster<u16> = textured_scene(ImageSize::new(64, 57), 1, 65535.0, 9);
+    for interp in INTERPS {
+        compare(&src, interp, 0.5 + 65535.0 * 2e-6);
+    }
+}
+
+#[test]
+fn f32_matches_the_oracle() {
+    let src: Raster<f32> = textured_scene(ImageSize::new(64, 57), 3, 1000.0, 11);
+    for interp in INTERPS {
+        compare(&src, interp, 1e-3);
+    }
+}
+
+#[test]
+fn identity_and_integer_shifts_are_exact() {
+    let src: Raster<u16> = textured_scene(ImageSize::new(40, 30), 2, 65535.0, 3);
+    for interp in INTERPS {
+        let out = warp(
+            &src,
+            &Homography::identity(),
+            src.size(),
+            &WarpOptions {
+                interp,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(out, src, "{interp:?}");
+        let out = warp(
+            &src,
+            &Homography::translation(3.0, -2.0),
+            src.size(),
+            &WarpOptions {
+                interp,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        for b in 0..2 {
+            for y in 2..30 {
+                for x in 0..37 {
+                    assert_eq!(out.get(b, x, y), src.get(b, x + 3, y - 2), "{interp:?}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn half_pixel_bilinear_is_the_mean() {
+    let src =
+        Raster::from_planes(ImageSize::new(2, 2), vec![vec![10.0f32, 20.0, 30.0, 41.0]]).unwrap();
+    let out = warp(
+        &src,
+        &Homography::translation(0.5, 0.5),
+        ImageSize::new(1, 1),
+        &WarpOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(out.plane(0)[0], 25.25);
+}
+
+#[test]
+fn footprint_edges_follow_the_convention() {
+    // Source 4 x 1: x = -0.5 is inside, x = 3.5 is outside.
+    let src = Raster::from_planes(ImageSize::new(4, 1), vec![vec![1u8, 2, 3, 4]]).unwrap();
+    let opts = WarpOptions {
+        interp: Interp::Nearest,
+        nodata: 99.0,
+        alpha: false,
+    };
+    let out = warp(
+        &src,
+        &Homography::translation(-0.5, 0.0),
+        ImageSize::new(5, 1),
+        &opts,
+    )
+    .unwrap();
+    assert_eq!(out.plane(0), &[1, 2, 3, 4, 99]);
+}
+
+#[test]
+fn one_and_two_threads_agree() {
+    let src: Raster<u8> = textured_scene(ImageSize::new(300, 200), 3, 255.0, 5);
+    let h = test_homography();
+    let opts = WarpOptions {
+        interp: Interp::Bicubic,
+        ..Default::default()
+    };
+    let run = |n| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .unwrap();
+        pool.install(|| warp(&src, &h, ImageSize::new(310, 190), &opts).unwrap())
+    };
+    assert_eq!(run(1), run(2));
+}
+
+#[test]
+fn nodata_must_fit_the_sample_type() {
+    let src: Raster<u8> = textured_scene(ImageSize::new(8, 8), 1, 255.0, 1);
+    let opts = WarpOptions {
+        nodata: 300.0,
+        ..Default::default()
+    };
+    assert!(warp(&src, &Homography::identity(), src.size(), &opts).is_err());
+}
+
+#[test]
+fn simd_and_portable_builds_agree_exactly() {
+    let h = test_homography();
+    let size = ImageSize::new(700, 90);
+    for interp in INTERPS {
+        let opts = WarpOptions {
+            interp,
+            nodata: 3.0,
+            alpha: true,
+        };
+        let src8: Raster<u8> = textured_scene(ImageSize::new(640, 120), 3, 255.0, 21);
+        let mut a = Raster::new(size, 4).unwrap();
+        let mut b = Raster::new(size, 4).unwrap();
+        aerorect_raster::warp_into(&src8, &h, &opts, &mut a).unwrap();
+        aerorect_raster::warp_into_portable(&src8, &h, &opts, &mut b).unwrap();
+        assert_eq!(a, b, "{interp:?} u8");
+        let srcf: Raster<f32> = textured_scene(ImageSize::new(640, 120), 1, 1.0, 22);
+        let mut a = Raster::new(size, 2).unwrap();
+        let mut b = Raster::new(size, 2).unwrap();
+        aerorect_raster::warp_into(&srcf, &h, &opts, &mut a).unwrap();
+        aerorect_raster::warp_into_portable(&srcf, &h, &opts, &mut b).unwrap();
+        assert_eq!(a, b, "{interp:?} f32");
+    }
+}
