@@ -1,14 +1,18 @@
-pub fn add(left: u64, right: u64) -> u64 {
-    left + right
-}
+//! File adapters: images (PNG, JPEG, TIFF), camera and attitude files, check-point tables.
+//!
+//! Every error names the file (or the command-line argument), the field and the value.
+//! Outputs are written to a temporary file beside the target and renamed into place, so a
+//! failed write leaves nothing half-written.
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+pub mod attitude;
+pub mod camera;
+pub mod checkpoints;
+pub mod error;
+pub mod image_file;
+mod tiff_file;
 
-    #[test]
-    fn it_works() {
-        let result = add(2, 2);
-        assert_eq!(result, 4);
-    }
-}
+pub use attitude::read_attitude;
+pub use camera::CameraFile;
+pub use checkpoints::{read_checkpoints, write_checkpoints};
+pub use error::IoError;
+pub use image_file::{read_image, same_file, write_atomically, write_image};

@@ -1,0 +1,182 @@
+//! The camera file (TOML).
+//!
+//! Either the paper's physical parameters:
+//! `focal_length_mm`, `pixel_pitch_um = [dx, dy]`, optional `principal_point_px = [u0, v0]`;
+//! or intrinsics in pixels: `fx_px`, `fy_px`, optional `cx_px`, `cy_px`, `skew_px`.
+//! Optional `image_size_px = [W, H]`. The principal point defaults to the image centre
+//! ((W-1)/2, (H-1)/2). Unknown keys are an error.
+
+use crate::error::IoError;
+use aerorect_core::{GeometryError, ImageSize, Intrinsics};
+use serde::Deserialize;
+use std::path::Path;
+
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraFile {
+    pub focal_length_mm: Option<f64>,
+    pub pixel_pitch_um: Option<[f64; 2]>,
+    pub principal_point_px: Option<[f64; 2]>,
+    pub image_size_px: Option<[u64; 2]>,
+    pub fx_px: Option<f64>,
+    pub fy_px: Option<f64>,
+    pub cx_px: Option<f64>,
+    pub cy_px: Option<f64>,
+    pub skew_px: Option<f64>,
+    /// Where the file came from, for messages.
+    #[serde(skip)]
+    pub source_name: String,
+}
+
+impl CameraFile {
+    pub fn read(path: &Path) -> Result<Self, IoError> {
+        let text = std::fs::read_to_string(path).map_err(|e| IoError::io(path, e))?;
+        Self::parse(&text, &path.display().to_string())
+    }
+
+    pub fn parse(text: &str, source_name: &str) -> Result<Self, IoError> {
+        let mut cam: CameraFile =
+            toml::from_str(text).map_err(|e| IoError::field(source_name, e.message()))?;
+        cam.source_name = source_name.to_string();
+        Ok(cam)
+    }
+
+    fn err(&self, message: impl ToString) -> IoError {
+        IoError::field(&self.source_name, message)
+    }
+
+    /// `image_size_px`, if given (both values must be positive).
+    pub fn image_size(&self) -> Result<Option<ImageSize>, IoError> {
+        match self.image_size_px {
+            None => Ok(None),
+            Some([w, h]) if w > 0 && h > 0 => Ok(Some(ImageSize::new(w as usize, h as usize))),
+            Some([w, h]) => Err(self.err(format!("image_size_px = [{w}, {h}] must be positive"))),
+        }
+    }
+
+    /// The frame size: the file's `image_size_px`, which must agree with `image` when both exist.
+    pub fn frame_size(&self, image: Option<ImageSize>) -> Result<ImageSize, IoError> {
+        match (self.image_size()?, image) {
+            (Some(a), Some(b)) if a != b => Err(self.err(format!(
+                "image_size_px = [{}, {}] but the image is {} x {}",
+                a.width, a.height, b.width, b.height
+            ))),
+            (Some(a), _) => Ok(a),
+            (None, Some(b)) => Ok(b),
+            (None, None) => {
+                Err(self.err("missing key image_size_px (needed to know the frame size)"))
+            }
+        }
+    }
+
+    /// The intrinsics for a frame of `size`.
+    pub fn intrinsics(&self, size: ImageSize) -> Result<Intrinsics, IoError> {
+        let geo = |e: GeometryError| self.err(e);
+        let pixels = self.fx_px.is_some() || self.fy_px.is_some();
+        let physical = self.focal_length_mm.is_some() || self.pixel_pitch_um.is_some();
+        if pixels && physical {
+            return Err(
+                self.err("give either focal_length_mm + pixel_pitch_um or fx_px + fy_px, not both")
+            );
+        }
+        if self.principal_point_px.is_some() && (self.cx_px.is_some() || self.cy_px.is_some()) {
+            return Err(self.err("give either principal_point_px or cx_px + cy_px, not both"));
+        }
+        let [cx0, cy0] = size.centre();
+        let pp = self
+            .principal_point_px
+            .unwrap_or([self.cx_px.unwrap_or(cx0), self.cy_px.unwrap_or(cy0)]);
+        let mut intr = if pixels {
+            let fx = self.fx_px.ok_or_else(|| self.err("missing key fx_px"))?;
+            let fy = self.fy_px.ok_or_else(|| self.err("missing key fy_px"))?;
+            Intrinsics::new(fx, fy, pp[0], pp[1]).map_err(geo)?
+        } else {
+            let f = self
+                .focal_length_mm
+                .ok_or_else(|| self.err("missing key focal_length_mm"))?;
+            let p = self
+                .pixel_pitch_um
+                .ok_or_else(|| self.err("missing key pixel_pitch_um"))?;
+            Intrinsics::from_physical(f, p, pp).map_err(geo)?
+        };
+        if let Some(s) = self.skew_px {
+            intr.skew = aerorect_core::error::require_finite("skew_px", s).map_err(geo)?;
+        }
+        for (field, v) in [
+            ("principal_point_px[0]", pp[0]),
+            ("principal_point_px[1]", pp[1]),
+        ] {
+            aerorect_core::error::require_finite(field, v).map_err(geo)?;
+        }
+        Ok(intr)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(s: &str) -> Result<CameraFile, IoError> {
+        CameraFile::parse(s, "cam.toml")
+    }
+
+    #[test]
+    fn physical_parameters_give_f_over_pitch() {
+        let c = parse(
+            "focal_length_mm = 50.0\npixel_pitch_um = [10.0, 12.5]\nimage_size_px = [640, 480]",
+        )
+        .expect("ok");
+        let size = c.frame_size(None).expect("size");
+        let k = c.intrinsics(size).expect("intrinsics");
+        assert_eq!((k.fx, k.fy), (5000.0, 4000.0));
+        assert_eq!((k.cx, k.cy), (319.5, 239.5));
+    }
+
+    #[test]
+    fn pixel_intrinsics_and_principal_point() {
+        let c = parse("fx_px = 800.0\nfy_px = 810.0\ncx_px = 300.0\ncy_px = 200.0").expect("ok");
+        let k = c.intrinsics(ImageSize::new(640, 480)).expect("intrinsics");
+        assert_eq!((k.fx, k.fy, k.cx, k.cy), (800.0, 810.0, 300.0, 200.0));
+    }
+
+    #[test]
+    fn errors_name_the_file_and_field() {
+        let e = parse("focal_length_mm = 50.0\nfocal_lenght = 3")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("cam.toml") && e.contains("focal_lenght"), "{e}");
+        let e = parse("pixel_pitch_um = [10.0, 10.0]")
+            .expect("parses")
+            .intrinsics(ImageSize::new(4, 4))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("missing key focal_length_mm"), "{e}");
+        let e = parse("focal_length_mm = -5.0\npixel_pitch_um = [10.0, 10.0]")
+            .expect("parses")
+            .intrinsics(ImageSize::new(4, 4))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("focal_length_mm = -5"), "{e}");
+        let e = parse("focal_length_mm = nan\npixel_pitch_um = [10.0, 10.0]")
+            .expect("parses")
+            .intrinsics(ImageSize::new(4, 4))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("focal_length_mm = NaN"), "{e}");
+        let e = parse("focal_length_mm = 5.0\npixel_pitch_um = [0.0, 10.0]")
+            .expect("parses")
+            .intrinsics(ImageSize::new(4, 4))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("pixel_pitch_um[0] = 0"), "{e}");
+        let c = parse("fx_px = 1.0\nfy_px = 1.0\nimage_size_px = [10, 10]").expect("parses");
+        let e = c
+            .frame_size(Some(ImageSize::new(10, 11)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("image_size_px = [10, 10] but the image is 10 x 11"),
+            "{e}"
+        );
+    }
+}

@@ -1,0 +1,52 @@
+use std::path::Path;
+use thiserror::Error;
+
+/// An I/O or format error; `source` is the file path or the command-line argument concerned.
+#[derive(Debug, Error)]
+pub enum IoError {
+    #[error("{source_name}: {error}")]
+    Io {
+        source_name: String,
+        error: std::io::Error,
+    },
+    #[error("{source_name}: cannot decode image: {reason}")]
+    Decode { source_name: String, reason: String },
+    #[error("{source_name}: cannot write image: {reason}")]
+    Encode { source_name: String, reason: String },
+    /// A field is missing, unknown, or has a bad value.
+    #[error("{source_name}: {message}")]
+    Field {
+        source_name: String,
+        message: String,
+    },
+}
+
+impl IoError {
+    pub(crate) fn io(path: &Path, error: std::io::Error) -> Self {
+        IoError::Io {
+            source_name: path.display().to_string(),
+            error,
+        }
+    }
+
+    pub(crate) fn decode(path: &Path, reason: impl ToString) -> Self {
+        IoError::Decode {
+            source_name: path.display().to_string(),
+            reason: reason.to_string(),
+        }
+    }
+
+    pub(crate) fn encode(path: &Path, reason: impl ToString) -> Self {
+        IoError::Encode {
+            source_name: path.display().to_string(),
+            reason: reason.to_string(),
+        }
+    }
+
+    pub(crate) fn field(source_name: impl ToString, message: impl ToString) -> Self {
+        IoError::Field {
+            source_name: source_name.to_string(),
+            message: message.to_string(),
+        }
+    }
+}

@@ -1,0 +1,199 @@
+//! Reading and writing images; the format is found from the file's first bytes when reading
+//! and from the extension when writing (.tif/.tiff, .png).
+
+use crate::error::IoError;
+use crate::tiff_file;
+use aerorect_core::ImageSize;
+use aerorect_raster::{AnyRaster, Raster};
+use image::{DynamicImage, ImageReader};
+use std::io::{BufWriter, Read, Write};
+use std::path::Path;
+
+/// The largest image we decode, in bytes of samples (guards against memory bombs): 4 GiB.
+pub const MAX_DECODED_BYTES: u64 = 4 << 30;
+
+/// Reads a PNG, JPEG or TIFF image (8/16-bit integer or 32-bit float, 1-4 bands).
+pub fn read_image(path: &Path) -> Result<AnyRaster, IoError> {
+    let mut magic = [0u8; 4];
+    let mut f = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    let n = f.read(&mut magic).map_err(|e| IoError::io(path, e))?;
+    if n >= 4
+        && (magic == *b"II*\0" || magic == *b"MM\0*" || magic == *b"II+\0" || magic == *b"MM\0+")
+    {
+        return tiff_file::read(path);
+    }
+    if n >= 2 && magic[..2] == [0xFF, 0xD8] {
+        check_jpeg_end(path)?;
+    }
+    read_with_image_crate(path)
+}
+
+/// The JPEG decoder fills a cut-off file with gray; refuse one without an end-of-image marker
+/// (FF D9) in its last KiB instead.
+fn check_jpeg_end(path: &Path) -> Result<(), IoError> {
+    use std::io::{Seek, SeekFrom};
+    let mut f = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    let len = f.metadata().map_err(|e| IoError::io(path, e))?.len();
+    let tail_len = len.min(1024);
+    f.seek(SeekFrom::Start(len - tail_len))
+        .map_err(|e| IoError::io(path, e))?;
+    let mut tail = vec![0u8; tail_len as usize];
+    f.read_exact(&mut tail).map_err(|e| IoError::io(path, e))?;
+    if tail.windows(2).any(|w| w == [0xFF, 0xD9]) {
+        Ok(())
+    } else {
+        Err(IoError::decode(
+            path,
+            "truncated JPEG: no end-of-image marker",
+        ))
+    }
+}
+
+fn read_with_image_crate(path: &Path) -> Result<AnyRaster, IoError> {
+    let mut reader = ImageReader::open(path).map_err(|e| IoError::io(path, e))?;
+    reader = reader
+        .with_guessed_format()
+        .map_err(|e| IoError::io(path, e))?;
+    if reader.format().is_none() {
+        return Err(IoError::decode(path, "not a PNG, JPEG or TIFF file"));
+    }
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(MAX_DECODED_BYTES);
+    reader.limits(limits);
+    let img = reader.decode().map_err(|e| IoError::decode(path, e))?;
+    raster_from_dynamic(img).map_err(|e| IoError::decode(path, e))
+}
+
+fn raster_from_dynamic(img: DynamicImage) -> Result<AnyRaster, String> {
+    let size = ImageSize::new(img.width() as usize, img.height() as usize);
+    let bands = img.color().channel_count() as usize;
+    let err = |e: aerorect_raster::RasterError| e.to_string();
+    Ok(match img {
+        DynamicImage::ImageLuma8(b) => {
+            AnyRaster::U8(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
+        }
+        DynamicImage::ImageLumaA8(b) => {
+            AnyRaster::U8(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
+        }
+        DynamicImage::ImageRgb8(b) => {
+            AnyRaster::U8(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
+        }
+        DynamicImage::ImageRgba8(b) => {
+            AnyRaster::U8(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
+        }
+        DynamicImage::ImageLuma16(b) => {
+            AnyRaster::U16(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
+        }
+        DynamicImage::ImageLumaA16(b) => {
+            AnyRaster::U16(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
+        }
+        DynamicImage::ImageRgb16(b) => {
+            AnyRaster::U16(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
+        }
+        DynamicImage::ImageRgba16(b) => {
+            AnyRaster::U16(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
+        }
+        DynamicImage::ImageRgb32F(b) => {
+            AnyRaster::F32(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
+        }
+        DynamicImage::ImageRgba32F(b) => {
+            AnyRaster::F32(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
+        }
+        other => return Err(format!("unsupported pixel layout {:?}", other.color())),
+    })
+}
+
+/// Writes `raster` to `path` (TIFF or PNG by extension), keeping the bit depth; atomically.
+pub fn write_image(path: &Path, raster: &AnyRaster) -> Result<(), IoError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("tif") | Some("tiff") => write_atomically(path, |w| {
+            tiff_file::write(w, raster).map_err(|e| IoError::encode(path, e))
+        }),
+        Some("png") => write_atomically(path, |w| {
+            write_png(w, raster).map_err(|e| IoError::encode(path, e))
+        }),
+        _ => Err(IoError::encode(
+            path,
+            "unknown output format: use a .tif, .tiff or .png file name",
+        )),
+    }
+}
+
+fn write_png<W: Write>(w: W, raster: &AnyRaster) -> Result<(), String> {
+    use image::{ExtendedColorType, ImageEncoder, codecs::png::PngEncoder};
+    let size = raster.size();
+    let (bytes, color): (Vec<u8>, ExtendedColorType) = match (raster, raster.bands()) {
+        (AnyRaster::U8(r), 1) => (r.to_interleaved(), ExtendedColorType::L8),
+        (AnyRaster::U8(r), 2) => (r.to_interleaved(), ExtendedColorType::La8),
+        (AnyRaster::U8(r), 3) => (r.to_interleaved(), ExtendedColorType::Rgb8),
+        (AnyRaster::U8(r), 4) => (r.to_interleaved(), ExtendedColorType::Rgba8),
+        (AnyRaster::U16(r), b @ 1..=4) => {
+            // PngEncoder takes 16-bit samples as native-endian bytes.
+            let bytes = r
+                .to_interleaved()
+                .iter()
+                .flat_map(|v| v.to_ne_bytes())
+                .collect();
+            let c = [
+                ExtendedColorType::L16,
+                ExtendedColorType::La16,
+                ExtendedColorType::Rgb16,
+                ExtendedColorType::Rgba16,
+            ][b - 1];
+            (bytes, c)
+        }
+        (AnyRaster::F32(_), _) => {
+            return Err("PNG cannot hold 32-bit float samples: write a .tif".into());
+        }
+        (_, b) => return Err(format!("PNG holds 1 to 4 bands, this image has {b}")),
+    };
+    PngEncoder::new(w)
+        .write_image(&bytes, size.width as u32, size.height as u32, color)
+        .map_err(|e| e.to_string())
+}
+
+/// Writes through `write` into a temporary file beside `path`, then renames it into place.
+/// On error the temporary file is removed and `path` is untouched.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<(), IoError>,
+) -> Result<(), IoError> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".aerorect-")
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .map_err(|e| IoError::io(path, e))?;
+    {
+        let mut w = BufWriter::new(tmp.as_file_mut());
+        write(&mut w)?;
+        w.flush().map_err(|e| IoError::io(path, e))?;
+    }
+    tmp.persist(path).map_err(|e| IoError::io(path, e.error))?;
+    Ok(())
+}
+
+/// True when `a` and `b` name the same file (both resolved; `b` may not exist yet).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    let canon = |p: &Path| -> Option<std::path::PathBuf> {
+        if let Ok(c) = p.canonicalize() {
+            return Some(c);
+        }
+        let parent = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        Some(parent.canonicalize().ok()?.join(p.file_name()?))
+    };
+    match (canon(a), canon(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => false,
+    }
+}
