@@ -1,3 +1,61 @@
-fn main() {
-    println!("Hello, world!");
+//! The `aerorect` command-line program: argument parsing and reports only; the work is in the
+//! `aerorect` library.
+
+mod commands;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "aerorect",
+    version,
+    about = "Geometry of airborne camera images: rectify oblique frames from six attitude angles"
+)]
+struct Cli {
+    /// Worker threads for pixel loops (default: all cores).
+    #[arg(long, global = true)]
+    threads: Option<usize>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Rectify an oblique frame to the nadir standard image.
+    Rectify(commands::RectifyArgs),
+    /// Render the oblique frame a camera would record of a flat scene (the inverse of rectify).
+    Simulate(commands::SimulateArgs),
+    /// Check-point accuracy of an attitude (eq. 19-20): du_max, dv_max, urms, vrms, rmse.
+    Evaluate(commands::EvaluateArgs),
+    /// The paper's attitude-error experiment: mean check-point error for random angle errors.
+    Sensitivity(commands::SensitivityArgs),
+    /// Simulate, rectify and evaluate a bundled real aerial photo; writes into out/demo/.
+    Demo(commands::DemoArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    if let Some(n) = cli.threads
+        && let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+    {
+        eprintln!("error: --threads {n}: {e}");
+        return ExitCode::FAILURE;
+    }
+    let result = match cli.command {
+        Command::Rectify(a) => commands::rectify(a),
+        Command::Simulate(a) => commands::simulate(a),
+        Command::Evaluate(a) => commands::evaluate(a),
+        Command::Sensitivity(a) => commands::sensitivity(a),
+        Command::Demo(a) => commands::demo(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
 }

@@ -16,7 +16,7 @@ pub enum GeometryError {
     /// The output would exceed the configured pixel limit even after clipping the far field.
     #[error(
         "output of {width} x {height} = {pixels} px exceeds the limit of {limit} px \
-         (the limit would cut away all but the nearest part of the frame)"
+         even with the far field clipped to a quarter of the frame's ground area"
     )]
     OutputTooLarge {
         width: u64,

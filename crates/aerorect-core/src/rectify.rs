@@ -10,9 +10,9 @@ use crate::homography::Homography;
 /// The largest output (in pixels) that rectification produces unless told otherwise: 64 Mpx.
 pub const DEFAULT_MAX_OUTPUT_PX: u64 = 64_000_000;
 
-/// Clipping never keeps less than the part of the frame whose depth factor w is at least this
-/// fraction of the nearest corner's: beyond that the limit is refused instead.
-const MIN_KEPT_DEPTH_FRACTION: f64 = 1.0 / 8.0;
+/// Clipping keeps at least this fraction of the frame's ground area (in frame pixels); a limit
+/// that would need more cut away is refused instead.
+pub const MIN_KEPT_GROUND_FRACTION: f64 = 0.25;
 
 /// `F = K R K^-1`: oblique pixel -> standard (nadir) pixel, eq. (12). w > 0 on the ground.
 pub fn standard_from_oblique(intr: &Intrinsics, attitude: &SixAngleAttitude) -> Homography {
@@ -215,7 +215,18 @@ fn clip_footprint(
     if w_min > 0.0 && fits(0.0) {
         return Ok((corners, false));
     }
-    let t_floor = w_max * MIN_KEPT_DEPTH_FRACTION;
+    // The cut w = t_floor keeps MIN_KEPT_GROUND_FRACTION of the ground area (area falls as t grows).
+    let ground_area = polygon_area(&clip_polygon(&corners, h, 0.0));
+    let (mut lo, mut hi) = (w_min.max(0.0), w_max);
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if polygon_area(&clip_polygon(&corners, h, mid)) >= MIN_KEPT_GROUND_FRACTION * ground_area {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    let t_floor = lo;
     if !fits(t_floor) {
         let poly = clip_polygon(&corners, h, t_floor);
         let b = grid_bounds(h, &poly).ok_or(GeometryError::NoGround)?;
@@ -233,6 +244,18 @@ fn clip_footprint(
         if fits(mid) { hi = mid } else { lo = mid }
     }
     Ok((clip_polygon(&corners, h, hi), true))
+}
+
+/// Area of a simple polygon (shoelace formula).
+fn polygon_area(poly: &[[f64; 2]]) -> f64 {
+    let n = poly.len();
+    let twice: f64 = (0..n)
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % n]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum();
+    0.5 * twice.abs()
 }
 
 /// Sutherland-Hodgman: the convex polygon cut to the half-plane where w(u, v) >= t (w is linear).

@@ -69,6 +69,22 @@ impl CameraFile {
         }
     }
 
+    /// The intrinsics when the frame size is not known: the principal point must then be given
+    /// (or `image_size_px`, whose centre is the default).
+    pub fn intrinsics_for_unknown_frame(&self) -> Result<Intrinsics, IoError> {
+        if let Some(size) = self.image_size()? {
+            return self.intrinsics(size);
+        }
+        let pp_given =
+            self.principal_point_px.is_some() || (self.cx_px.is_some() && self.cy_px.is_some());
+        if !pp_given {
+            return Err(self.err(
+                "missing key image_size_px or principal_point_px (needed for the principal point)",
+            ));
+        }
+        self.intrinsics(ImageSize::new(1, 1))
+    }
+
     /// The intrinsics for a frame of `size`.
     pub fn intrinsics(&self, size: ImageSize) -> Result<Intrinsics, IoError> {
         let geo = |e: GeometryError| self.err(e);

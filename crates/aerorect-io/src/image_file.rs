@@ -49,6 +49,12 @@ fn check_jpeg_end(path: &Path) -> Result<(), IoError> {
     }
 }
 
+/// Decodes a PNG or JPEG image held in memory (the demo's embedded scene); `name` is for messages.
+pub fn decode_image_bytes(bytes: &[u8], name: &str) -> Result<AnyRaster, IoError> {
+    let img = image::load_from_memory(bytes).map_err(|e| IoError::decode(Path::new(name), e))?;
+    raster_from_dynamic(img).map_err(|e| IoError::decode(Path::new(name), e))
+}
+
 fn read_with_image_crate(path: &Path) -> Result<AnyRaster, IoError> {
     let mut reader = ImageReader::open(path).map_err(|e| IoError::io(path, e))?;
     reader = reader

@@ -15,4 +15,4 @@ pub use attitude::read_attitude;
 pub use camera::CameraFile;
 pub use checkpoints::{read_checkpoints, write_checkpoints};
 pub use error::IoError;
-pub use image_file::{read_image, same_file, write_atomically, write_image};
+pub use image_file::{decode_image_bytes, read_image, same_file, write_atomically, write_image};

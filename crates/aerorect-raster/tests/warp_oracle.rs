@@ -1,5 +1,5 @@
 //! The fast warp against the slow oracle of aerorect-testkit, and exact closed-form cases.
-#![allow(clippy::unwrap_used)]
+#![allow(clippy::unwrap_used, clippy::needless_range_loop)]
 
 use aerorect_core::{Homography, ImageSize, Mat3};
 use aerorect_raster::{Interp, Raster, Sample, WarpOptions, warp};

@@ -1,5 +1,79 @@
-pub fn add(left: u64, right: u64) -> u64 {
-    left + right
+//! Estimators. For now: the normalised DLT homography (Hartley), used to check simulated
+//! correspondences and, later, as the start of calibration and registration.
+
+use aerorect_core::{Homography, Mat3};
+use nalgebra::{DMatrix, Vector3};
+use thiserror::Error;
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SolveError {
+    #[error("{got} point pairs given, at least {need} needed")]
+    TooFewPoints { got: usize, need: usize },
+    #[error("point {index} is not finite")]
+    NotFinite { index: usize },
+    #[error("the points are degenerate (collinear or repeated): the solution is not unique")]
+    Degenerate,
+}
+
+/// Hartley's normalisation: centroid to the origin, mean distance sqrt(2).
+fn normaliser(p: &[[f64; 2]]) -> Mat3 {
+    let n = p.len() as f64;
+    let (mx, my) = (
+        p.iter().map(|q| q[0]).sum::<f64>() / n,
+        p.iter().map(|q| q[1]).sum::<f64>() / n,
+    );
+    let d = p.iter().map(|q| (q[0] - mx).hypot(q[1] - my)).sum::<f64>() / n;
+    let s = if d > 0.0 {
+        std::f64::consts::SQRT_2 / d
+    } else {
+        1.0
+    };
+    Mat3::new(s, 0.0, -s * mx, 0.0, s, -s * my, 0.0, 0.0, 1.0)
+}
+
+/// The homography `to_from_from` that best maps `from[i]` to `to[i]` in the algebraic
+/// least-squares sense (normalised DLT), with w > 0 at the points' centroid.
+pub fn fit_homography(from: &[[f64; 2]], to: &[[f64; 2]]) -> Result<Homography, SolveError> {
+    let n = from.len().min(to.len());
+    if n < 4 {
+        return Err(SolveError::TooFewPoints { got: n, need: 4 });
+    }
+    if let Some(index) = (0..n).find(|&i| from[i].iter().chain(&to[i]).any(|v| !v.is_finite())) {
+        return Err(SolveError::NotFinite { index });
+    }
+    let (ta, tb) = (normaliser(&from[..n]), normaliser(&to[..n]));
+    let rows = (2 * n).max(9);
+    let mut a = DMatrix::<f64>::zeros(rows, 9);
+    for i in 0..n {
+        let p = ta * Vector3::new(from[i][0], from[i][1], 1.0);
+        let q = tb * Vector3::new(to[i][0], to[i][1], 1.0);
+        let (x, y, u, v) = (p.x / p.z, p.y / p.z, q.x / q.z, q.y / q.z);
+        a.row_mut(2 * i)
+            .copy_from_slice(&[-x, -y, -1.0, 0.0, 0.0, 0.0, u * x, u * y, u]);
+        a.row_mut(2 * i + 1)
+            .copy_from_slice(&[0.0, 0.0, 0.0, -x, -y, -1.0, v * x, v * y, v]);
+    }
+    let svd = a.svd(false, true);
+    let v_t = svd.v_t.ok_or(SolveError::Degenerate)?;
+    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+    order.sort_by(|&i, &j| svd.singular_values[i].total_cmp(&svd.singular_values[j]));
+    let s1 = svd.singular_values[order[1]];
+    if s1 <= 1e-10 * svd.singular_values.max() {
+        return Err(SolveError::Degenerate);
+    }
+    let h = v_t.row(order[0]);
+    let hn = Mat3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]);
+    let tb_inv = tb.try_inverse().ok_or(SolveError::Degenerate)?;
+    let mut m = tb_inv * hn * ta;
+    let c = Vector3::new(
+        from[..n].iter().map(|q| q[0]).sum::<f64>() / n as f64,
+        from[..n].iter().map(|q| q[1]).sum::<f64>() / n as f64,
+        1.0,
+    );
+    if (m * c).z < 0.0 {
+        m = -m;
+    }
+    Homography::new(m / m.norm()).map_err(|_| SolveError::Degenerate)
 }
 
 #[cfg(test)]
@@ -7,8 +81,47 @@ mod tests {
     use super::*;
 
     #[test]
-    fn it_works() {
-        let result = add(2, 2);
-        assert_eq!(result, 4);
+    fn recovers_a_known_homography_exactly() {
+        let truth = Homography::new(Mat3::new(
+            1.1, 0.2, 30.0, -0.1, 0.9, -12.0, 2e-4, -1e-4, 1.0,
+        ))
+        .expect("ok");
+        let from: Vec<[f64; 2]> = (0..30)
+            .map(|i| [(i * 37 % 500) as f64, (i * 53 % 400) as f64])
+            .collect();
+        let to: Vec<[f64; 2]> = from
+            .iter()
+            .map(|p| truth.map(p[0], p[1]).expect("finite"))
+            .collect();
+        let fit = fit_homography(&from, &to).expect("fit");
+        for p in &from {
+            let (a, b) = (
+                fit.map(p[0], p[1]).expect("finite"),
+                truth.map(p[0], p[1]).expect("finite"),
+            );
+            assert!((a[0] - b[0]).abs() < 1e-8 && (a[1] - b[1]).abs() < 1e-8);
+        }
+    }
+
+    #[test]
+    fn four_points_are_enough_and_three_are_not() {
+        let from = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        let to = [[0.0, 0.0], [2.0, 0.0], [2.0, 3.0], [0.0, 3.0]];
+        let h = fit_homography(&from, &to).expect("fit");
+        let p = h.map(0.5, 0.5).expect("finite");
+        assert!((p[0] - 1.0).abs() < 1e-12 && (p[1] - 1.5).abs() < 1e-12);
+        assert_eq!(
+            fit_homography(&from[..3], &to[..3]).unwrap_err(),
+            SolveError::TooFewPoints { got: 3, need: 4 }
+        );
+    }
+
+    #[test]
+    fn collinear_points_are_refused() {
+        let from: Vec<[f64; 2]> = (0..6).map(|i| [i as f64, 2.0 * i as f64]).collect();
+        assert_eq!(
+            fit_homography(&from, &from).unwrap_err(),
+            SolveError::Degenerate
+        );
     }
 }

@@ -14,13 +14,13 @@ pub fn textured_scene<T: Sample>(size: ImageSize, bands: usize, peak: f32, seed:
     let planes = (0..bands)
         .map(|b| {
             let (kx, ky): (f32, f32) = (rng.random_range(0.03..0.2), rng.random_range(0.03..0.2));
-            let phase: f32 = rng.random_range(0.0..6.28);
+            let phase: f32 = rng.random_range(0.0..std::f32::consts::TAU);
             (0..size.pixels())
                 .map(|i| {
                     let (x, y) = ((i % size.width) as f32, (i / size.width) as f32);
                     let smooth = 0.5 + 0.25 * (kx * x + phase).sin() * (ky * y).cos();
                     let ramp = 0.15 * (x + y + b as f32 * 7.0) / (size.width + size.height) as f32;
-                    let square = if ((x as usize / 13) + (y as usize / 17)) % 2 == 0 {
+                    let square = if ((x as usize / 13) + (y as usize / 17)).is_multiple_of(2) {
                         0.08
                     } else {
                         0.0

@@ -1,14 +1,35 @@
-pub fn add(left: u64, right: u64) -> u64 {
-    left + right
-}
+//! aerorect: the geometry of airborne camera images.
+//!
+//! The facade joins the pure geometry (`aerorect-core`), the pixel loops (`aerorect-raster`),
+//! the estimators (`aerorect-solve`) and the file adapters (`aerorect-io`) into pipelines:
+//! [`rectify`], [`simulate`], [`evaluate`], the attitude-error [`sensitivity`] experiment and
+//! the [`demo`].
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+pub mod demo;
+pub mod error;
+pub mod evaluate;
+pub mod rectify;
+pub mod sensitivity;
+pub mod simulate;
 
-    #[test]
-    fn it_works() {
-        let result = add(2, 2);
-        assert_eq!(result, 4);
-    }
+pub use aerorect_core as core;
+pub use aerorect_io as io;
+pub use aerorect_raster as raster;
+pub use error::Error;
+
+use aerorect_core::ImageSize;
+use aerorect_raster::{AnyRaster, PixelMap, WarpOptions, warp};
+
+/// Warps any sample type with one map (the enum is matched once, the loop is generic).
+pub fn warp_any<M: PixelMap>(
+    src: &AnyRaster,
+    map: &M,
+    size: ImageSize,
+    opts: &WarpOptions,
+) -> Result<AnyRaster, Error> {
+    Ok(match src {
+        AnyRaster::U8(r) => AnyRaster::U8(warp(r, map, size, opts)?),
+        AnyRaster::U16(r) => AnyRaster::U16(warp(r, map, size, opts)?),
+        AnyRaster::F32(r) => AnyRaster::F32(warp(r, map, size, opts)?),
+    })
 }

@@ -182,3 +182,14 @@ fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
         },
     );
 }
+
+impl WarpOptions {
+    /// Checks the nodata value fits the sample type of `img`.
+    pub fn nodata_as_for(&self, img: &crate::AnyRaster) -> Result<(), RasterError> {
+        match img {
+            crate::AnyRaster::U8(_) => self.nodata_as::<u8>().map(|_| ()),
+            crate::AnyRaster::U16(_) => self.nodata_as::<u16>().map(|_| ()),
+            crate::AnyRaster::F32(_) => self.nodata_as::<f32>().map(|_| ()),
+        }
+    }
+}

@@ -1,0 +1,87 @@
+//! Check-point evaluation, eq. (19)-(20): standard points mapped to the oblique frame with G.
+
+use crate::Error;
+use aerorect_core::evaluate::{residuals, stats};
+use aerorect_core::rectify::standard_from_oblique;
+use aerorect_core::{CheckPoint, CheckPointStats, Intrinsics, SixAngleAttitude};
+
+/// du_max, dv_max, URMS, VRMS and RMSE of `points` under `attitude`.
+pub fn evaluate(
+    intrinsics: &Intrinsics,
+    attitude: &SixAngleAttitude,
+    points: &[CheckPoint],
+) -> Result<CheckPointStats, Error> {
+    let g = standard_from_oblique(intrinsics, attitude).inverse();
+    let r = residuals(points, &g);
+    if let Some(i) = r.iter().position(Option::is_none) {
+        return Err(Error::Invalid(format!(
+            "check point {} (standard ({}, {})) lies beyond the horizon of the oblique frame",
+            i + 1,
+            points[i].u_standard,
+            points[i].v_standard
+        )));
+    }
+    let r: Vec<[f64; 2]> = r.into_iter().flatten().collect();
+    stats(&r).ok_or_else(|| Error::Invalid("no check points".into()))
+}
+
+/// PSNR (dB) of a rectified image against the standard scene it was simulated from, and the
+/// number of pixels compared: those whose source lies at least `margin` px inside the oblique
+/// frame and inside ORTHO. The rectification must be without altitude scaling, and the grid
+/// offset to ORTHO integral (ORTHO's centre and the principal point both on the pixel grid or
+/// both half-way). `None` when nothing is compared.
+pub fn rectified_psnr(
+    rectified: &aerorect_raster::AnyRaster,
+    geometry: &aerorect_core::RectifyGeometry,
+    frame_size: aerorect_core::ImageSize,
+    ortho: &aerorect_raster::AnyRaster,
+    principal_point: [f64; 2],
+    margin: f64,
+) -> Option<(f64, usize)> {
+    let [ocx, ocy] = ortho.size().centre();
+    let off = [
+        geometry.standard_origin[0] + ocx - principal_point[0],
+        geometry.standard_origin[1] + ocy - principal_point[1],
+    ];
+    if off.iter().any(|o| o.fract() != 0.0) {
+        return None;
+    }
+    let (fw, fh) = (frame_size.width as f64, frame_size.height as f64);
+    let size = geometry.output_size;
+    let peak = match ortho {
+        aerorect_raster::AnyRaster::U8(_) => 255.0,
+        aerorect_raster::AnyRaster::U16(_) => 65535.0,
+        aerorect_raster::AnyRaster::F32(_) => 1.0,
+    };
+    let (mut se, mut n) = (0.0f64, 0usize);
+    for b in 0..ortho.bands() {
+        let (a, o) = (rectified.plane_f32(b), ortho.plane_f32(b));
+        for r in 0..size.height {
+            for c in 0..size.width {
+                let Some(p) = geometry.oblique_from_output.map(c as f64, r as f64) else {
+                    continue;
+                };
+                if p[0] < margin
+                    || p[1] < margin
+                    || p[0] > fw - 1.0 - margin
+                    || p[1] > fh - 1.0 - margin
+                {
+                    continue;
+                }
+                let (x, y) = (c as f64 + off[0], r as f64 + off[1]);
+                if x < 0.0
+                    || y < 0.0
+                    || x >= ortho.size().width as f64
+                    || y >= ortho.size().height as f64
+                {
+                    continue;
+                }
+                let d = a[r * size.width + c] as f64
+                    - o[y as usize * ortho.size().width + x as usize] as f64;
+                se += d * d;
+                n += 1;
+            }
+        }
+    }
+    (n > 0).then(|| (10.0 * (peak * peak / (se / n as f64)).log10(), n))
+}

@@ -1,0 +1,119 @@
+//! Rectification of an oblique frame to the nadir standard image (the paper's indirect method).
+
+use crate::{Error, warp_any};
+use aerorect_core::attitude::SixAngleDegrees;
+use aerorect_core::{
+    AltitudeScale, ImageSize, Intrinsics, RectifyGeometry, RectifyLimits, SixAngleAttitude,
+};
+use aerorect_raster::{AnyRaster, WarpOptions};
+use serde::Serialize;
+use std::time::Instant;
+
+/// Everything that fixes one frame's rectification, planned once, run on any number of images
+/// of that size.
+#[derive(Debug, Clone)]
+pub struct RectifyPlan {
+    pub intrinsics: Intrinsics,
+    pub input_size: ImageSize,
+    pub attitude: SixAngleAttitude,
+    pub altitude: Option<AltitudeScale>,
+    pub limits: RectifyLimits,
+    pub warp: WarpOptions,
+    pub geometry: RectifyGeometry,
+}
+
+impl RectifyPlan {
+    pub fn new(
+        intrinsics: Intrinsics,
+        input_size: ImageSize,
+        attitude: SixAngleAttitude,
+        altitude: Option<AltitudeScale>,
+        limits: RectifyLimits,
+        warp: WarpOptions,
+    ) -> Result<Self, Error> {
+        let geometry = RectifyGeometry::new(&intrinsics, input_size, &attitude, altitude, limits)
+            .map_err(Error::geometry("rectify"))?;
+        Ok(Self {
+            intrinsics,
+            input_size,
+            attitude,
+            altitude,
+            limits,
+            warp,
+            geometry,
+        })
+    }
+
+    /// Resamples `input` onto the output grid; returns the image and the seconds the warp took.
+    pub fn run(&self, input: &AnyRaster) -> Result<(AnyRaster, f64), Error> {
+        if input.size() != self.input_size {
+            return Err(Error::Invalid(format!(
+                "the image is {} x {} but the plan is for {} x {}",
+                input.size().width,
+                input.size().height,
+                self.input_size.width,
+                self.input_size.height
+            )));
+        }
+        let t = Instant::now();
+        let out = warp_any(
+            input,
+            &self.geometry.oblique_from_output,
+            self.geometry.output_size,
+            &self.warp,
+        )?;
+        Ok((out, t.elapsed().as_secs_f64()))
+    }
+
+    /// The report of a run (`warp_seconds` from [`RectifyPlan::run`]).
+    pub fn report(&self, input: &str, output: &str, warp_seconds: f64) -> RectifyReport {
+        let g = &self.geometry;
+        RectifyReport {
+            input: input.to_string(),
+            output: output.to_string(),
+            homography_output_to_input: g.oblique_from_output.row_major(),
+            homography_input_to_standard: g.standard_from_oblique.row_major(),
+            output_size: [g.output_size.width, g.output_size.height],
+            standard_origin: g.standard_origin,
+            clipped: g.clipped,
+            interp: self.warp.interp.name(),
+            nodata: self.warp.nodata,
+            alpha: self.warp.alpha,
+            warp_seconds,
+            input_size: [self.input_size.width, self.input_size.height],
+            intrinsics_px: self.intrinsics,
+            attitude_deg: self.attitude.to_degrees(),
+            altitude_m: self.altitude.map(|a| a.altitude_m),
+            base_altitude_m: self.altitude.map(|a| a.base_altitude_m),
+            max_output_px: self.limits.max_output_px,
+            footprint_px: g.footprint.clone(),
+        }
+    }
+}
+
+/// REPORT.json of `aerorect rectify`.
+#[derive(Debug, Clone, Serialize)]
+pub struct RectifyReport {
+    pub input: String,
+    pub output: String,
+    /// Maps output pixel (col, row, 1) to input pixel, homogeneous, row-major.
+    pub homography_output_to_input: [[f64; 3]; 3],
+    /// F of eq. (12): input pixel -> standard frame (before altitude scaling and grid offset).
+    pub homography_input_to_standard: [[f64; 3]; 3],
+    pub output_size: [usize; 2],
+    /// Standard-frame coordinate (after altitude scaling) of output pixel (0, 0).
+    pub standard_origin: [f64; 2],
+    pub clipped: bool,
+    pub interp: &'static str,
+    pub nodata: f64,
+    pub alpha: bool,
+    pub warp_seconds: f64,
+    pub input_size: [usize; 2],
+    pub intrinsics_px: Intrinsics,
+    pub attitude_deg: SixAngleDegrees,
+    pub altitude_m: Option<f64>,
+    pub base_altitude_m: Option<f64>,
+    pub max_output_px: u64,
+    /// The part of the input that was rectified (input pixels; the whole frame unless clipped).
+    pub footprint_px: Vec<[f64; 2]>,
+}
