@@ -16,6 +16,14 @@ pub(crate) struct SourceGeometry {
 }
 
 impl SourceGeometry {
+    pub(crate) fn width(&self) -> usize {
+        self.width
+    }
+
+    pub(crate) fn height(&self) -> usize {
+        self.height
+    }
+
     /// The geometry of `src`; `allow_simd` false forces the portable build (tests compare both).
     pub(crate) fn of<T: Sample>(src: &Raster<T>, allow_simd: bool) -> Self {
         let (width, height) = (src.width(), src.height());
@@ -46,7 +54,7 @@ fn simd_available() -> bool {
 }
 
 /// A resampling kernel: per-pixel taps, prepared once and applied to each band.
-pub(crate) trait Kernel {
+pub(crate) trait Kernel: 'static {
     type Tap: Copy + Default + Send;
     /// Writes the taps of source position (x, y); false when (x, y) is outside the image.
     fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut Self::Tap) -> bool;
@@ -103,7 +111,8 @@ pub(crate) fn row<T: Sample, K: Kernel, M: PixelMap>(
     row_body::<T, K, M>(src, map, g, scratch, nodata, out);
 }
 
-/// The same loop compiled for AVX2 (wider f64 division and conversions in the coordinate loop).
+/// The same loop compiled for AVX2 (wider f64 division and conversions in the coordinate loop),
+/// with the hand-written kernel for bilinear u8.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn row_avx2<T: Sample, K: Kernel, M: PixelMap>(
@@ -114,7 +123,87 @@ unsafe fn row_avx2<T: Sample, K: Kernel, M: PixelMap>(
     nodata: T,
     out: RowOut<'_, '_, T>,
 ) {
+    use std::any::TypeId;
+    let u8_bilinear =
+        TypeId::of::<T>() == TypeId::of::<u8>() && TypeId::of::<K>() == TypeId::of::<Bilinear>();
+    if u8_bilinear && g.width >= 2 && g.height >= 2 && src.bands() <= MAX_SIMD_BANDS {
+        // SAFETY: T is u8 (checked by TypeId above), so these casts change no type.
+        let (src, chunks, nodata) = unsafe {
+            (
+                &*(src as *const Raster<T> as *const Raster<u8>),
+                &mut *(out.chunks as *mut [&mut [T]] as *mut [&mut [u8]]),
+                *(&nodata as *const T as *const u8),
+            )
+        };
+        let out = RowOut {
+            chunks,
+            start: out.start,
+            row: out.row,
+            width: out.width,
+            alpha: out.alpha,
+        };
+        // SAFETY: AVX2 is enabled here; the source is at least 2 x 2.
+        unsafe {
+            row_u8_bilinear_avx2(
+                src,
+                map,
+                g,
+                &mut scratch.xs,
+                &mut scratch.ys,
+                &mut scratch.valid,
+                nodata,
+                out,
+            )
+        };
+        return;
+    }
     row_body::<T, K, M>(src, map, g, scratch, nodata, out);
+}
+
+/// Bands handled by the AVX2 u8 kernel without allocating.
+#[cfg(target_arch = "x86_64")]
+const MAX_SIMD_BANDS: usize = 8;
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn row_u8_bilinear_avx2<M: PixelMap>(
+    src: &Raster<u8>,
+    map: &M,
+    g: &SourceGeometry,
+    xs: &mut [f64],
+    ys: &mut [f64],
+    valid: &mut [bool],
+    nodata: u8,
+    out: RowOut<'_, '_, u8>,
+) {
+    let bands = src.bands();
+    let mut planes: [&[u8]; MAX_SIMD_BANDS] = [&[]; MAX_SIMD_BANDS];
+    for (p, b) in planes.iter_mut().zip(0..bands) {
+        *p = src.plane(b);
+    }
+    let mut c0 = 0;
+    while c0 < out.width {
+        let n = BLOCK.min(out.width - c0);
+        let range = out.start + c0..out.start + c0 + n;
+        let mut outs: [&mut [u8]; MAX_SIMD_BANDS] = Default::default();
+        for (o, chunk) in outs.iter_mut().zip(out.chunks.iter_mut().take(bands)) {
+            *o = &mut chunk[range.clone()];
+        }
+        let valid_out = out.alpha.then(|| &mut valid[..n]);
+        let (planes, outs) = (&planes[..bands], &mut outs[..bands]);
+        map.source_row(out.row, c0, &mut xs[..n], &mut ys[..n]);
+        // SAFETY: AVX2 is enabled; the source is at least 2 x 2 and its planes are full.
+        unsafe {
+            super::avx2::bilinear_u8_block(g, &xs[..n], &ys[..n], planes, outs, valid_out, nodata)
+        };
+        if out.alpha {
+            for (d, &ok) in out.chunks[bands][range].iter_mut().zip(valid.iter()) {
+                *d = if ok { u8::MAX } else { 0 };
+            }
+        }
+        c0 += n;
+    }
 }
 
 #[inline(always)]
@@ -166,22 +255,19 @@ fn row_body<T: Sample, K: Kernel, M: PixelMap>(
 pub(crate) struct Nearest;
 
 impl Kernel for Nearest {
-    type Tap = usize;
+    type Tap = u32;
 
+    /// Branch-free like the bilinear one: the index is always valid, the flag tells inside.
     #[inline(always)]
-    fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut usize) -> bool {
-        if !g.inside(x, y) {
-            return false;
-        }
-        let xi = ((x + 0.5).floor() as usize).min(g.width - 1);
-        let yi = ((y + 0.5).floor() as usize).min(g.height - 1);
-        *tap = yi * g.width + xi;
-        true
+    fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut u32) -> bool {
+        let nearest = |v: f64, n: usize| ((v + 0.5).max(0.0) as i32).min(n as i32 - 1) as u32;
+        *tap = nearest(y, g.height) * g.width as u32 + nearest(x, g.width);
+        g.inside(x, y)
     }
 
     #[inline(always)]
-    fn apply<T: Sample>(plane: &[T], _g: &SourceGeometry, tap: &usize) -> T {
-        plane[*tap]
+    fn apply<T: Sample>(plane: &[T], _g: &SourceGeometry, tap: &u32) -> T {
+        plane[*tap as usize]
     }
 }
 
@@ -189,7 +275,8 @@ pub(crate) struct Bilinear;
 
 #[derive(Clone, Copy, Default)]
 pub(crate) struct BilinearTap {
-    offset: usize,
+    /// Index of the upper-left neighbour; the other three are `step_x`, `step_y` further on.
+    offset: u32,
     fx: f32,
     fy: f32,
 }
@@ -197,28 +284,34 @@ pub(crate) struct BilinearTap {
 impl Kernel for Bilinear {
     type Tap = BilinearTap;
 
+    /// Branch-free so that the loop vectorises: the taps are always valid indices (NaN and
+    /// outside positions are clamped), the returned flag says whether the pixel is inside.
     #[inline(always)]
     fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut BilinearTap) -> bool {
-        if !g.inside(x, y) {
-            return false;
-        }
         let (x0, fx) = left_neighbour(x, g.width);
         let (y0, fy) = left_neighbour(y, g.height);
         *tap = BilinearTap {
-            offset: y0 * g.width + x0,
+            offset: y0 * g.width as u32 + x0,
             fx,
             fy,
         };
-        true
+        g.inside(x, y)
     }
 
     #[inline(always)]
     fn apply<T: Sample>(plane: &[T], g: &SourceGeometry, t: &BilinearTap) -> T {
-        let o = t.offset;
-        let p00 = plane[o].to_f32();
-        let p01 = plane[o + g.step_x].to_f32();
-        let p10 = plane[o + g.step_y].to_f32();
-        let p11 = plane[o + g.step_y + g.step_x].to_f32();
+        let o = t.offset as usize;
+        let last = o + g.step_y + g.step_x;
+        assert!(last < plane.len()); // one check instead of four; `prepare` keeps it true
+        // SAFETY: o <= o + step_x, o + step_y <= last < plane.len(), checked just above.
+        let (p00, p01, p10, p11) = unsafe {
+            (
+                plane.get_unchecked(o).to_f32(),
+                plane.get_unchecked(o + g.step_x).to_f32(),
+                plane.get_unchecked(o + g.step_y).to_f32(),
+                plane.get_unchecked(last).to_f32(),
+            )
+        };
         let top = p00 + t.fx * (p01 - p00);
         let bottom = p10 + t.fx * (p11 - p10);
         T::from_f32(top + t.fy * (bottom - top))
@@ -226,12 +319,12 @@ impl Kernel for Bilinear {
 }
 
 /// The left (upper) neighbour index and the fraction towards the next one, with the edge
-/// repeated: x is clamped to [0, n - 1] and the index to [0, n - 2].
+/// repeated: x is clamped to [0, n - 1] (NaN to 0) and the index to [0, n - 2].
 #[inline(always)]
-fn left_neighbour(x: f64, n: usize) -> (usize, f32) {
-    let xc = x.clamp(0.0, (n - 1) as f64);
-    let i = (xc as usize).min(n.saturating_sub(2));
-    (i, (xc - i as f64) as f32)
+fn left_neighbour(x: f64, n: usize) -> (u32, f32) {
+    let xc = x.max(0.0).min((n - 1) as f64);
+    let i = (xc as i32).min(n.saturating_sub(2) as i32);
+    (i as u32, (xc - i as f64) as f32)
 }
 
 pub(crate) struct Bicubic;

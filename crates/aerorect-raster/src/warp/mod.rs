@@ -5,6 +5,8 @@
 //! the edge repeat the edge pixel. Outside, the destination gets the nodata value and, when asked,
 //! a zero in the alpha band (which is OPAQUE where valid).
 
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 mod kernel;
 
 use crate::error::RasterError;
@@ -132,6 +134,16 @@ fn warp_into_impl<T: Sample, M: PixelMap>(
         });
     }
     let nodata = opts.nodata_as::<T>()?;
+    if src.size().pixels() > u32::MAX as usize {
+        // The kernels index source pixels with u32.
+        return Err(RasterError::TooLarge {
+            width: src.width(),
+            height: src.height(),
+            bands: src.bands(),
+            sample: T::NAME,
+            bytes: (src.size().pixels() * std::mem::size_of::<T>()) as u128,
+        });
+    }
     let g = kernel::SourceGeometry::of(src, allow_simd);
     match opts.interp {
         Interp::Nearest => run::<T, M, kernel::Nearest>(src, map, &g, nodata, opts.alpha, dst),
