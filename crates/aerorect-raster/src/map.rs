@@ -35,8 +35,10 @@ impl PixelMap for Homography {
             m[(2, 1)] * r + m[(2, 2)],
         );
         let (ax, ay, aw) = (m[(0, 0)], m[(1, 0)], m[(2, 0)]);
+        // Columns fit i32 (output widths are far below 2^31); i32 -> f64 vectorises, usize does not.
+        let c0 = col0 as i32;
         for (i, (x, y)) in xs.iter_mut().zip(ys.iter_mut()).enumerate() {
-            let c = (col0 + i) as f64;
+            let c = (c0 + i as i32) as f64;
             let w = aw * c + bw;
             let inv = if w > 0.0 { 1.0 / w } else { f64::NAN };
             *x = (ax * c + bx) * inv;
