@@ -331,14 +331,17 @@ pub(crate) struct Bicubic;
 
 #[derive(Clone, Copy, Default)]
 pub(crate) struct BicubicTap {
+    /// Column indices of the four taps (edge repeated).
     cols: [u32; 4],
-    rows: [usize; 4],
+    /// Row start offsets of the four taps (edge repeated).
+    rows: [u32; 4],
     wx: [f32; 4],
     wy: [f32; 4],
 }
 
-/// Keys' cubic convolution kernel with a = -0.5 at distance d.
-#[inline(always)]
+/// Keys' cubic convolution kernel with a = -0.5 at distance d: the definition that the per-tap
+/// polynomials of `keys_weights` are tested against.
+#[cfg(test)]
 fn keys(d: f64) -> f64 {
     const A: f64 = -0.5;
     let d = d.abs();
@@ -351,42 +354,82 @@ fn keys(d: f64) -> f64 {
     }
 }
 
-/// The four Keys weights of taps floor(x)-1 .. floor(x)+2 for fraction t = x - floor(x).
+/// The four Keys (a = -0.5) weights of taps floor(x)-1 .. floor(x)+2 for t = x - floor(x):
+/// keys(1 + t), keys(t), keys(1 - t), keys(2 - t), expanded (Catmull-Rom).
+#[inline(always)]
 pub fn keys_weights(t: f64) -> [f64; 4] {
-    [keys(1.0 + t), keys(t), keys(1.0 - t), keys(2.0 - t)]
+    let (t2, t3) = (t * t, t * t * t);
+    [
+        -0.5 * t3 + t2 - 0.5 * t,
+        1.5 * t3 - 2.5 * t2 + 1.0,
+        -1.5 * t3 + 2.0 * t2 + 0.5 * t,
+        0.5 * t3 - 0.5 * t2,
+    ]
 }
 
 impl Kernel for Bicubic {
     type Tap = BicubicTap;
 
+    /// Branch-free: indices are clamped (NaN to the first pixel), the flag tells inside.
     #[inline(always)]
     fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut BicubicTap) -> bool {
-        if !g.inside(x, y) {
-            return false;
-        }
-        let (xf, yf) = (x.floor(), y.floor());
-        let (wx, wy) = (keys_weights(x - xf), keys_weights(y - yf));
-        let clamp = |v: f64, n: usize| v.clamp(0.0, (n - 1) as f64) as usize;
+        let inside = g.inside(x, y);
+        // Positions are clamped to [-1, n] before flooring: taps are clamped anyway.
+        let xc = x.max(-1.0).min(g.width as f64);
+        let yc = y.max(-1.0).min(g.height as f64);
+        let (xf, yf) = (xc.floor(), yc.floor());
+        let (wx, wy) = (keys_weights(xc - xf), keys_weights(yc - yf));
+        let (xi, yi) = (xf as i32, yf as i32);
+        let (wmax, hmax) = (g.width as i32 - 1, g.height as i32 - 1);
         for k in 0..4 {
-            tap.cols[k] = clamp(xf - 1.0 + k as f64, g.width) as u32;
-            tap.rows[k] = clamp(yf - 1.0 + k as f64, g.height) * g.width;
+            tap.cols[k] = (xi - 1 + k as i32).clamp(0, wmax) as u32;
+            tap.rows[k] = (yi - 1 + k as i32).clamp(0, hmax) as u32 * g.width as u32;
             tap.wx[k] = wx[k] as f32;
             tap.wy[k] = wy[k] as f32;
         }
-        true
+        inside
     }
 
     #[inline(always)]
-    fn apply<T: Sample>(plane: &[T], _g: &SourceGeometry, t: &BicubicTap) -> T {
+    fn apply<T: Sample>(plane: &[T], g: &SourceGeometry, t: &BicubicTap) -> T {
+        // Every index is below width * height = plane.len() by construction in `prepare`.
+        assert!(plane.len() == g.width * g.height);
         let mut acc = 0.0f32;
         for j in 0..4 {
-            let row = &plane[t.rows[j]..];
+            let row = t.rows[j] as usize;
             let mut s = 0.0f32;
             for i in 0..4 {
-                s += t.wx[i] * row[t.cols[i] as usize].to_f32();
+                // SAFETY: row <= (h-1) w and cols[i] <= w - 1, so the index is < w h = len.
+                s += t.wx[i] * unsafe { plane.get_unchecked(row + t.cols[i] as usize) }.to_f32();
             }
             acc += t.wy[j] * s;
         }
         T::from_f32(acc)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn expanded_weights_equal_the_kernel_definition() {
+        for k in 0..=1000 {
+            let t = k as f64 / 1000.0;
+            let w = keys_weights(t);
+            let d = [keys(1.0 + t), keys(t), keys(1.0 - t), keys(2.0 - t)];
+            for i in 0..4 {
+                assert!(
+                    (w[i] - d[i]).abs() < 1e-14,
+                    "t = {t}, tap {i}: {} vs {}",
+                    w[i],
+                    d[i]
+                );
+            }
+            assert!(
+                (w.iter().sum::<f64>() - 1.0).abs() < 1e-14,
+                "partition of unity"
+            );
+        }
     }
 }
