@@ -282,9 +282,16 @@ pub fn print_sensitivity(r: &SensitivityRow, att: &SixAngleDegrees, w: usize, h:
         "{w} x {h} frame, field of view {:.1} x {:.1} deg, {} check points, every angle N(0, {}') over {} draws",
         r.fov_deg[0], r.fov_deg[1], r.checkpoints, r.sigma_arcmin, r.draws
     );
+    // Rounded to 1e-9 degree: the degrees -> radians -> degrees round trip leaves float noise.
+    let rd = |v: f64| (v * 1e9).round() / 1e9;
     println!(
         "attitude (deg): azimuth {} elevation {} image_rotation {} pitch {} roll {} yaw {}",
-        att.azimuth, att.elevation, att.image_rotation, att.pitch, att.roll, att.yaw
+        rd(att.azimuth),
+        rd(att.elevation),
+        rd(att.image_rotation),
+        rd(att.pitch),
+        rd(att.roll),
+        rd(att.yaw),
     );
     println!(
         "method                          du_max   dv_max   URMS     VRMS     RMSE   (pixels, means over draws)"
