@@ -133,6 +133,8 @@ where
             .write_tag(Tag::ExtraSamples, &[2u16][..])
             .map_err(|e| e.to_string())?;
     }
+    // One interleaved copy of the image: the tiff crate (0.11) compresses only in `write_data`;
+    // its `write_strip` would write raw strips under a Deflate tag.
     img.write_data(&r.to_interleaved())
         .map_err(|e| e.to_string())
 }
