@@ -7,7 +7,7 @@ median of REPEATS runs of the resampling alone), the ratio ours/OpenCV, and how 
 outputs differ on pixels well inside the source (OpenCV quantises coordinates to 1/32 px;
 aerorect uses exact f64 coordinates, so small differences are expected).
 
-usage: python3 bench/warp_vs_opencv.py [--repeats N] [--size N]
+usage: python3 bench/warp_vs_opencv.py [--repeats N] [--size N] [--cases gray8/bilinear,...]
 """
 import argparse, json, os, subprocess, sys, venv
 
@@ -71,6 +71,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=30)
     ap.add_argument("--size", type=int, default=1024)
+    ap.add_argument("--cases", default="", help="comma-separated subset, e.g. gray8/bilinear,rgb8/bilinear")
     args = ap.parse_args()
     out = os.path.join(HERE, "out")
     os.makedirs(out, exist_ok=True)
@@ -85,6 +86,8 @@ def main():
     rows = []
     for name, (path, img) in files.items():
         for interp in INTERPS:
+            if args.cases and f"{name}/{interp}" not in args.cases.split(","):
+                continue
             for threads in (1, 2):
                 res = os.path.join(out, f"ours_{name}_{interp}.tif")
                 line = subprocess.check_output([exe, path, res, hs, str(args.size), str(args.size), interp, str(threads), str(args.repeats)])
