@@ -9,6 +9,7 @@ pub mod camera;
 pub mod error;
 pub mod evaluate;
 pub mod homography;
+pub mod motion;
 pub mod rectify;
 
 pub use attitude::SixAngleAttitude;
