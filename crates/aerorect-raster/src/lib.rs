@@ -7,6 +7,7 @@
 pub mod error;
 pub mod map;
 pub mod raster;
+pub mod shift;
 pub mod warp;
 
 pub use error::RasterError;
