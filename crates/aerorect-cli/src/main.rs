@@ -2,6 +2,8 @@
 //! `aerorect` library.
 
 mod commands;
+mod motion_cmds;
+mod plot;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -32,6 +34,14 @@ enum Command {
     Sensitivity(commands::SensitivityArgs),
     /// Simulate, rectify and evaluate a bundled real aerial photo; writes into out/demo/.
     Demo(commands::DemoArgs),
+    /// Sub-pixel shift of CUR relative to REF (a feature at (x, y) in REF is at (x + dx, y + dy) in CUR).
+    Shift(motion_cmds::ShiftArgs),
+    /// The paper's shift experiment: error RMS by scene x SNR x method, with the CRLB, and a plot.
+    MotionSim(motion_cmds::MotionSimArgs),
+    /// Predicted image-motion velocities (eq. 1-5) and their error budgets.
+    Velocity(motion_cmds::VelocityArgs),
+    /// Streaming mode: each frame against the previous one; a CSV line per frame.
+    Track(motion_cmds::TrackArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,6 +60,10 @@ fn main() -> ExitCode {
         Command::Evaluate(a) => commands::evaluate(a),
         Command::Sensitivity(a) => commands::sensitivity(a),
         Command::Demo(a) => commands::demo(a),
+        Command::Shift(a) => motion_cmds::shift(a),
+        Command::MotionSim(a) => motion_cmds::motion_sim_cmd(a),
+        Command::Velocity(a) => motion_cmds::velocity(a),
+        Command::Track(a) => motion_cmds::track(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

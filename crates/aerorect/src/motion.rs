@@ -112,6 +112,9 @@ pub struct MotionSimConfig {
     pub displacement: Displacement,
     pub methods: Vec<(String, Method)>,
     pub seed: u64,
+    /// Write every noisy pair (f32 TIFF) and a manifest with the truth and each method's
+    /// estimate and time here, for side-by-side runs of other tools on the very same frames.
+    pub dump_dir: Option<std::path::PathBuf>,
 }
 
 /// One cell of the table.
@@ -180,12 +183,18 @@ pub fn motion_sim(
                 let mut r = clean_ref.clone();
                 noise_var = add_noise(&mut r, snr, &mut rng);
                 add_noise(&mut cur, snr, &mut rng);
+                let mut line = format!("{name},{snr},{},{dx},{dy}", acc[0].n);
                 for (est, a) in estimators.iter_mut().zip(acc.iter_mut()) {
                     let t = Instant::now();
                     let e = est
                         .estimate(&r, &cur)
                         .map_err(|e| Error::Invalid(format!("{name}: {e}")))?;
-                    a.add(&e, dx, dy, t.elapsed().as_secs_f64());
+                    let secs = t.elapsed().as_secs_f64();
+                    a.add(&e, dx, dy, secs);
+                    line += &format!(",{},{},{secs}", e.dx, e.dy);
+                }
+                if let Some(dir) = &cfg.dump_dir {
+                    dump_pair(dir, &line, size, &r, &cur)?;
                 }
             }
             let crlb = crlb_rms(&clean_ref, size, noise_var);
@@ -195,6 +204,82 @@ pub fn motion_sim(
         }
     }
     Ok(rows)
+}
+
+/// Writes `<scene>_<snr>_<trial>_{ref,cur}.tif` and appends `line` to `manifest.csv`.
+fn dump_pair(
+    dir: &std::path::Path,
+    line: &str,
+    size: ImageSize,
+    r: &[f32],
+    cur: &[f32],
+) -> Result<(), Error> {
+    use std::io::Write;
+    let key: Vec<&str> = line.splitn(4, ',').take(3).collect();
+    let stem = key.join("_");
+    for (suffix, data) in [("ref", r), ("cur", cur)] {
+        let img = AnyRaster::F32(Raster::from_planes(size, vec![data.to_vec()])?);
+        aerorect_io::write_image(&dir.join(format!("{stem}_{suffix}.tif")), &img)?;
+    }
+    let path = dir.join("manifest.csv");
+    let mut f = std::fs::OpenOptions::new()
+        .append(true)
+        .create(true)
+        .open(&path)
+        .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
+    writeln!(f, "{line}").map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))
+}
+
+/// One line of `track`.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrackStep {
+    pub estimate: ShiftEstimate,
+    pub seconds: f64,
+}
+
+/// The streaming mode: each frame against the previous one (the paper's ping-pong pair).
+pub struct Tracker {
+    estimator: Box<dyn ShiftEstimator + Send>,
+    size: ImageSize,
+    previous: Option<Vec<f32>>,
+}
+
+impl Tracker {
+    pub fn new(method: Method, size: ImageSize) -> Result<Self, Error> {
+        Ok(Self {
+            estimator: method.plan(size)?,
+            size,
+            previous: None,
+        })
+    }
+
+    /// Feeds the next frame; `None` for the first one (nothing to compare with yet).
+    pub fn push(&mut self, frame: Vec<f32>) -> Result<Option<TrackStep>, Error> {
+        if frame.len() != self.size.pixels() {
+            return Err(Error::Invalid(format!(
+                "a frame of {} samples in a track of {} x {} frames",
+                frame.len(),
+                self.size.width,
+                self.size.height
+            )));
+        }
+        let step = match &self.previous {
+            None => None,
+            Some(prev) => {
+                let t = Instant::now();
+                let estimate = self
+                    .estimator
+                    .estimate(prev, &frame)
+                    .map_err(|e| Error::Invalid(e.to_string()))?;
+                Some(TrackStep {
+                    estimate,
+                    seconds: t.elapsed().as_secs_f64(),
+                })
+            }
+        };
+        self.previous = Some(frame);
+        Ok(step)
+    }
 }
 
 #[derive(Debug, Clone, Default)]

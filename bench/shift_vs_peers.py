@@ -1,0 +1,122 @@
+#!/usr/bin/env python3
+"""aerorect's shift estimators against scikit-image and OpenCV on the very same noisy frames.
+
+`aerorect motion-sim --dump-dir` writes every noisy pair (f32 TIFF) and a manifest with the
+true shift and our estimates and times; this script runs
+  - skimage.registration.phase_cross_correlation(ref, cur, upsample_factor=100)
+  - cv2.phaseCorrelate(ref, cur, window=Hann)
+on the same files, and prints per scene and SNR the error RMS and median time of each method.
+Each peer's sign convention is calibrated first on a whole-pixel shift (no assumption).
+
+Creates its own venv (bench/.venv) with opencv-python-headless, scikit-image, numpy.
+usage: python3 bench/shift_vs_peers.py [--trials N] [--snr-db LIST] [--fourier] [--data ../shared/data/aerial]
+"""
+import argparse, csv, os, subprocess, sys, time, venv
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+VENV = os.path.join(HERE, ".venv")
+
+
+def ensure_venv():
+    py = os.path.join(VENV, "bin", "python")
+    if sys.prefix != VENV:
+        if not os.path.exists(py):
+            venv.create(VENV, with_pip=True)
+        subprocess.check_call([py, "-m", "pip", "install", "-q", "opencv-python-headless", "numpy", "scikit-image"])
+        os.execv(py, [py] + sys.argv)
+
+
+ensure_venv()
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+import skimage  # noqa: E402
+from skimage.registration import phase_cross_correlation  # noqa: E402
+
+SCENES = {"airport": "sipi_5.3.02.tiff", "coast": "sipi_2.1.05.tiff", "roads": "sipi_2.2.17.tiff", "urban": "sipi_5.2.09.tiff"}
+
+
+def peers(n):
+    hann = cv2.createHanningWindow((n, n), cv2.CV_32F)
+    return {
+        "skimage": lambda r, c: tuple(phase_cross_correlation(r, c, upsample_factor=100)[0][::-1]),
+        "opencv": lambda r, c: cv2.phaseCorrelate(r, c, hann)[0],
+    }
+
+
+def calibrate(fn, n):
+    """Sign of each axis such that +d means 'a feature at x in ref is at x + d in cur'."""
+    rng = np.random.default_rng(0)
+    base = rng.random((n + 20, n + 20)).astype(np.float32)  # white noise: every method locks on
+    ref = base[10:10 + n, 10:10 + n].copy()
+    cur = base[10 - 2:10 - 2 + n, 10 - 3:10 - 3 + n].copy()  # content moved by (+3, +2)
+    ex, ey = fn(ref, cur)
+    return (np.sign(ex) * 1.0 if abs(abs(ex) - 3) < 0.2 else 0.0, np.sign(ey) * 1.0 if abs(abs(ey) - 2) < 0.2 else 0.0)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--trials", type=int, default=20)
+    ap.add_argument("--snr-db", default="-2,4,10,20")
+    ap.add_argument("--size", type=int, default=256)
+    ap.add_argument("--fourier", action="store_true", help="band-limited (Fourier) shifts instead of linear interpolation")
+    ap.add_argument("--data", default=os.path.join(ROOT, "..", "shared", "data", "aerial"))
+    args = ap.parse_args()
+    out = os.path.join(HERE, "out", "shift_pairs")
+    if os.path.isdir(out):
+        for f in os.listdir(out):
+            os.remove(os.path.join(out, f))
+    subprocess.check_call(["cargo", "build", "-q", "--release", "-p", "aerorect-cli"], cwd=ROOT)
+    exe = os.path.join(ROOT, "target", "release", "aerorect")
+    linked = []
+    for name, f in SCENES.items():
+        link = os.path.join(HERE, "out", name + ".tiff")
+        if not os.path.exists(link):
+            os.symlink(os.path.abspath(os.path.join(args.data, f)), link)
+        linked.append(link)
+    subprocess.check_call([exe, "motion-sim", *linked, "--trials", str(args.trials), f"--snr-db={args.snr_db}",
+                           "--size", str(args.size), "--method", "jtc,xcorr,phase", "--dump-dir", out,
+                           "--plot", os.path.join(HERE, "out", "shift_vs_peers.svg")] + (["--fourier"] if args.fourier else []),
+                          stdout=subprocess.DEVNULL)
+    fns = peers(args.size)
+    signs = {k: calibrate(f, args.size) for k, f in fns.items()}
+    if any(0.0 in s for s in signs.values()):
+        sys.exit(f"a peer failed the whole-pixel calibration: {signs}")
+    cells = {}
+    with open(os.path.join(out, "manifest.csv")) as fh:
+        for row in csv.DictReader(fh):
+            key = (row["scene"], float(row["snr_db"]))
+            stem = f"{row['scene']}_{row['snr_db']}_{row['trial']}"
+            ref = cv2.imread(os.path.join(out, stem + "_ref.tif"), cv2.IMREAD_UNCHANGED)
+            cur = cv2.imread(os.path.join(out, stem + "_cur.tif"), cv2.IMREAD_UNCHANGED)
+            dx, dy = float(row["dx"]), float(row["dy"])
+            c = cells.setdefault(key, {})
+            for m in ("jtc", "xcorr", "phase"):
+                e = (float(row[f"{m}_dx"]) - dx) ** 2 + (float(row[f"{m}_dy"]) - dy) ** 2
+                c.setdefault(m, []).append((e, float(row[f"{m}_seconds"])))
+            for name, fn in fns.items():
+                t = time.perf_counter()
+                ex, ey = fn(ref, cur)
+                secs = time.perf_counter() - t
+                sx, sy = signs[name]
+                c.setdefault(name, []).append(((sx * ex - dx) ** 2 + (sy * ey - dy) ** 2, secs))
+    methods = ["jtc", "xcorr", "phase", "skimage", "opencv"]
+    print(f"skimage {skimage.__version__}, cv2 {cv2.__version__}; {args.size} x {args.size} frames, {args.trials} trials per cell, shifts by {'Fourier shift' if args.fourier else 'linear interpolation'}")
+    print("error RMS in px (median ms per pair)")
+    print(f"{'scene':<9}{'SNR':>5}" + "".join(f"{m:>18}" for m in methods))
+    totals = {m: [] for m in methods}
+    for (scene, snr), c in sorted(cells.items()):
+        line = f"{scene:<9}{snr:>5.0f}"
+        for m in methods:
+            errs = np.array([e for e, _ in c[m]])
+            secs = np.median([s for _, s in c[m]])
+            totals[m] += [s for _, s in c[m]]
+            line += f"{np.sqrt(errs.mean()):>10.4f} ({secs * 1e3:4.2f})"
+        print(line)
+    med = {m: np.median(v) for m, v in totals.items()}
+    print("median time per pair, all cells: " + ", ".join(f"{m} {med[m] * 1e3:.2f} ms" for m in methods))
+    print(f"time ratios: skimage / aerorect-xcorr = {med['skimage'] / med['xcorr']:.1f}x, opencv / aerorect-xcorr = {med['opencv'] / med['xcorr']:.2f}x")
+
+
+if __name__ == "__main__":
+    main()
