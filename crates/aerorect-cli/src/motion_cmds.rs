@@ -16,7 +16,8 @@ pub struct ShiftArgs {
     reference: PathBuf,
     /// Current frame, same size.
     current: PathBuf,
-    /// jtc (the paper's), jtc-plain, jtc-parabola, phase, xcorr.
+    /// jtc (the paper's processing, Gaussian peak fit), jtc-centroid (the paper's centroid),
+    /// jtc-parabola, jtc-plain, phase, xcorr.
     #[arg(long, default_value = "jtc")]
     method: String,
     /// Print JSON with keys dx, dy, confidence.
@@ -81,7 +82,11 @@ pub struct MotionSimArgs {
     #[arg(long, default_value_t = 256)]
     size: usize,
     /// Methods, comma-separated.
-    #[arg(long, value_delimiter = ',', default_value = "jtc,phase,xcorr")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "jtc,jtc-centroid,phase,xcorr"
+    )]
     method: Vec<String>,
     /// Shifts are uniform in [-max, max] pixels on both axes.
     #[arg(long, default_value_t = 2.5)]

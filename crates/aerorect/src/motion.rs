@@ -23,19 +23,31 @@ pub enum Method {
 
 impl Method {
     /// The names the CLI accepts.
-    pub const NAMES: [&'static str; 5] = ["jtc", "jtc-plain", "jtc-parabola", "phase", "xcorr"];
+    pub const NAMES: [&'static str; 6] = [
+        "jtc",
+        "jtc-centroid",
+        "jtc-parabola",
+        "jtc-plain",
+        "phase",
+        "xcorr",
+    ];
 
-    /// `jtc` (the paper's: Laplacian, [-1 2 -1] filter, binarised, centroid), `jtc-plain` (none
-    /// of the three, centroid), `jtc-parabola` (the paper's with a parabola fit), `phase` (phase
+    /// `jtc` (the paper's: Laplacian, [-1 2 -1] filter, binarised; Gaussian peak fit),
+    /// `jtc-centroid` and `jtc-parabola` (the same with the paper's 3 x 3 centroid or a parabola),
+    /// `jtc-plain` (none of the three refinements, Gaussian fit), `phase` (phase
     /// correlation, Hann window, Newton peak), `xcorr` (cross-correlation, Hann window, Newton peak).
     pub fn parse(name: &str) -> Result<Self, Error> {
         Ok(match name {
             "jtc" => Method::Jtc(JtcOptions::default()),
+            "jtc-centroid" => Method::Jtc(JtcOptions {
+                subpixel: SubPixel::Centroid,
+                ..JtcOptions::default()
+            }),
             "jtc-plain" => Method::Jtc(JtcOptions {
                 laplacian: false,
                 spectral_filter: false,
                 binarize: false,
-                subpixel: SubPixel::Centroid,
+                ..JtcOptions::default()
             }),
             "jtc-parabola" => Method::Jtc(JtcOptions {
                 subpixel: SubPixel::Parabola,

@@ -11,7 +11,9 @@
 //! removes the smooth central-term spectrum and triples the fringes, whose period is 3 samples);
 //! optionally binarisation (+1 above the median of the spectrum, estimated from every 8th
 //! value, -1 below: the binary JTC); the
-//! inverse FFT; the two cross peaks; a sub-pixel centroid (or parabola) around each.
+//! inverse FFT; the two cross peaks; a sub-pixel fit around each: the paper's 3 x 3 centroid,
+//! a parabola, or (the default) a three-point Gaussian fit, which alone meets the paper's
+//! 0.1 px at 4 dB on the shared scenes.
 
 use super::fft2::Fft2;
 use super::{ShiftError, ShiftEstimate, ShiftEstimator, check_frame, check_size, parabola_vertex};
@@ -21,10 +23,13 @@ use rustfft::num_complex::Complex32;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SubPixel {
     /// Intensity centroid over the 3 x 3 neighbourhood, values above its minimum (the paper).
-    #[default]
     Centroid,
     /// Vertex of the parabola through the peak and its two neighbours, per axis.
     Parabola,
+    /// Three-point Gaussian fit per axis (a parabola through the logarithms) of the values above
+    /// the minimum of the 5 x 5 neighbourhood: the most accurate here (see the crate's notes).
+    #[default]
+    Gaussian,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -36,13 +41,14 @@ pub struct JtcOptions {
 }
 
 impl Default for JtcOptions {
-    /// The paper's full processing.
+    /// The paper's full processing, with the Gaussian peak fit (the paper's centroid is
+    /// `SubPixel::Centroid`).
     fn default() -> Self {
         Self {
             laplacian: true,
             spectral_filter: true,
             binarize: true,
-            subpixel: SubPixel::Centroid,
+            subpixel: SubPixel::Gaussian,
         }
     }
 }
@@ -164,19 +170,41 @@ impl JointTransformCorrelator {
                 }
             }
         }
+        let (fx, fy) = self.sub_pixel(bx, by);
+        (bx as f64 + fx, by as f64 + fy, best)
+    }
+}
+
+impl JointTransformCorrelator {
+    /// The sub-pixel offset of the peak at window (bx, by), 1 <= bx, by inside the window.
+    fn sub_pixel(&self, bx: usize, by: usize) -> (f64, f64) {
+        let ww = 4 * self.w;
         let at = |x: usize, y: usize| self.window[y * ww + x] as f64;
-        let (fx, fy) = match self.opts.subpixel {
-            SubPixel::Parabola => (
-                parabola_vertex(at(bx - 1, by), at(bx, by), at(bx + 1, by)),
-                parabola_vertex(at(bx, by - 1), at(bx, by), at(bx, by + 1)),
-            ),
-            SubPixel::Centroid => {
-                let mut lo = f64::INFINITY;
-                for y in by - 1..=by + 1 {
-                    for x in bx - 1..=bx + 1 {
-                        lo = lo.min(at(x, y));
-                    }
+        let floor = |r: usize| {
+            let mut lo = f64::INFINITY;
+            for y in by.saturating_sub(r)..=(by + r).min(self.h - 1) {
+                for x in bx.saturating_sub(r)..=(bx + r).min(ww - 1) {
+                    lo = lo.min(at(x, y));
                 }
+            }
+            lo
+        };
+        let axes = |f: &dyn Fn(f64, f64, f64) -> f64| {
+            (
+                f(at(bx - 1, by), at(bx, by), at(bx + 1, by)),
+                f(at(bx, by - 1), at(bx, by), at(bx, by + 1)),
+            )
+        };
+        match self.opts.subpixel {
+            SubPixel::Parabola => axes(&parabola_vertex),
+            SubPixel::Gaussian => {
+                let lo = floor(2);
+                let eps = 1e-3 * (at(bx, by) - lo);
+                let ln = |v: f64| (v - lo + eps).ln();
+                axes(&|a, b, c| parabola_vertex(ln(a), ln(b), ln(c)))
+            }
+            SubPixel::Centroid => {
+                let lo = floor(1);
                 let (mut s, mut sx, mut sy) = (0.0, 0.0, 0.0);
                 for dy in -1i32..=1 {
                     for dx in -1i32..=1 {
@@ -190,8 +218,7 @@ impl JointTransformCorrelator {
                     (0.0, 0.0)
                 }
             }
-        };
-        (bx as f64 + fx, by as f64 + fy, best)
+        }
     }
 }
 
