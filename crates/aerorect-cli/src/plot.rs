@@ -89,6 +89,7 @@ pub fn error_vs_snr(path: &Path, rows: &[MotionSimRow]) -> Result<()> {
     }
     chart
         .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
         .background_style(WHITE.mix(0.8))
         .border_style(BLACK)
         .draw()
