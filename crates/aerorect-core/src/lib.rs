@@ -6,6 +6,7 @@
 
 pub mod attitude;
 pub mod camera;
+pub mod distortion;
 pub mod error;
 pub mod evaluate;
 pub mod homography;

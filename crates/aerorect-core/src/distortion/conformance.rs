@@ -1,0 +1,135 @@
+//! The conformance test every model passes: both directions round-trip, the point and parameter
+//! Jacobians agree with central differences, and the serialised form round-trips.
+
+use super::*;
+
+fn models() -> Vec<Distortion> {
+    let mut out = vec![];
+    let mut t = Tsai::default();
+    t.set_params(&[-0.21, 0.05]);
+    out.push(Distortion::Tsai(t));
+    let mut b = Brown::default();
+    b.set_params(&[
+        -0.2, 0.04, -0.01, 1e-3, -2e-3, 1e-3, -2e-3, 3e-3, 1e-3, -1e-3, 2e-3, 1e-3, -3e-3, 2e-3,
+        1e-3, 2e-3, -1e-3,
+    ]);
+    out.push(Distortion::Brown(b));
+    let mut i = Improved::default();
+    i.set_params(&[-0.18, 0.03, 1.5e-3, -8e-4, 2e-3, -1e-3]);
+    out.push(Distortion::Improved(i));
+    let mut o = OpenCv::default();
+    o.set_params(&[-0.265, -0.0467, 0.0018, -0.0003, 0.252, 0.01, -0.02, 0.005]);
+    out.push(Distortion::OpenCv(o));
+    out
+}
+
+fn grid() -> Vec<[f64; 2]> {
+    let mut g = vec![];
+    for i in -4..=4 {
+        for j in -3..=3 {
+            g.push([i as f64 * 0.1, j as f64 * 0.1]);
+        }
+    }
+    g
+}
+
+#[test]
+fn both_directions_round_trip() {
+    for d in models() {
+        let m = d.model();
+        for p in grid() {
+            let o = m
+                .observed_from_ideal(p)
+                .unwrap_or_else(|| panic!("{}: no observed point for {p:?}", d.kind()));
+            let back = m
+                .ideal_from_observed(o)
+                .unwrap_or_else(|| panic!("{}: no ideal point", d.kind()));
+            assert!(
+                (back[0] - p[0]).abs() < 1e-10 && (back[1] - p[1]).abs() < 1e-10,
+                "{}: {p:?} -> {o:?} -> {back:?}",
+                d.kind()
+            );
+        }
+    }
+}
+
+#[test]
+fn jacobians_match_central_differences() {
+    let h = 1e-6;
+    for d in models() {
+        let m = d.model();
+        for p in grid() {
+            let c = m.closed(p);
+            for k in 0..2 {
+                let (mut a, mut b) = (p, p);
+                a[k] += h;
+                b[k] -= h;
+                let (va, vb) = (m.closed(a).value, m.closed(b).value);
+                for i in 0..2 {
+                    let num = (va[i] - vb[i]) / (2.0 * h);
+                    assert!(
+                        (c.d_point[i][k] - num).abs() < 1e-6,
+                        "{} d_point[{i}][{k}] at {p:?}: {} vs {num}",
+                        d.kind(),
+                        c.d_point[i][k]
+                    );
+                }
+            }
+            let theta = m.params();
+            for j in 0..theta.len() {
+                let mut dm = d.clone();
+                let mut t = theta.clone();
+                t[j] += h;
+                dm.model_mut().set_params(&t);
+                let va = dm.model().closed(p).value;
+                t[j] -= 2.0 * h;
+                dm.model_mut().set_params(&t);
+                let vb = dm.model().closed(p).value;
+                for i in 0..2 {
+                    let num = (va[i] - vb[i]) / (2.0 * h);
+                    assert!(
+                        (c.d_params[j][i] - num).abs() < 1e-6,
+                        "{} d/d{} at {p:?}",
+                        d.kind(),
+                        m.names()[j]
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn serialisation_round_trips_by_name() {
+    for d in models() {
+        let text = toml::to_string(&d).expect("serialises");
+        assert!(
+            text.contains(&format!("model = \"{}\"", d.kind())),
+            "{text}"
+        );
+        let back: Distortion = toml::from_str(&text).expect("parses");
+        assert_eq!(back, d);
+    }
+    let e = toml::from_str::<Distortion>("model = \"tsai\"\nk1 = 0.1\nk3 = 0.2\n")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("k3"), "{e}");
+}
+
+#[test]
+fn zero_models_are_the_identity() {
+    for kind in ["tsai", "brown", "improved", "opencv"] {
+        let d = Distortion::zero(kind).expect("known");
+        let p = [0.3, -0.2];
+        assert_eq!(d.model().ideal_from_observed(p), Some(p));
+        assert_eq!(d.model().observed_from_ideal(p), Some(p));
+    }
+}
+
+#[test]
+fn a_non_invertible_point_gives_none() {
+    // Strong barrel distortion folds over beyond r = 1/sqrt(3 |k1|): no observed point there.
+    let mut o = OpenCv::default();
+    o.k1 = -0.9;
+    assert!(o.ideal_from_observed([0.7, 0.0]).is_none());
+}
