@@ -1,5 +1,6 @@
-//! Estimators. For now: the normalised DLT homography (Hartley), used to check simulated
-//! correspondences and, later, as the start of calibration and registration.
+//! Estimators: the normalised DLT homography (Hartley) and camera calibration.
+
+pub mod calib;
 
 use aerorect_core::{Homography, Mat3};
 use nalgebra::{DMatrix, Vector3};

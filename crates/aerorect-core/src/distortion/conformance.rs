@@ -129,7 +129,9 @@ fn zero_models_are_the_identity() {
 #[test]
 fn a_non_invertible_point_gives_none() {
     // Strong barrel distortion folds over beyond r = 1/sqrt(3 |k1|): no observed point there.
-    let mut o = OpenCv::default();
-    o.k1 = -0.9;
+    let o = OpenCv {
+        k1: -0.9,
+        ..Default::default()
+    };
     assert!(o.ideal_from_observed([0.7, 0.0]).is_none());
 }

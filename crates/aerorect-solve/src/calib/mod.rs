@@ -1,0 +1,45 @@
+//! Camera calibration from control points: one image of a 3-D test field (the paper's
+//! procedure: DLT start, distortion from zero, Levenberg-Marquardt until every update moves
+//! every predicted point by less than 0.01 px) or several images of a planar target (Zhang's
+//! closed-form start, then the same joint adjustment).
+//!
+//! Camera frame for calibration: OpenCV's (x right, y down, z forward); a world point X is seen
+//! at X_c = R(w) X + t with w a rotation vector. Pixels: u = fx x + skew y + cx, v = fy y + cy
+//! on the distorted normalised point (x, y).
+
+mod init;
+mod lm;
+mod problem;
+
+pub use problem::{
+    CalibrationOptions, CalibrationReport, Observation, ParameterValue, ViewReport, calibrate,
+};
+
+use thiserror::Error;
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum CalibrationError {
+    #[error("{got} control points given, at least {need} needed")]
+    TooFewPoints { got: usize, need: usize },
+    #[error("image '{image}' has {got} points, at least {need} needed")]
+    TooFewInImage {
+        image: String,
+        got: usize,
+        need: usize,
+    },
+    #[error("point {index} (image '{image}') is not finite")]
+    NotFinite { index: usize, image: String },
+    #[error("the points of image '{image}' are collinear: they cannot determine the camera")]
+    Collinear { image: String },
+    #[error(
+        "a planar test field seen in a single image cannot determine a free focal length: \
+         use several images of the plane or a 3-D field, or fix fx and fy"
+    )]
+    PlanarSingleImage,
+    #[error("unknown parameter name '{0}' (in --fix)")]
+    UnknownParameter(String),
+    #[error("the starting values could not be found: {0}")]
+    Initialisation(String),
+    #[error("the normal equations are singular: {0}")]
+    Singular(String),
+}

@@ -1,0 +1,532 @@
+//! The calibration problem: parameter layout with named blocks, residuals, the adjustment and
+//! its report.
+
+use super::CalibrationError;
+use super::init::{PlaneView, Pose, dlt, zhang};
+use super::lm::{Problem, StopReason, minimise};
+use aerorect_core::ImageSize;
+use aerorect_core::distortion::{Direction, Distortion};
+use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
+use serde::Serialize;
+
+/// One control point seen in one image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observation {
+    pub image: String,
+    pub world: [f64; 3],
+    pub pixel: [f64; 2],
+}
+
+#[derive(Debug, Clone)]
+pub struct CalibrationOptions {
+    /// The model to fit (its coefficients are the starting values, normally zero).
+    pub model: Distortion,
+    /// Parameter names held at their starting values (fx, fy, cx, cy, skew, or a coefficient).
+    pub fix: Vec<String>,
+    /// Free the skew (held at zero otherwise).
+    pub skew: bool,
+    /// Hold fy / fx at this ratio (OpenCV's CALIB_FIX_ASPECT_RATIO without a guess uses 1).
+    pub fixed_aspect: Option<f64>,
+    pub max_iterations: usize,
+    /// Stop when an update moves every predicted point by less than this (pixels).
+    pub stop_px: f64,
+    pub image_size: ImageSize,
+}
+
+impl CalibrationOptions {
+    pub fn new(model: Distortion, image_size: ImageSize) -> Self {
+        Self {
+            model,
+            fix: vec![],
+            skew: false,
+            fixed_aspect: None,
+            max_iterations: 200,
+            stop_px: 0.01,
+            image_size,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ParameterValue {
+    pub name: String,
+    pub value: f64,
+    /// One-sigma standard deviation; None for fixed parameters.
+    pub std: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ViewReport {
+    pub image: String,
+    pub points: usize,
+    pub rms_px: f64,
+    pub rotation_vector: [f64; 3],
+    pub translation: [f64; 3],
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CalibrationReport {
+    pub fx: f64,
+    pub fy: f64,
+    pub cx: f64,
+    pub cy: f64,
+    pub skew: f64,
+    pub distortion: Distortion,
+    /// Intrinsics and coefficients with their standard deviations.
+    pub parameters: Vec<ParameterValue>,
+    pub correlation_warnings: Vec<String>,
+    /// Per observation (input order), pixels. For the OpenCV model: predicted minus measured in
+    /// the observed image; for the paper's models: projection minus corrected measurement.
+    pub residuals: Vec<[f64; 2]>,
+    pub views: Vec<ViewReport>,
+    /// sqrt(mean |residual|^2) over the points (OpenCV's RMS).
+    pub rms_px: f64,
+    /// The paper's mean distortion error: mean |residual| (pixels).
+    pub mean_error_px: f64,
+    /// Mean |residual| over the mean distance of the points from the principal point, percent.
+    pub distortion_percent: f64,
+    pub iterations: usize,
+    pub stop_reason: StopReason,
+}
+
+const INTRINSICS: [&str; 5] = ["fx", "fy", "cx", "cy", "skew"];
+
+/// The adjustment: parameter vector = [fx, fy, cx, cy, skew, coefficients.., (w, t) per view].
+struct Calib<'a> {
+    obs: &'a [Observation],
+    /// Observation indices per view.
+    views: Vec<Vec<usize>>,
+    model: Distortion,
+    nd: usize,
+    /// Free parameter -> index in the full vector.
+    free: Vec<usize>,
+    full0: Vec<f64>,
+    aspect: Option<f64>,
+}
+
+impl Calib<'_> {
+    fn expand(&self, z: &DVector<f64>) -> Vec<f64> {
+        let mut x = self.full0.clone();
+        for (k, &i) in self.free.iter().enumerate() {
+            x[i] = z[k];
+        }
+        if let Some(a) = self.aspect {
+            x[1] = x[0] * a;
+        }
+        x
+    }
+
+    fn view_residuals(&self, x: &[f64], model: &Distortion, v: usize, out: &mut [f64]) {
+        let (fx, fy, cx, cy, s) = (x[0], x[1], x[2], x[3], x[4]);
+        let base = 5 + self.nd + 6 * v;
+        let rot = Rotation3::from_scaled_axis(Vector3::new(x[base], x[base + 1], x[base + 2]));
+        let t = Vector3::new(x[base + 3], x[base + 4], x[base + 5]);
+        let m = model.model();
+        for (k, &i) in self.views[v].iter().enumerate() {
+            let o = &self.obs[i];
+            let xc = rot * Vector3::new(o.world[0], o.world[1], o.world[2]) + t;
+            let p = [xc.x / xc.z, xc.y / xc.z];
+            let r = match m.direction() {
+                Direction::ObservedFromIdeal => {
+                    let d = m.closed(p).value;
+                    [
+                        fx * d[0] + s * d[1] + cx - o.pixel[0],
+                        fy * d[1] + cy - o.pixel[1],
+                    ]
+                }
+                Direction::IdealFromObserved => {
+                    let yo = (o.pixel[1] - cy) / fy;
+                    let xo = (o.pixel[0] - cx - s * yo) / fx;
+                    let ideal = m.closed([xo, yo]).value;
+                    let (ex, ey) = (p[0] - ideal[0], p[1] - ideal[1]);
+                    [fx * ex + s * ey, fy * ey]
+                }
+            };
+            out[2 * k] = r[0];
+            out[2 * k + 1] = r[1];
+        }
+    }
+
+    fn all_residuals(&self, x: &[f64]) -> Vec<f64> {
+        let mut model = self.model.clone();
+        model.model_mut().set_params(&x[5..5 + self.nd]);
+        let mut r = vec![0.0; 2 * self.obs.len()];
+        let mut buf = vec![];
+        for v in 0..self.views.len() {
+            buf.resize(2 * self.views[v].len(), 0.0);
+            self.view_residuals(x, &model, v, &mut buf);
+            for (k, &i) in self.views[v].iter().enumerate() {
+                r[2 * i] = buf[2 * k];
+                r[2 * i + 1] = buf[2 * k + 1];
+            }
+        }
+        r
+    }
+}
+
+impl Problem for Calib<'_> {
+    fn residuals(&self, z: &DVector<f64>) -> DVector<f64> {
+        DVector::from_vec(self.all_residuals(&self.expand(z)))
+    }
+
+    /// Central differences; a pose parameter only touches its own view's rows.
+    fn jacobian(&self, z: &DVector<f64>) -> DMatrix<f64> {
+        let m = 2 * self.obs.len();
+        let mut j = DMatrix::zeros(m, self.free.len());
+        let global = 5 + self.nd;
+        for (col, &i) in self.free.iter().enumerate() {
+            let h = 1e-6 * self.full0[i].abs().max(1e-2);
+            let (mut zp, mut zm) = (z.clone(), z.clone());
+            zp[col] += h;
+            zm[col] -= h;
+            let (xp, xm) = (self.expand(&zp), self.expand(&zm));
+            if i < global {
+                let (rp, rm) = (self.all_residuals(&xp), self.all_residuals(&xm));
+                for row in 0..m {
+                    j[(row, col)] = (rp[row] - rm[row]) / (2.0 * h);
+                }
+            } else {
+                let v = (i - global) / 6;
+                let mut model = self.model.clone();
+                model.model_mut().set_params(&xp[5..global]);
+                let n = self.views[v].len();
+                let (mut rp, mut rm) = (vec![0.0; 2 * n], vec![0.0; 2 * n]);
+                self.view_residuals(&xp, &model, v, &mut rp);
+                self.view_residuals(&xm, &model, v, &mut rm);
+                for (k, &o) in self.views[v].iter().enumerate() {
+                    j[(2 * o, col)] = (rp[2 * k] - rm[2 * k]) / (2.0 * h);
+                    j[(2 * o + 1, col)] = (rp[2 * k + 1] - rm[2 * k + 1]) / (2.0 * h);
+                }
+            }
+        }
+        j
+    }
+}
+
+/// Groups observations by image id (in first-seen order) and checks them.
+fn group(
+    obs: &[Observation],
+    need: usize,
+) -> Result<(Vec<String>, Vec<Vec<usize>>), CalibrationError> {
+    let (mut ids, mut views): (Vec<String>, Vec<Vec<usize>>) = (vec![], vec![]);
+    for (i, o) in obs.iter().enumerate() {
+        if o.world.iter().chain(&o.pixel).any(|v| !v.is_finite()) {
+            return Err(CalibrationError::NotFinite {
+                index: i,
+                image: o.image.clone(),
+            });
+        }
+        match ids.iter().position(|id| *id == o.image) {
+            Some(k) => views[k].push(i),
+            None => {
+                ids.push(o.image.clone());
+                views.push(vec![i]);
+            }
+        }
+    }
+    for (id, v) in ids.iter().zip(&views) {
+        if v.len() < need {
+            return Err(CalibrationError::TooFewInImage {
+                image: id.clone(),
+                got: v.len(),
+                need,
+            });
+        }
+    }
+    Ok((ids, views))
+}
+
+/// Singular values (descending) of the centred world points of `idx`, and the plane basis.
+fn spread(obs: &[Observation], idx: &[usize]) -> ([f64; 3], Vector3<f64>, nalgebra::Matrix3<f64>) {
+    let n = idx.len() as f64;
+    let c: Vector3<f64> = idx
+        .iter()
+        .map(|&i| Vector3::from(obs[i].world))
+        .sum::<Vector3<f64>>()
+        / n;
+    let a = DMatrix::from_row_iterator(
+        idx.len(),
+        3,
+        idx.iter().flat_map(|&i| {
+            (Vector3::from(obs[i].world) - c)
+                .iter()
+                .copied()
+                .collect::<Vec<_>>()
+        }),
+    );
+    let svd = a.svd(false, true);
+    let mut order: Vec<usize> = (0..3).collect();
+    order.sort_by(|&x, &y| svd.singular_values[y].total_cmp(&svd.singular_values[x]));
+    let v_t = svd.v_t.unwrap_or_else(|| DMatrix::identity(3, 3));
+    let basis = nalgebra::Matrix3::from_rows(&[
+        v_t.row(order[0])
+            .into_owned()
+            .fixed_columns::<3>(0)
+            .into_owned(),
+        v_t.row(order[1])
+            .into_owned()
+            .fixed_columns::<3>(0)
+            .into_owned(),
+        v_t.row(order[2])
+            .into_owned()
+            .fixed_columns::<3>(0)
+            .into_owned(),
+    ]);
+    (
+        [
+            svd.singular_values[order[0]],
+            svd.singular_values[order[1]],
+            svd.singular_values[order[2]],
+        ],
+        c,
+        basis,
+    )
+}
+
+/// Starting intrinsics and poses.
+fn start(
+    obs: &[Observation],
+    views: &[Vec<usize>],
+    ids: &[String],
+    opts: &CalibrationOptions,
+) -> Result<(nalgebra::Matrix3<f64>, Vec<Pose>), CalibrationError> {
+    let all: Vec<usize> = (0..obs.len()).collect();
+    let (sv, c, basis) = spread(obs, &all);
+    let planar = sv[2] <= 1e-9 * sv[0];
+    for (id, v) in ids.iter().zip(views) {
+        let (s, _, _) = spread(obs, v);
+        if s[1] <= 1e-9 * s[0] {
+            return Err(CalibrationError::Collinear { image: id.clone() });
+        }
+    }
+    if planar {
+        if views.len() == 1 {
+            return Err(CalibrationError::PlanarSingleImage);
+        }
+        // Plane coordinates (a, b) = first two basis rows of (X - c).
+        let to_plane = |w: [f64; 3]| {
+            let d = basis * (Vector3::from(w) - c);
+            [d[0], d[1]]
+        };
+        let data: Vec<PlaneView> = views
+            .iter()
+            .map(|v| {
+                (
+                    v.iter().map(|&i| to_plane(obs[i].world)).collect(),
+                    v.iter().map(|&i| obs[i].pixel).collect(),
+                )
+            })
+            .collect();
+        let (k, poses) = zhang(&data, opts.image_size.centre())?;
+        // X_c = R_p (B (X - c)) + t_p  =>  R = R_p B, t = t_p - R c (B is a rotation or a reflection).
+        let mut b = basis;
+        if b.determinant() < 0.0 {
+            b.row_mut(2).neg_mut();
+        }
+        let poses = poses
+            .into_iter()
+            .map(|p| {
+                let r = Rotation3::from_scaled_axis(p.w).matrix() * b;
+                let rot = Rotation3::from_matrix_unchecked(r);
+                Pose {
+                    w: rot.scaled_axis(),
+                    t: p.t - r * c,
+                }
+            })
+            .collect();
+        Ok((k, poses))
+    } else {
+        let mut k0 = None;
+        let mut poses = vec![];
+        for v in views {
+            let w: Vec<[f64; 3]> = v.iter().map(|&i| obs[i].world).collect();
+            let p: Vec<[f64; 2]> = v.iter().map(|&i| obs[i].pixel).collect();
+            let (k, pose) = dlt(&w, &p)?;
+            k0.get_or_insert(k);
+            poses.push(pose);
+        }
+        Ok((
+            k0.ok_or(CalibrationError::TooFewPoints { got: 0, need: 6 })?,
+            poses,
+        ))
+    }
+}
+
+/// Calibrates a camera from control points (see the module documentation).
+pub fn calibrate(
+    obs: &[Observation],
+    opts: &CalibrationOptions,
+) -> Result<CalibrationReport, CalibrationError> {
+    if obs.len() < 6 {
+        return Err(CalibrationError::TooFewPoints {
+            got: obs.len(),
+            need: 6,
+        });
+    }
+    let (ids, views) = group(obs, 4)?;
+    let (k, poses) = start(obs, &views, &ids, opts)?;
+    if views.len() == 1 && views[0].len() < 6 {
+        return Err(CalibrationError::TooFewInImage {
+            image: ids[0].clone(),
+            got: views[0].len(),
+            need: 6,
+        });
+    }
+    let names = opts.model.model().names();
+    let nd = names.len();
+    let mut full0 = vec![
+        k[(0, 0)],
+        k[(1, 1)],
+        k[(0, 2)],
+        k[(1, 2)],
+        if opts.skew { k[(0, 1)] } else { 0.0 },
+    ];
+    full0.extend(opts.model.model().params());
+    for p in &poses {
+        full0.extend(p.w.iter().chain(p.t.iter()));
+    }
+    for f in &opts.fix {
+        if !INTRINSICS.contains(&f.as_str()) && !names.contains(&f.as_str()) {
+            return Err(CalibrationError::UnknownParameter(f.clone()));
+        }
+    }
+    let is_fixed = |name: &str| {
+        opts.fix.iter().any(|f| f == name)
+            || (name == "skew" && !opts.skew)
+            || (name == "fy" && opts.fixed_aspect.is_some())
+    };
+    let global: Vec<&str> = INTRINSICS
+        .iter()
+        .copied()
+        .chain(names.iter().copied())
+        .collect();
+    let free: Vec<usize> = (0..full0.len())
+        .filter(|&i| i >= global.len() || !is_fixed(global[i]))
+        .collect();
+    if views.len() == 1
+        && !is_fixed("fx")
+        && spread(obs, &views[0]).0[2] <= 1e-9 * spread(obs, &views[0]).0[0]
+    {
+        return Err(CalibrationError::PlanarSingleImage);
+    }
+    let aspect = opts.fixed_aspect;
+    if let Some(a) = aspect {
+        full0[1] = full0[0] * a;
+    }
+    let problem = Calib {
+        obs,
+        views: views.clone(),
+        model: opts.model.clone(),
+        nd,
+        free: free.clone(),
+        full0: full0.clone(),
+        aspect,
+    };
+    let z0 = DVector::from_iterator(free.len(), free.iter().map(|&i| full0[i]));
+    let shift = |dr: &DVector<f64>| {
+        (0..dr.len() / 2)
+            .map(|i| dr[2 * i].hypot(dr[2 * i + 1]))
+            .fold(0.0, f64::max)
+    };
+    let res = minimise(&problem, z0, opts.max_iterations, opts.stop_px, shift);
+    report(&problem, &res, &global, &ids, opts)
+}
+
+fn report(
+    p: &Calib,
+    res: &super::lm::LmResult,
+    global: &[&str],
+    ids: &[String],
+    opts: &CalibrationOptions,
+) -> Result<CalibrationReport, CalibrationError> {
+    let x = p.expand(&res.x);
+    let n = p.obs.len();
+    let residuals: Vec<[f64; 2]> = (0..n)
+        .map(|i| [res.residuals[2 * i], res.residuals[2 * i + 1]])
+        .collect();
+    let ssr: f64 = res.residuals.norm_squared();
+    let dof = (2 * n).saturating_sub(p.free.len()).max(1) as f64;
+    let jtj = res.jacobian.transpose() * &res.jacobian;
+    let cov = jtj
+        .try_inverse()
+        .ok_or_else(|| CalibrationError::Singular("J^T J at the solution".into()))?
+        * (ssr / dof);
+    let mut parameters = vec![];
+    for (gi, name) in global.iter().enumerate() {
+        let std = p
+            .free
+            .iter()
+            .position(|&f| f == gi)
+            .map(|k| cov[(k, k)].max(0.0).sqrt());
+        parameters.push(ParameterValue {
+            name: name.to_string(),
+            value: x[gi],
+            std,
+        });
+    }
+    let mut correlation_warnings = vec![];
+    let gfree: Vec<(usize, usize)> = p
+        .free
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| **f < global.len())
+        .map(|(k, f)| (k, *f))
+        .collect();
+    for (a, &(ka, ga)) in gfree.iter().enumerate() {
+        for &(kb, gb) in &gfree[a + 1..] {
+            let rho = cov[(ka, kb)] / (cov[(ka, ka)] * cov[(kb, kb)]).sqrt();
+            if rho.abs() > 0.95 {
+                correlation_warnings.push(format!(
+                    "{} and {} are strongly correlated ({rho:+.3})",
+                    global[ga], global[gb]
+                ));
+            }
+        }
+    }
+    let global_n = 5 + p.nd;
+    let views = ids
+        .iter()
+        .enumerate()
+        .map(|(v, id)| {
+            let idx = &p.views[v];
+            let se: f64 = idx
+                .iter()
+                .map(|&i| residuals[i][0].powi(2) + residuals[i][1].powi(2))
+                .sum();
+            let b = global_n + 6 * v;
+            ViewReport {
+                image: id.clone(),
+                points: idx.len(),
+                rms_px: (se / idx.len() as f64).sqrt(),
+                rotation_vector: [x[b], x[b + 1], x[b + 2]],
+                translation: [x[b + 3], x[b + 4], x[b + 5]],
+            }
+        })
+        .collect();
+    let mean_error_px = residuals.iter().map(|r| r[0].hypot(r[1])).sum::<f64>() / n as f64;
+    let mean_radius = p
+        .obs
+        .iter()
+        .map(|o| (o.pixel[0] - x[2]).hypot(o.pixel[1] - x[3]))
+        .sum::<f64>()
+        / n as f64;
+    let mut distortion = opts.model.clone();
+    distortion.model_mut().set_params(&x[5..global_n]);
+    Ok(CalibrationReport {
+        fx: x[0],
+        fy: x[1],
+        cx: x[2],
+        cy: x[3],
+        skew: x[4],
+        distortion,
+        parameters,
+        correlation_warnings,
+        residuals,
+        views,
+        rms_px: (ssr / n as f64).sqrt(),
+        mean_error_px,
+        distortion_percent: 100.0 * mean_error_px / mean_radius,
+        iterations: res.iterations,
+        stop_reason: res.stop,
+    })
+}

@@ -1,0 +1,137 @@
+//! Calibration against OpenCV's own result on the same corners, and against synthetic truth.
+#![allow(clippy::unwrap_used)]
+
+use aerorect_core::ImageSize;
+use aerorect_core::distortion::Distortion;
+use aerorect_solve::calib::{CalibrationError, CalibrationOptions, Observation, calibrate};
+use std::path::Path;
+
+fn opencv_corners() -> Vec<Observation> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/calib/left_corners.csv");
+    let mut rdr = csv::Reader::from_path(path).unwrap();
+    rdr.records()
+        .map(|r| {
+            let r = r.unwrap();
+            let f = |i: usize| r[i].parse::<f64>().unwrap();
+            Observation {
+                image: r[0].to_string(),
+                world: [f(1), f(2), f(3)],
+                pixel: [f(4), f(5)],
+            }
+        })
+        .collect()
+}
+
+/// OpenCV 5.0 calibrateCamera on these 702 points, 5 coefficients, no flags (data/README):
+/// RMS 0.40869, fx 536.0734, fy 536.0163, cx 342.3705, cy 235.5369.
+#[test]
+fn reaches_opencvs_result_on_its_own_corners() {
+    let obs = opencv_corners();
+    assert_eq!(obs.len(), 702);
+    let mut opts = CalibrationOptions::new(
+        Distortion::zero("opencv").unwrap(),
+        ImageSize::new(640, 480),
+    );
+    opts.fix = vec!["k4".into(), "k5".into(), "k6".into()];
+    opts.stop_px = 1e-6;
+    let r = calibrate(&obs, &opts).unwrap();
+    for (got, want, name) in [
+        (r.fx, 536.0734, "fx"),
+        (r.fy, 536.0163, "fy"),
+        (r.cx, 342.3705, "cx"),
+        (r.cy, 235.5369, "cy"),
+    ] {
+        assert!((got - want).abs() < 0.5, "{name}: {got} vs OpenCV {want}");
+    }
+    assert!(
+        (r.rms_px - 0.40869).abs() < 0.01,
+        "RMS {} vs OpenCV 0.40869",
+        r.rms_px
+    );
+    let k = r.distortion.model().params();
+    assert!(
+        (k[0] + 0.265090).abs() < 0.01 && (k[4] - 0.252316).abs() < 0.05,
+        "{k:?}"
+    );
+    assert_eq!(r.views.len(), 13);
+}
+
+#[test]
+fn fixed_aspect_ratio_matches_opencvs_flag() {
+    // With CALIB_FIX_ASPECT_RATIO: RMS 0.40871, f 536.1079, cx 342.3741, cy 235.5948.
+    let mut opts = CalibrationOptions::new(
+        Distortion::zero("opencv").unwrap(),
+        ImageSize::new(640, 480),
+    );
+    opts.fix = vec!["k4".into(), "k5".into(), "k6".into()];
+    opts.fixed_aspect = Some(1.0);
+    opts.stop_px = 1e-6;
+    let r = calibrate(&opencv_corners(), &opts).unwrap();
+    assert!(
+        (r.fx - r.fy).abs() < 1e-9 * r.fx,
+        "aspect held at 1: {} {}",
+        r.fx,
+        r.fy
+    );
+    assert!(
+        (r.fx - 536.1079).abs() < 0.5
+            && (r.cx - 342.3741).abs() < 0.5
+            && (r.cy - 235.5948).abs() < 0.5
+    );
+    assert!((r.rms_px - 0.40871).abs() < 0.01);
+}
+
+#[test]
+fn degenerate_inputs_are_refused() {
+    let obs = opencv_corners();
+    let one: Vec<Observation> = obs
+        .iter()
+        .filter(|o| o.image == obs[0].image)
+        .cloned()
+        .collect();
+    let opts = CalibrationOptions::new(
+        Distortion::zero("opencv").unwrap(),
+        ImageSize::new(640, 480),
+    );
+    assert_eq!(
+        calibrate(&one, &opts).unwrap_err(),
+        CalibrationError::PlanarSingleImage
+    );
+    assert!(matches!(
+        calibrate(&one[..5], &opts).unwrap_err(),
+        CalibrationError::TooFewPoints { got: 5, .. }
+    ));
+    let mut few = obs.clone();
+    few.push(Observation {
+        image: "lonely".into(),
+        world: [0.0, 0.0, 0.0],
+        pixel: [1.0, 2.0],
+    });
+    assert!(matches!(
+        calibrate(&few, &opts).unwrap_err(),
+        CalibrationError::TooFewInImage { got: 1, .. }
+    ));
+    let mut nan = obs.clone();
+    nan[7].pixel[1] = f64::NAN;
+    assert!(matches!(
+        calibrate(&nan, &opts).unwrap_err(),
+        CalibrationError::NotFinite { index: 7, .. }
+    ));
+    let line: Vec<Observation> = (0..10)
+        .map(|i| Observation {
+            image: "a".into(),
+            world: [i as f64, 2.0 * i as f64, 0.5 * i as f64],
+            pixel: [i as f64, i as f64],
+        })
+        .collect();
+    assert!(matches!(
+        calibrate(&line, &opts).unwrap_err(),
+        CalibrationError::Collinear { .. }
+    ));
+    let mut bad = opts.clone();
+    bad.fix = vec!["k9".into()];
+    assert_eq!(
+        calibrate(&obs, &bad).unwrap_err(),
+        CalibrationError::UnknownParameter("k9".into())
+    );
+}
