@@ -1,37 +1,10 @@
 //! The `aerorect` binary end to end: the round trip, the report, and refusals of bad input.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+use common::{aerorect, fails, ok};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn aerorect(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_aerorect"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap()
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn fails(out: &Output, needles: &[&str]) {
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success(),
-        "should have failed; stdout: {}",
-        String::from_utf8_lossy(&out.stdout)
-    );
-    for n in needles {
-        assert!(err.contains(n), "stderr lacks '{n}': {err}");
-    }
-}
 
 const ATT: &str = "azimuth=10,elevation=25,image_rotation=1,pitch=2,roll=-1,yaw=30";
 

@@ -1,34 +1,13 @@
 //! shift, velocity, track and motion-sim end to end.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+use common::{aerorect, fails, ok};
+
 use aerorect::core::ImageSize;
 use aerorect::io::{read_image, write_image};
 use aerorect::raster::{AnyRaster, Raster};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn aerorect(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_aerorect"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap()
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn fails(out: &Output, needle: &str) {
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains(needle), "stderr lacks '{needle}': {err}");
-}
 
 /// 160 x 120 windows of the bundled photo's green band, the content moved by whole pixels.
 fn write_frames(dir: &Path, shifts: &[(i64, i64)]) {
@@ -79,20 +58,20 @@ fn shift_refuses_bad_pairs() {
     write_image(&dir.path().join("flat.png"), &flat).unwrap();
     fails(
         &aerorect(&["shift", "f0.png", "flat.png"], dir.path()),
-        "current frame is constant",
+        &["current frame is constant"],
     );
     let small = AnyRaster::U8(Raster::filled(ImageSize::new(16, 16), 1, 7u8).unwrap());
     write_image(&dir.path().join("small.png"), &small).unwrap();
     fails(
         &aerorect(&["shift", "f0.png", "small.png"], dir.path()),
-        "small.png is 16 x 16",
+        &["small.png is 16 x 16"],
     );
     fails(
         &aerorect(
             &["shift", "f0.png", "f0.png", "--method", "fast"],
             dir.path(),
         ),
-        "unknown method 'fast'",
+        &["unknown method 'fast'"],
     );
 }
 
@@ -143,7 +122,7 @@ fn velocity_json_matches_the_closed_form() {
             ],
             dir.path(),
         ),
-        "--height-m 0",
+        &["--height-m 0"],
     );
     fails(
         &aerorect(
@@ -162,7 +141,7 @@ fn velocity_json_matches_the_closed_form() {
             ],
             dir.path(),
         ),
-        "--swing-deg 95",
+        &["--swing-deg 95"],
     );
 }
 
@@ -213,7 +192,7 @@ fn track_prints_each_step_and_the_corrected_velocities() {
         &["track", "f0.png", "bad.png", "f1.png", "--method", "xcorr"],
         dir.path(),
     );
-    fails(&out, "1 frame(s) skipped: bad.png");
+    fails(&out, &["1 frame(s) skipped: bad.png"]);
     assert_eq!(
         String::from_utf8_lossy(&out.stdout).lines().count(),
         2,
