@@ -364,14 +364,15 @@ pub fn calibrate(
         });
     }
     let (ids, views) = group(obs, 4)?;
-    let (k, poses) = start(obs, &views, &ids, opts)?;
     if views.len() == 1 && views[0].len() < 6 {
+        // One image of a 3-D field: the DLT needs six points.
         return Err(CalibrationError::TooFewInImage {
             image: ids[0].clone(),
             got: views[0].len(),
             need: 6,
         });
     }
+    let (k, poses) = start(obs, &views, &ids, opts)?;
     let names = opts.model.model().names();
     let nd = names.len();
     let mut full0 = vec![
@@ -403,12 +404,6 @@ pub fn calibrate(
     let free: Vec<usize> = (0..full0.len())
         .filter(|&i| i >= global.len() || !is_fixed(global[i]))
         .collect();
-    if views.len() == 1
-        && !is_fixed("fx")
-        && spread(obs, &views[0]).0[2] <= 1e-9 * spread(obs, &views[0]).0[0]
-    {
-        return Err(CalibrationError::PlanarSingleImage);
-    }
     let aspect = opts.fixed_aspect;
     if let Some(a) = aspect {
         full0[1] = full0[0] * a;
