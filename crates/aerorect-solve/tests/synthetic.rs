@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used)]
 
 use aerorect_core::ImageSize;
-use aerorect_core::distortion::{Direction, Distortion, DistortionModel};
+use aerorect_core::distortion::{Direction, Distortion};
 use aerorect_solve::calib::{CalibrationOptions, Observation, calibrate};
 use nalgebra::{Rotation3, Vector3};
 use rand::SeedableRng;
