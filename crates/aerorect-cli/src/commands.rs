@@ -89,12 +89,14 @@ pub fn rectify(a: RectifyArgs) -> Result<()> {
     let limits = RectifyLimits {
         max_output_px: a.max_output_px,
     };
-    let plan = RectifyPlan::new(intr, size, attitude, alt, limits, warp).with_context(|| {
-        format!(
-            "{}: cannot rectify with this camera and attitude",
-            a.input.display()
-        )
-    })?;
+    let plan = RectifyPlan::new(intr, size, attitude, alt, limits, warp)
+        .with_context(|| {
+            format!(
+                "{}: cannot rectify with this camera and attitude",
+                a.input.display()
+            )
+        })?
+        .with_distortion(cam.distortion.clone());
     let (out, seconds) = plan.run(&image)?;
     let report = plan.report(
         &a.input.display().to_string(),
@@ -157,7 +159,8 @@ pub fn simulate(a: SimulateArgs) -> Result<()> {
     let intr = cam.intrinsics(frame)?;
     let attitude = read_attitude(&a.attitude)?;
     let ortho = read_image(&a.ortho)?;
-    let plan = SimulatePlan::new(intr, frame, &attitude, ortho.size());
+    let plan = SimulatePlan::new(intr, frame, &attitude, ortho.size())
+        .with_distortion(cam.distortion.clone());
     let warp = WarpOptions {
         interp: a.interp,
         nodata: a.nodata,
@@ -210,7 +213,7 @@ pub fn evaluate(a: EvaluateArgs) -> Result<()> {
     let intr = cam.intrinsics_for_unknown_frame()?;
     let attitude = read_attitude(&a.attitude)?;
     let points = read_checkpoints(&a.checkpoints)?;
-    let s = aerorect::evaluate::evaluate(&intr, &attitude, &points)
+    let s = aerorect::evaluate::evaluate(&intr, &attitude, &points, cam.distortion.as_ref())
         .with_context(|| a.checkpoints.display().to_string())?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&s)?);

@@ -1,6 +1,7 @@
 //! The `aerorect` command-line program: argument parsing and reports only; the work is in the
 //! `aerorect` library.
 
+mod calib_cmds;
 mod commands;
 mod motion_cmds;
 mod plot;
@@ -42,6 +43,10 @@ enum Command {
     Velocity(motion_cmds::VelocityArgs),
     /// Streaming mode: each frame against the previous one; a CSV line per frame.
     Track(motion_cmds::TrackArgs),
+    /// Calibrate intrinsics and lens distortion from control points (image,X,Y,Z,u,v).
+    Calibrate(calib_cmds::CalibrateArgs),
+    /// Remove lens distortion with the camera file's [distortion] table.
+    Undistort(calib_cmds::UndistortArgs),
 }
 
 fn main() -> ExitCode {
@@ -64,6 +69,8 @@ fn main() -> ExitCode {
         Command::MotionSim(a) => motion_cmds::motion_sim_cmd(a),
         Command::Velocity(a) => motion_cmds::velocity(a),
         Command::Track(a) => motion_cmds::track(a),
+        Command::Calibrate(a) => calib_cmds::calibrate_cmd(a),
+        Command::Undistort(a) => calib_cmds::undistort_cmd(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -105,6 +105,18 @@ impl Intrinsics {
         self.camera_from_pixel() * Vec3::new(u, v, 1.0)
     }
 
+    /// Normalised image coordinates (x right, y down, skew removed) of pixel (u, v): the
+    /// coordinates the distortion models work in.
+    pub fn normalized_from_pixel(&self, u: f64, v: f64) -> [f64; 2] {
+        let y = (v - self.cy) / self.fy;
+        [(u - self.cx - self.skew * y) / self.fx, y]
+    }
+
+    /// Pixel of normalised coordinates (x, y): u = fx x + skew y + cx, v = fy y + cy.
+    pub fn pixel_from_normalized(&self, x: f64, y: f64) -> [f64; 2] {
+        [self.fx * x + self.skew * y + self.cx, self.fy * y + self.cy]
+    }
+
     /// Principal point as an array.
     pub fn principal_point(&self) -> [f64; 2] {
         [self.cx, self.cy]
@@ -198,6 +210,16 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    #[test]
+    fn normalised_coordinates_round_trip_with_skew() {
+        let mut k = Intrinsics::new(800.0, 790.0, 320.0, 240.0).expect("valid");
+        k.skew = 1.5;
+        let n = k.normalized_from_pixel(100.0, 400.0);
+        let p = k.pixel_from_normalized(n[0], n[1]);
+        assert!((p[0] - 100.0).abs() < 1e-12 && (p[1] - 400.0).abs() < 1e-12);
+        assert_eq!(k.normalized_from_pixel(320.0, 240.0), [0.0, 0.0]);
     }
 
     #[test]

@@ -4,7 +4,8 @@
 //! `focal_length_mm`, `pixel_pitch_um = [dx, dy]`, optional `principal_point_px = [u0, v0]`;
 //! or intrinsics in pixels: `fx_px`, `fy_px`, optional `cx_px`, `cy_px`, `skew_px`.
 //! Optional `image_size_px = [W, H]`. The principal point defaults to the image centre
-//! ((W-1)/2, (H-1)/2). Unknown keys are an error.
+//! ((W-1)/2, (H-1)/2). Optional `[distortion]` table: `model` (tsai, brown, improved, opencv)
+//! and the coefficients by name (missing ones are zero). Unknown keys are an error.
 
 use crate::error::IoError;
 use aerorect_core::{GeometryError, ImageSize, Intrinsics};
@@ -23,6 +24,8 @@ pub struct CameraFile {
     pub cx_px: Option<f64>,
     pub cy_px: Option<f64>,
     pub skew_px: Option<f64>,
+    /// `[distortion]` with `model = "tsai" | "brown" | "improved" | "opencv"` and named coefficients.
+    pub distortion: Option<aerorect_core::distortion::Distortion>,
     /// Where the file came from, for messages.
     #[serde(skip)]
     pub source_name: String,
@@ -153,6 +156,25 @@ mod tests {
         let c = parse("fx_px = 800.0\nfy_px = 810.0\ncx_px = 300.0\ncy_px = 200.0").expect("ok");
         let k = c.intrinsics(ImageSize::new(640, 480)).expect("intrinsics");
         assert_eq!((k.fx, k.fy, k.cx, k.cy), (800.0, 810.0, 300.0, 200.0));
+    }
+
+    #[test]
+    fn distortion_table_by_model_and_name() {
+        let c = parse("fx_px = 800.0\nfy_px = 800.0\n[distortion]\nmodel = \"opencv\"\nk1 = -0.25\np2 = 0.001\n").expect("ok");
+        let d = c.distortion.expect("present");
+        assert_eq!(d.kind(), "opencv");
+        assert_eq!(
+            d.model().params(),
+            vec![-0.25, 0.0, 0.0, 0.001, 0.0, 0.0, 0.0, 0.0]
+        );
+        let e = parse("fx_px = 800.0\nfy_px = 800.0\n[distortion]\nmodel = \"tsai\"\np1 = 0.1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("cam.toml") && e.contains("p1"), "{e}");
+        let e = parse("fx_px = 800.0\nfy_px = 800.0\n[distortion]\nmodel = \"fisheye\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("fisheye"), "{e}");
     }
 
     #[test]

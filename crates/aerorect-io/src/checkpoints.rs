@@ -111,3 +111,56 @@ mod tests {
         );
     }
 }
+
+/// One control point of a calibration: image id, world X, Y, Z, measured pixel u, v.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControlPoint {
+    pub image: String,
+    #[serde(rename = "X")]
+    pub x: f64,
+    #[serde(rename = "Y")]
+    pub y: f64,
+    #[serde(rename = "Z")]
+    pub z: f64,
+    pub u: f64,
+    pub v: f64,
+}
+
+/// Reads control points: CSV with the header `image,X,Y,Z,u,v`, every value finite.
+pub fn read_control_points(path: &Path) -> Result<Vec<ControlPoint>, IoError> {
+    let name = path.display().to_string();
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_path(path)
+        .map_err(|e| IoError::field(&name, e))?;
+    let header: Vec<String> = rdr
+        .headers()
+        .map_err(|e| IoError::field(&name, e))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    if header != ["image", "X", "Y", "Z", "u", "v"] {
+        return Err(IoError::field(
+            &name,
+            format!(
+                "header is '{}', expected 'image,X,Y,Z,u,v'",
+                header.join(",")
+            ),
+        ));
+    }
+    let mut points = vec![];
+    for (i, rec) in rdr.deserialize::<ControlPoint>().enumerate() {
+        let p = rec.map_err(|e| IoError::field(&name, format!("line {}: {e}", i + 2)))?;
+        for (field, v) in [("X", p.x), ("Y", p.y), ("Z", p.z), ("u", p.u), ("v", p.v)] {
+            if !v.is_finite() {
+                return Err(IoError::field(
+                    &name,
+                    format!("line {}: {field} = {v} is not a finite number", i + 2),
+                ));
+            }
+        }
+        points.push(p);
+    }
+    Ok(points)
+}

@@ -13,6 +13,6 @@ mod tiff_file;
 
 pub use attitude::read_attitude;
 pub use camera::CameraFile;
-pub use checkpoints::{read_checkpoints, write_checkpoints};
+pub use checkpoints::{ControlPoint, read_checkpoints, read_control_points, write_checkpoints};
 pub use error::IoError;
 pub use image_file::{decode_image_bytes, read_image, same_file, write_atomically, write_image};

@@ -11,6 +11,6 @@ pub mod shift;
 pub mod warp;
 
 pub use error::RasterError;
-pub use map::PixelMap;
+pub use map::{LensDirection, LensMap, PixelMap, Then};
 pub use raster::{AnyRaster, Raster, Sample};
 pub use warp::{Interp, WarpOptions, warp, warp_into, warp_into_portable};

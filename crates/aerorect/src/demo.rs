@@ -110,7 +110,7 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
     }
     let (plan, warp_seconds) = last.ok_or_else(|| Error::Invalid("no rectification".into()))?;
 
-    let exact = evaluate(&intr, &attitude, &points)?;
+    let exact = evaluate(&intr, &attitude, &points, None)?;
     let off = SixAngleAttitude::from_degrees(&SixAngleDegrees {
         azimuth: ATTITUDE.azimuth + 0.05,
         elevation: ATTITUDE.elevation + 0.05,
@@ -120,7 +120,7 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
         yaw: ATTITUDE.yaw + 0.05,
     })
     .map_err(Error::geometry("perturbed attitude"))?;
-    let off_by_3_arcmin = evaluate(&intr, &off, &points)?;
+    let off_by_3_arcmin = evaluate(&intr, &off, &points, None)?;
     let sensitivity = crate::sensitivity::run(&SensitivityConfig {
         intrinsics: intr,
         frame_size: frame,

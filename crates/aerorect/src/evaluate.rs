@@ -5,13 +5,29 @@ use aerorect_core::evaluate::{residuals, stats};
 use aerorect_core::rectify::standard_from_oblique;
 use aerorect_core::{CheckPoint, CheckPointStats, Intrinsics, SixAngleAttitude};
 
-/// du_max, dv_max, URMS, VRMS and RMSE of `points` under `attitude`.
+/// du_max, dv_max, URMS, VRMS and RMSE of `points` under `attitude`. With a `distortion`, the
+/// recorded oblique points are undistorted first (residuals in ideal pixels).
 pub fn evaluate(
     intrinsics: &Intrinsics,
     attitude: &SixAngleAttitude,
     points: &[CheckPoint],
+    distortion: Option<&aerorect_core::distortion::Distortion>,
 ) -> Result<CheckPointStats, Error> {
     let g = standard_from_oblique(intrinsics, attitude).inverse();
+    let mut ideal = points.to_vec();
+    if let Some(d) = distortion {
+        for (i, p) in ideal.iter_mut().enumerate() {
+            let n = intrinsics.normalized_from_pixel(p.u_oblique, p.v_oblique);
+            let q = d.model().ideal_from_observed(n).ok_or_else(|| {
+                Error::Invalid(format!(
+                    "check point {}: the lens model cannot undistort it",
+                    i + 1
+                ))
+            })?;
+            [p.u_oblique, p.v_oblique] = intrinsics.pixel_from_normalized(q[0], q[1]);
+        }
+    }
+    let points = &ideal;
     let r = residuals(points, &g);
     if let Some(i) = r.iter().position(Option::is_none) {
         return Err(Error::Invalid(format!(

@@ -12,6 +12,7 @@ pub mod motion;
 pub mod rectify;
 pub mod sensitivity;
 pub mod simulate;
+pub mod undistort;
 
 pub use aerorect_core as core;
 pub use aerorect_io as io;

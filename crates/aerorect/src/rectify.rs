@@ -2,10 +2,11 @@
 
 use crate::{Error, warp_any};
 use aerorect_core::attitude::SixAngleDegrees;
+use aerorect_core::distortion::Distortion;
 use aerorect_core::{
     AltitudeScale, ImageSize, Intrinsics, RectifyGeometry, RectifyLimits, SixAngleAttitude,
 };
-use aerorect_raster::{AnyRaster, WarpOptions};
+use aerorect_raster::{AnyRaster, LensDirection, LensMap, Then, WarpOptions};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -20,6 +21,8 @@ pub struct RectifyPlan {
     pub limits: RectifyLimits,
     pub warp: WarpOptions,
     pub geometry: RectifyGeometry,
+    /// The lens's distortion: the frame is undistorted on the fly (G, then ideal -> observed).
+    pub distortion: Option<Distortion>,
 }
 
 impl RectifyPlan {
@@ -41,7 +44,15 @@ impl RectifyPlan {
             limits,
             warp,
             geometry,
+            distortion: None,
         })
+    }
+
+    /// Undistorts the frame while rectifying. The output grid still comes from the frame's
+    /// corner pixels as recorded (not their undistorted positions).
+    pub fn with_distortion(mut self, distortion: Option<Distortion>) -> Self {
+        self.distortion = distortion;
+        self
     }
 
     /// Resamples `input` onto the output grid; returns the image and the seconds the warp took.
@@ -56,12 +67,23 @@ impl RectifyPlan {
             )));
         }
         let t = Instant::now();
-        let out = warp_any(
-            input,
+        let (g, size) = (
             &self.geometry.oblique_from_output,
             self.geometry.output_size,
-            &self.warp,
-        )?;
+        );
+        let out = match &self.distortion {
+            None => warp_any(input, g, size, &self.warp)?,
+            Some(d) => {
+                let k = self.intrinsics;
+                let lens = LensMap {
+                    from: k,
+                    to: k,
+                    model: d.clone(),
+                    direction: LensDirection::ObservedFromIdeal,
+                };
+                warp_any(input, &Then(*g, lens), size, &self.warp)?
+            }
+        };
         Ok((out, t.elapsed().as_secs_f64()))
     }
 

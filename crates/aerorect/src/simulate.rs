@@ -2,9 +2,10 @@
 //! image is ORTHO, with ORTHO's centre ((W-1)/2, (H-1)/2) at the standard frame's principal point.
 
 use crate::{Error, warp_any};
+use aerorect_core::distortion::Distortion;
 use aerorect_core::rectify::standard_from_oblique;
 use aerorect_core::{CheckPoint, Homography, ImageSize, Intrinsics, SixAngleAttitude};
-use aerorect_raster::{AnyRaster, WarpOptions};
+use aerorect_raster::{AnyRaster, LensDirection, LensMap, Then, WarpOptions};
 
 /// One simulated frame's geometry.
 #[derive(Debug, Clone)]
@@ -16,6 +17,8 @@ pub struct SimulatePlan {
     pub standard_from_oblique: Homography,
     /// Oblique pixel -> ORTHO pixel: F then the shift that puts ORTHO's centre at (cx, cy).
     pub ortho_from_oblique: Homography,
+    /// The lens's distortion: recorded (observed) pixels are undistorted before F.
+    pub distortion: Option<Distortion>,
 }
 
 impl SimulatePlan {
@@ -34,6 +37,25 @@ impl SimulatePlan {
             ortho_size,
             standard_from_oblique: f,
             ortho_from_oblique: shift.after(&f),
+            distortion: None,
+        }
+    }
+
+    /// Renders through a distorting lens: the recorded frame is distorted.
+    pub fn with_distortion(mut self, distortion: Option<Distortion>) -> Self {
+        self.distortion = distortion;
+        self
+    }
+
+    /// The ideal pixel of a recorded one (identity without distortion).
+    fn ideal(&self, u: f64, v: f64) -> Option<[f64; 2]> {
+        match &self.distortion {
+            None => Some([u, v]),
+            Some(d) => {
+                let n = self.intrinsics.normalized_from_pixel(u, v);
+                let q = d.model().ideal_from_observed(n)?;
+                Some(self.intrinsics.pixel_from_normalized(q[0], q[1]))
+            }
         }
     }
 
@@ -44,15 +66,38 @@ impl SimulatePlan {
                 "ORTHO does not have the planned size".into(),
             ));
         }
-        warp_any(ortho, &self.ortho_from_oblique, self.frame_size, warp)
+        match &self.distortion {
+            None => warp_any(ortho, &self.ortho_from_oblique, self.frame_size, warp),
+            Some(d) => {
+                let k = self.intrinsics;
+                let lens = LensMap {
+                    from: k,
+                    to: k,
+                    model: d.clone(),
+                    direction: LensDirection::IdealFromObserved,
+                };
+                warp_any(
+                    ortho,
+                    &Then(lens, self.ortho_from_oblique),
+                    self.frame_size,
+                    warp,
+                )
+            }
+        }
     }
 
     /// True when oblique pixel (u, v) sees the ground inside ORTHO (with a `margin` in pixels).
     pub fn sees_ortho(&self, u: f64, v: f64, margin: f64) -> bool {
         let (w, h) = (self.ortho_size.width as f64, self.ortho_size.height as f64);
-        self.ortho_from_oblique.map(u, v).is_some_and(|p| {
-            p[0] >= margin && p[1] >= margin && p[0] <= w - 1.0 - margin && p[1] <= h - 1.0 - margin
-        })
+        let ideal = self.ideal(u, v);
+        ideal
+            .and_then(|q| self.ortho_from_oblique.map(q[0], q[1]))
+            .is_some_and(|p| {
+                p[0] >= margin
+                    && p[1] >= margin
+                    && p[0] <= w - 1.0 - margin
+                    && p[1] <= h - 1.0 - margin
+            })
     }
 
     /// Up to `n` check points spread evenly over the frame (5 % margin), each on the ground
@@ -69,7 +114,8 @@ impl SimulatePlan {
                 return (0..n.min(grid.len()))
                     .filter_map(|i| grid.get((i as f64 * step) as usize))
                     .filter_map(|p| {
-                        let s = self.standard_from_oblique.map(p[0], p[1])?;
+                        let q = self.ideal(p[0], p[1])?;
+                        let s = self.standard_from_oblique.map(q[0], q[1])?;
                         Some(CheckPoint {
                             u_oblique: p[0],
                             v_oblique: p[1],

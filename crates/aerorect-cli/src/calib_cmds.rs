@@ -1,0 +1,226 @@
+//! Lens subcommands: calibrate, undistort.
+
+use aerorect::core::ImageSize;
+use aerorect::core::distortion::Distortion;
+use aerorect::io::{CameraFile, read_control_points, read_image, same_file, write_image};
+use aerorect::raster::{Interp, WarpOptions};
+use aerorect::undistort::UndistortPlan;
+use aerorect_solve::calib::{CalibrationOptions, CalibrationReport, Observation, calibrate};
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct CalibrateArgs {
+    /// Control points: CSV `image,X,Y,Z,u,v` (one observation a row; `image` an id).
+    #[arg(long)]
+    points: PathBuf,
+    /// Image size WxH, e.g. 640x480.
+    #[arg(long)]
+    image_size: String,
+    /// tsai, brown, improved or opencv.
+    #[arg(long)]
+    model: String,
+    /// Parameters held at their start, comma-separated (fx, fy, cx, cy, skew, k1, ...).
+    #[arg(long, value_delimiter = ',')]
+    fix: Vec<String>,
+    /// Free the skew (zero otherwise).
+    #[arg(long)]
+    skew: bool,
+    /// Hold fx = fy.
+    #[arg(long)]
+    fix_aspect: bool,
+    /// Stop when every update moves every point by less than this many pixels.
+    #[arg(long, default_value_t = 0.01)]
+    stop_px: f64,
+    #[arg(long, default_value_t = 200)]
+    max_iterations: usize,
+    /// The full report as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// A camera file (intrinsics in pixels and `[distortion]`) for undistort and rectify.
+    #[arg(long)]
+    camera_out: Option<PathBuf>,
+}
+
+fn parse_size(s: &str) -> Result<ImageSize> {
+    let parse = || -> Option<ImageSize> {
+        let (w, h) = s.split_once(['x', 'X'])?;
+        Some(ImageSize::new(
+            w.trim().parse().ok()?,
+            h.trim().parse().ok()?,
+        ))
+    };
+    match parse() {
+        Some(sz) if sz.width > 0 && sz.height > 0 => Ok(sz),
+        _ => bail!("--image-size '{s}': expected WxH with positive integers, e.g. 640x480"),
+    }
+}
+
+pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
+    let size = parse_size(&a.image_size)?;
+    let model = Distortion::zero(&a.model).with_context(|| {
+        format!(
+            "--model '{}': expected tsai, brown, improved or opencv",
+            a.model
+        )
+    })?;
+    if !(a.stop_px.is_finite() && a.stop_px > 0.0) {
+        bail!("--stop-px {}: must be a finite number > 0", a.stop_px);
+    }
+    let points = read_control_points(&a.points)?;
+    let obs: Vec<Observation> = points
+        .into_iter()
+        .map(|p| Observation {
+            image: p.image,
+            world: [p.x, p.y, p.z],
+            pixel: [p.u, p.v],
+        })
+        .collect();
+    let mut opts = CalibrationOptions::new(model, size);
+    opts.fix = a
+        .fix
+        .iter()
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .collect();
+    opts.skew = a.skew;
+    opts.fixed_aspect = a.fix_aspect.then_some(1.0);
+    opts.stop_px = a.stop_px;
+    opts.max_iterations = a.max_iterations;
+    let r = calibrate(&obs, &opts).with_context(|| a.points.display().to_string())?;
+    print_report(&r, obs.len());
+    if let Some(j) = &a.json {
+        aerorect::demo::write_text(j, &serde_json::to_string_pretty(&report_json(&r)?)?)?;
+    }
+    if let Some(c) = &a.camera_out {
+        aerorect::demo::write_text(c, &camera_toml(&r, size)?)?;
+    }
+    Ok(())
+}
+
+fn print_report(r: &CalibrationReport, n: usize) {
+    println!(
+        "{} points in {} images, model {}; {} iterations, stopped: {:?}",
+        n,
+        r.views.len(),
+        r.distortion.kind(),
+        r.iterations,
+        r.stop_reason
+    );
+    for p in &r.parameters {
+        match p.std {
+            Some(s) => println!("  {:<6} {:>14.6} +- {:.6}", p.name, p.value, s),
+            None => println!("  {:<6} {:>14.6}   (fixed)", p.name, p.value),
+        }
+    }
+    println!(
+        "RMS {:.5} px, mean error {:.5} px, distortion {:.4} %",
+        r.rms_px, r.mean_error_px, r.distortion_percent
+    );
+    for v in &r.views {
+        println!(
+            "  image {:<14} {:>4} points  RMS {:.4} px",
+            v.image, v.points, v.rms_px
+        );
+    }
+    for w in &r.correlation_warnings {
+        println!("warning: {w}");
+    }
+}
+
+/// The JSON report: fx, fy, cx, cy, skew, the coefficients by name at the top level, rms_px,
+/// per-image RMS and poses, standard deviations, stop reason, and the rest of the report.
+fn report_json(r: &CalibrationReport) -> Result<serde_json::Value> {
+    let mut v = serde_json::to_value(r)?;
+    let obj = v.as_object_mut().context("report is an object")?;
+    let model = r.distortion.model();
+    for (name, value) in model.names().iter().zip(model.params()) {
+        obj.insert(name.to_string(), value.into());
+    }
+    obj.insert("model".into(), r.distortion.kind().into());
+    let std: serde_json::Map<String, serde_json::Value> = r
+        .parameters
+        .iter()
+        .map(|p| {
+            (
+                p.name.clone(),
+                p.std.map_or(serde_json::Value::Null, Into::into),
+            )
+        })
+        .collect();
+    obj.insert("std".into(), std.into());
+    Ok(v)
+}
+
+fn camera_toml(r: &CalibrationReport, size: ImageSize) -> Result<String> {
+    let mut s = format!(
+        "# written by aerorect calibrate (RMS {:.4} px)\nfx_px = {:?}\nfy_px = {:?}\ncx_px = {:?}\ncy_px = {:?}\nskew_px = {:?}\nimage_size_px = [{}, {}]\n\n[distortion]\n",
+        r.rms_px, r.fx, r.fy, r.cx, r.cy, r.skew, size.width, size.height
+    );
+    s += &toml::to_string(&r.distortion)?;
+    Ok(s)
+}
+
+#[derive(Args)]
+pub struct UndistortArgs {
+    input: PathBuf,
+    output: PathBuf,
+    /// Camera file with a `[distortion]` table.
+    #[arg(long)]
+    camera: PathBuf,
+    #[arg(long, default_value = "bilinear")]
+    interp: Interp,
+    /// Grow the output to hold every valid pixel (same focal lengths) instead of keeping the size.
+    #[arg(long)]
+    fit: bool,
+    #[arg(long, default_value_t = 0.0)]
+    nodata: f64,
+    #[arg(long)]
+    alpha: bool,
+}
+
+pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
+    if same_file(&a.input, &a.output) {
+        bail!(
+            "{}: the output would overwrite the input",
+            a.output.display()
+        );
+    }
+    let cam = CameraFile::read(&a.camera)?;
+    let Some(model) = cam.distortion.clone() else {
+        bail!(
+            "{}: no [distortion] table: nothing to undistort",
+            a.camera.display()
+        );
+    };
+    let img = read_image(&a.input)?;
+    let size = cam.frame_size(Some(img.size()))?;
+    let k = cam.intrinsics(size)?;
+    let warp = WarpOptions {
+        interp: a.interp,
+        nodata: a.nodata,
+        alpha: a.alpha,
+    };
+    warp.nodata_as_for(&img)
+        .with_context(|| format!("--nodata {}", a.nodata))?;
+    let plan = UndistortPlan::new(k, size, model, a.fit)
+        .with_context(|| a.camera.display().to_string())?;
+    let t = std::time::Instant::now();
+    let out = plan.run(&img, &warp)?;
+    let secs = t.elapsed().as_secs_f64();
+    write_image(&a.output, &out)?;
+    let o = plan.output_intrinsics;
+    println!(
+        "{} -> {}: {} x {}, principal point ({:.2}, {:.2}), {} in {:.1} ms",
+        a.input.display(),
+        a.output.display(),
+        plan.output_size.width,
+        plan.output_size.height,
+        o.cx,
+        o.cy,
+        a.interp.name(),
+        secs * 1e3
+    );
+    Ok(())
+}
