@@ -137,7 +137,7 @@ impl<A: PixelMap, B: PixelMap> PixelMap for Then<A, B> {
 mod lens_tests {
     use super::*;
     use aerorect_core::Intrinsics;
-    use aerorect_core::distortion::{Distortion, DistortionModel};
+    use aerorect_core::distortion::Distortion;
 
     #[test]
     fn lens_map_round_trips_and_then_composes() {
