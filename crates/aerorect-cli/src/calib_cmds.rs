@@ -224,3 +224,45 @@ pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
     );
     Ok(())
 }
+
+#[derive(Args)]
+pub struct CompareArgs {
+    /// Measurement noise of the synthetic control points, pixels (one sigma per axis).
+    #[arg(long, default_value_t = 0.1)]
+    noise_px: f64,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn compare_cmd(a: CompareArgs) -> Result<()> {
+    if !(a.noise_px.is_finite() && a.noise_px > 0.0) {
+        bail!("--noise-px {}: must be a finite number > 0", a.noise_px);
+    }
+    let rows = aerorect::lens_compare::compare(a.noise_px, a.seed)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+        return Ok(());
+    }
+    println!(
+        "one image of a 3-D test field, 800 x 800, f = 1000 px; lens: k1 -0.15, k2 0.05, p1 3e-3, p2 -2e-3; noise {} px",
+        a.noise_px
+    );
+    println!(
+        "{:<10} {:>6} {:>16} {:>14} {:>18} {:>10}",
+        "model", "params", "mean error px", "distortion %", "check mean err px", "iters"
+    );
+    for r in &rows {
+        println!(
+            "{:<10} {:>6} {:>16.4} {:>14.4} {:>18.4} {:>10}",
+            r.model,
+            r.parameters,
+            r.mean_error_px,
+            r.distortion_percent,
+            r.check_mean_error_px,
+            r.iterations
+        );
+    }
+    Ok(())
+}

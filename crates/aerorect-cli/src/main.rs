@@ -47,6 +47,8 @@ enum Command {
     Calibrate(calib_cmds::CalibrateArgs),
     /// Remove lens distortion with the camera file's [distortion] table.
     Undistort(calib_cmds::UndistortArgs),
+    /// The paper's comparison of Tsai, Brown and the improved model on a synthetic test field.
+    DistortionCompare(calib_cmds::CompareArgs),
 }
 
 fn main() -> ExitCode {
@@ -71,6 +73,7 @@ fn main() -> ExitCode {
         Command::Track(a) => motion_cmds::track(a),
         Command::Calibrate(a) => calib_cmds::calibrate_cmd(a),
         Command::Undistort(a) => calib_cmds::undistort_cmd(a),
+        Command::DistortionCompare(a) => calib_cmds::compare_cmd(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -8,6 +8,7 @@
 pub mod demo;
 pub mod error;
 pub mod evaluate;
+pub mod lens_compare;
 pub mod motion;
 pub mod rectify;
 pub mod sensitivity;

@@ -223,3 +223,28 @@ fn undistortion_inverts_a_rendered_distortion() {
         assert!(psnr > 35.0, "{kind}: {psnr} dB");
     }
 }
+
+#[test]
+fn the_papers_model_comparison_has_noise_consistent_errors() {
+    // Noise 0.1 px per axis: the mean 2-D error of a correct model on check points is about
+    // sigma sqrt(pi / 2) = 0.125 px (plus the estimation error of a single-image fit).
+    let rows = aerorect::lens_compare::compare(0.1, 1).unwrap();
+    let get = |m: &str| rows.iter().find(|r| r.model == m).unwrap().clone();
+    let (tsai, brown, improved) = (get("tsai"), get("brown"), get("improved"));
+    assert!(
+        improved.check_mean_error_px < 1.25 * 0.1 * (std::f64::consts::PI / 2.0).sqrt(),
+        "{improved:?}"
+    );
+    assert!(
+        tsai.check_mean_error_px > 1.3 * improved.check_mean_error_px,
+        "Tsai has no tangential terms: {tsai:?}"
+    );
+    assert!(
+        brown.check_mean_error_px < 1.05 * improved.check_mean_error_px,
+        "{brown:?}"
+    );
+    assert!(
+        brown.mean_error_px <= improved.mean_error_px + 1e-9,
+        "more parameters fit the calibration points at least as well"
+    );
+}

@@ -89,6 +89,27 @@ pub struct CalibrationReport {
     pub stop_reason: StopReason,
 }
 
+impl CalibrationReport {
+    /// The observed pixel of world point `w` in view `view` under the calibrated camera; `None`
+    /// behind the camera or where the lens model's inverse does not converge.
+    pub fn project(&self, view: usize, w: [f64; 3]) -> Option<[f64; 2]> {
+        let v = self.views.get(view)?;
+        let rot = Rotation3::from_scaled_axis(Vector3::from(v.rotation_vector));
+        let xc = rot * Vector3::from(w) + Vector3::from(v.translation);
+        if xc.z <= 0.0 {
+            return None;
+        }
+        let o = self
+            .distortion
+            .model()
+            .observed_from_ideal([xc.x / xc.z, xc.y / xc.z])?;
+        Some([
+            self.fx * o[0] + self.skew * o[1] + self.cx,
+            self.fy * o[1] + self.cy,
+        ])
+    }
+}
+
 const INTRINSICS: [&str; 5] = ["fx", "fy", "cx", "cy", "skew"];
 
 /// The adjustment: parameter vector = [fx, fy, cx, cy, skew, coefficients.., (w, t) per view].
