@@ -98,15 +98,66 @@ pub struct LensMap {
     pub direction: LensDirection,
 }
 
-impl PixelMap for LensMap {
-    fn source_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+impl LensMap {
+    /// One point through a concrete model (statically dispatched in row loops).
+    #[inline(always)]
+    fn through<M: aerorect_core::distortion::DistortionModel>(
+        &self,
+        m: &M,
+        col: f64,
+        row: f64,
+    ) -> Option<[f64; 2]> {
         let n = self.from.normalized_from_pixel(col, row);
-        let m = self.model.model();
         let q = match self.direction {
             LensDirection::ObservedFromIdeal => m.observed_from_ideal(n)?,
             LensDirection::IdealFromObserved => m.ideal_from_observed(n)?,
         };
         Some(self.to.pixel_from_normalized(q[0], q[1]))
+    }
+
+    fn row_with<M: aerorect_core::distortion::DistortionModel>(
+        &self,
+        m: &M,
+        row: usize,
+        col0: usize,
+        xs: &mut [f64],
+        ys: &mut [f64],
+    ) {
+        // Along a row the normalised y is constant and x linear in the column: no division.
+        let [x0, ny] = self.from.normalized_from_pixel(col0 as f64, row as f64);
+        let step = 1.0 / self.from.fx;
+        for (i, (x, y)) in xs.iter_mut().zip(ys.iter_mut()).enumerate() {
+            let n = [x0 + i as f64 * step, ny];
+            let q = match self.direction {
+                LensDirection::ObservedFromIdeal => m.observed_from_ideal(n),
+                LensDirection::IdealFromObserved => m.ideal_from_observed(n),
+            };
+            let p = q.map_or([f64::NAN; 2], |q| self.to.pixel_from_normalized(q[0], q[1]));
+            (*x, *y) = (p[0], p[1]);
+        }
+    }
+}
+
+impl PixelMap for LensMap {
+    fn source_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+        use aerorect_core::distortion::Distortion as D;
+        match &self.model {
+            D::Tsai(m) => self.through(m, col, row),
+            D::Brown(m) => self.through(m, col, row),
+            D::Improved(m) => self.through(m, col, row),
+            D::OpenCv(m) => self.through(m, col, row),
+        }
+    }
+
+    /// The model is matched once per row; the loop is monomorphised.
+    fn source_row(&self, row: usize, col0: usize, xs: &mut [f64], ys: &mut [f64]) {
+        use aerorect_core::distortion::Distortion as D;
+        match &self.model {
+            D::Tsai(m) => self.row_with(m, row, col0, xs, ys),
+            D::Brown(m) => self.row_with(m, row, col0, xs, ys),
+            D::Improved(m) => self.row_with(m, row, col0, xs, ys),
+            D::OpenCv(m) => self.row_with(m, row, col0, xs, ys),
+        }
     }
 }
 

@@ -1,3 +1,4 @@
+#![allow(clippy::needless_range_loop)]
 //! The conformance test every model passes: both directions round-trip, the point and parameter
 //! Jacobians agree with central differences, and the serialised form round-trips.
 
@@ -114,6 +115,28 @@ fn serialisation_round_trips_by_name() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("k3"), "{e}");
+}
+
+#[test]
+fn fast_paths_equal_the_closed_form() {
+    for d in models() {
+        let m = d.model();
+        for p in grid() {
+            let c = m.closed(p);
+            let (v, dp) = m.value_d_point(p);
+            // The fast paths may evaluate the same polynomial in another order (Horner).
+            let close = |a: [f64; 2], b: [f64; 2]| {
+                (a[0] - b[0]).abs() < 1e-14 && (a[1] - b[1]).abs() < 1e-14
+            };
+            assert!(close(m.value(p), c.value), "{}", d.kind());
+            assert!(close(v, c.value), "{}", d.kind());
+            for i in 0..2 {
+                for j in 0..2 {
+                    assert!((dp[i][j] - c.d_point[i][j]).abs() < 1e-15, "{}", d.kind());
+                }
+            }
+        }
+    }
 }
 
 #[test]

@@ -49,10 +49,21 @@ pub trait DistortionModel {
     /// The closed form and its Jacobians at `q`.
     fn closed(&self, q: [f64; 2]) -> ClosedForm;
 
+    /// The closed form's value alone (no allocation; the hot path of pixel maps).
+    fn value(&self, q: [f64; 2]) -> [f64; 2] {
+        self.closed(q).value
+    }
+
+    /// The value and the point Jacobian (no allocation; Newton's method).
+    fn value_d_point(&self, q: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+        let c = self.closed(q);
+        (c.value, c.d_point)
+    }
+
     /// Ideal (undistorted) normalised point of an observed one.
     fn ideal_from_observed(&self, p: [f64; 2]) -> Option<[f64; 2]> {
         match self.direction() {
-            Direction::IdealFromObserved => Some(self.closed(p).value),
+            Direction::IdealFromObserved => Some(self.value(p)),
             Direction::ObservedFromIdeal => newton_inverse(self, p),
         }
     }
@@ -60,7 +71,7 @@ pub trait DistortionModel {
     /// Observed (distorted) normalised point of an ideal one.
     fn observed_from_ideal(&self, p: [f64; 2]) -> Option<[f64; 2]> {
         match self.direction() {
-            Direction::ObservedFromIdeal => Some(self.closed(p).value),
+            Direction::ObservedFromIdeal => Some(self.value(p)),
             Direction::IdealFromObserved => newton_inverse(self, p),
         }
     }
@@ -70,9 +81,9 @@ pub trait DistortionModel {
 fn newton_inverse<M: DistortionModel + ?Sized>(m: &M, target: [f64; 2]) -> Option<[f64; 2]> {
     let mut q = target;
     for _ in 0..30 {
-        let c = m.closed(q);
-        let (rx, ry) = (c.value[0] - target[0], c.value[1] - target[1]);
-        let [[a, b], [cc, d]] = c.d_point;
+        let (value, d_point) = m.value_d_point(q);
+        let (rx, ry) = (value[0] - target[0], value[1] - target[1]);
+        let [[a, b], [cc, d]] = d_point;
         let det = a * d - b * cc;
         if !det.is_finite() || det.abs() < 1e-12 {
             return None;
@@ -86,9 +97,9 @@ fn newton_inverse<M: DistortionModel + ?Sized>(m: &M, target: [f64; 2]) -> Optio
             // A root beyond a fold of the mapping (where it turns back) is another sheet's
             // point, not the inverse: on the valid sheet the Jacobian stays near the identity
             // (positive diagonal and determinant); a reflected sheet has both diagonals negative.
-            let c = m.closed(q);
-            let [[a, b], [cc, d]] = c.d_point;
-            let close = (c.value[0] - target[0]).hypot(c.value[1] - target[1]) < 1e-10;
+            let (value, d_point) = m.value_d_point(q);
+            let [[a, b], [cc, d]] = d_point;
+            let close = (value[0] - target[0]).hypot(value[1] - target[1]) < 1e-10;
             return (close && a > 0.0 && d > 0.0 && a * d - b * cc > 0.0).then_some(q);
         }
     }

@@ -50,6 +50,47 @@ impl DistortionModel for OpenCv {
         Direction::ObservedFromIdeal
     }
 
+    #[inline]
+    fn value(&self, q: [f64; 2]) -> [f64; 2] {
+        let [x, y] = q;
+        let r2 = x * x + y * y;
+        let s = (1.0 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3)))
+            / (1.0 + r2 * (self.k4 + r2 * (self.k5 + r2 * self.k6)));
+        let (p1, p2) = (self.p1, self.p2);
+        [
+            x * s + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
+            y * s + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y,
+        ]
+    }
+
+    fn value_d_point(&self, q: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+        let [x, y] = q;
+        let r2 = x * x + y * y;
+        let (r4, r6) = (r2 * r2, r2 * r2 * r2);
+        let num = 1.0 + self.k1 * r2 + self.k2 * r4 + self.k3 * r6;
+        let den = 1.0 + self.k4 * r2 + self.k5 * r4 + self.k6 * r6;
+        let s = num / den;
+        let dnum = self.k1 + 2.0 * self.k2 * r2 + 3.0 * self.k3 * r4;
+        let dden = self.k4 + 2.0 * self.k5 * r2 + 3.0 * self.k6 * r4;
+        let ds = (dnum * den - num * dden) / (den * den);
+        let (p1, p2) = (self.p1, self.p2);
+        let value = [
+            x * s + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
+            y * s + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y,
+        ];
+        let d_point = [
+            [
+                s + x * ds * 2.0 * x + 2.0 * p1 * y + 6.0 * p2 * x,
+                x * ds * 2.0 * y + 2.0 * p1 * x + 2.0 * p2 * y,
+            ],
+            [
+                y * ds * 2.0 * x + 2.0 * p1 * x + 2.0 * p2 * y,
+                s + y * ds * 2.0 * y + 6.0 * p1 * y + 2.0 * p2 * x,
+            ],
+        ];
+        (value, d_point)
+    }
+
     fn closed(&self, q: [f64; 2]) -> ClosedForm {
         let [x, y] = q;
         let r2 = x * x + y * y;

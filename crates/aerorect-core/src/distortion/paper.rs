@@ -78,6 +78,25 @@ fn b7(x: f64, y: f64) -> ([f64; 2], [[f64; 2]; 2]) {
     ([0.0, x * y * y], [[0.0; 2], [y * y, 2.0 * x * y]])
 }
 
+/// ideal = q + sum theta_j B_j(q) and its point Jacobian, without allocating.
+fn linear_value(basis: &[Basis], theta: &[f64], q: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+    let mut value = q;
+    let mut d_point = [[1.0, 0.0], [0.0, 1.0]];
+    for (b, &t) in basis.iter().zip(theta) {
+        if t == 0.0 {
+            continue;
+        }
+        let (v, d) = b(q[0], q[1]);
+        for i in 0..2 {
+            value[i] += t * v[i];
+            for j in 0..2 {
+                d_point[i][j] += t * d[i][j];
+            }
+        }
+    }
+    (value, d_point)
+}
+
 /// ideal = q + sum theta_j B_j(q) with its Jacobians.
 fn linear_closed(basis: &[Basis], theta: &[f64], q: [f64; 2]) -> ClosedForm {
     let mut value = q;
@@ -123,6 +142,10 @@ macro_rules! paper_model {
             }
             fn direction(&self) -> Direction { Direction::IdealFromObserved }
             fn closed(&self, q: [f64; 2]) -> ClosedForm { linear_closed(Self::BASIS, &self.params(), q) }
+            fn value(&self, q: [f64; 2]) -> [f64; 2] { self.value_d_point(q).0 }
+            fn value_d_point(&self, q: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+                linear_value(Self::BASIS, &[$(self.$field),*], q)
+            }
         }
     };
 }
