@@ -11,23 +11,17 @@ Each peer's sign convention is calibrated first on a whole-pixel shift (no assum
 Creates its own venv (bench/.venv) with opencv-python-headless, scikit-image, numpy.
 usage: python3 bench/shift_vs_peers.py [--trials N] [--snr-db LIST] [--fourier] [--data ../shared/data/aerial]
 """
-import argparse, csv, os, subprocess, sys, time, venv
+import argparse, csv, os, subprocess, sys, time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-VENV = os.path.join(HERE, ".venv")
+sys.path.insert(0, HERE)
+from peer_env import ensure_venv  # noqa: E402
 
 
-def ensure_venv():
-    py = os.path.join(VENV, "bin", "python")
-    if sys.prefix != VENV:
-        if not os.path.exists(py):
-            venv.create(VENV, with_pip=True)
-        subprocess.check_call([py, "-m", "pip", "install", "-q", "opencv-python-headless", "numpy", "scikit-image"])
-        os.execv(py, [py] + sys.argv)
 
 
-ensure_venv()
+ensure_venv(["opencv-python-headless", "numpy", "scikit-image"], ["cv2", "numpy", "skimage"])
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 import skimage  # noqa: E402

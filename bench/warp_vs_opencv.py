@@ -9,23 +9,17 @@ aerorect uses exact f64 coordinates, so small differences are expected).
 
 usage: python3 bench/warp_vs_opencv.py [--repeats N] [--size N] [--cases gray8/bilinear,...]
 """
-import argparse, json, os, subprocess, sys, venv
+import argparse, json, os, subprocess, sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-VENV = os.path.join(HERE, ".venv")
+sys.path.insert(0, HERE)
+from peer_env import ensure_venv  # noqa: E402
 
 
-def ensure_venv():
-    py = os.path.join(VENV, "bin", "python")
-    if sys.prefix != VENV:
-        if not os.path.exists(py):
-            venv.create(VENV, with_pip=True)
-            subprocess.check_call([py, "-m", "pip", "install", "-q", "opencv-python-headless", "numpy"])
-        os.execv(py, [py] + sys.argv)
 
 
-ensure_venv()
+ensure_venv(["opencv-python-headless", "numpy"], ["cv2", "numpy"])
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 

@@ -99,6 +99,20 @@ pub struct LensMap {
 }
 
 impl LensMap {
+    /// A map within one camera (the same intrinsics on both sides).
+    pub fn within(
+        k: aerorect_core::Intrinsics,
+        model: aerorect_core::distortion::Distortion,
+        direction: LensDirection,
+    ) -> Self {
+        Self {
+            from: k,
+            to: k,
+            model,
+            direction,
+        }
+    }
+
     /// One point through a concrete model (statically dispatched in row loops).
     #[inline(always)]
     fn through<M: aerorect_core::distortion::DistortionModel>(

@@ -11,21 +11,15 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use std::time::Duration;
 
 fn corners() -> Vec<Observation> {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../data/calib/left_corners.csv"
-    ))
-    .unwrap();
-    text.lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            let n = |i: usize| f[i].parse::<f64>().unwrap();
-            Observation {
-                image: f[0].into(),
-                world: [n(1), n(2), n(3)],
-                pixel: [n(4), n(5)],
-            }
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/calib/left_corners.csv");
+    aerorect::io::read_control_points(&path)
+        .unwrap()
+        .into_iter()
+        .map(|p| Observation {
+            image: p.image,
+            world: [p.x, p.y, p.z],
+            pixel: [p.u, p.v],
         })
         .collect()
 }

@@ -17,18 +17,13 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn main() {
     let a: Vec<String> = std::env::args().collect();
     let repeats: usize = a[2].parse().expect("REPEATS");
-    let obs: Vec<Observation> = std::fs::read_to_string(&a[1])
+    let obs: Vec<Observation> = aerorect::io::read_control_points(a[1].as_ref())
         .expect("corners")
-        .lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            let n = |i: usize| f[i].parse::<f64>().unwrap();
-            Observation {
-                image: f[0].into(),
-                world: [n(1), n(2), n(3)],
-                pixel: [n(4), n(5)],
-            }
+        .into_iter()
+        .map(|p| Observation {
+            image: p.image,
+            world: [p.x, p.y, p.z],
+            pixel: [p.u, p.v],
         })
         .collect();
     let mut opts = CalibrationOptions::new(

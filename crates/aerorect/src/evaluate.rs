@@ -4,6 +4,7 @@ use crate::Error;
 use aerorect_core::evaluate::{residuals, stats};
 use aerorect_core::rectify::standard_from_oblique;
 use aerorect_core::{CheckPoint, CheckPointStats, Intrinsics, SixAngleAttitude};
+use aerorect_raster::{LensDirection, LensMap, PixelMap};
 
 /// du_max, dv_max, URMS, VRMS and RMSE of `points` under `attitude`. With a `distortion`, the
 /// recorded oblique points are undistorted first (residuals in ideal pixels).
@@ -16,15 +17,15 @@ pub fn evaluate(
     let g = standard_from_oblique(intrinsics, attitude).inverse();
     let mut ideal = points.to_vec();
     if let Some(d) = distortion {
+        let lens = LensMap::within(*intrinsics, d.clone(), LensDirection::IdealFromObserved);
         for (i, p) in ideal.iter_mut().enumerate() {
-            let n = intrinsics.normalized_from_pixel(p.u_oblique, p.v_oblique);
-            let q = d.model().ideal_from_observed(n).ok_or_else(|| {
-                Error::Invalid(format!(
-                    "check point {}: the lens model cannot undistort it",
-                    i + 1
-                ))
-            })?;
-            [p.u_oblique, p.v_oblique] = intrinsics.pixel_from_normalized(q[0], q[1]);
+            [p.u_oblique, p.v_oblique] =
+                lens.source_of(p.u_oblique, p.v_oblique).ok_or_else(|| {
+                    Error::Invalid(format!(
+                        "check point {}: the lens model cannot undistort it",
+                        i + 1
+                    ))
+                })?;
         }
     }
     let points = &ideal;

@@ -74,13 +74,8 @@ impl RectifyPlan {
         let out = match &self.distortion {
             None => warp_any(input, g, size, &self.warp)?,
             Some(d) => {
-                let k = self.intrinsics;
-                let lens = LensMap {
-                    from: k,
-                    to: k,
-                    model: d.clone(),
-                    direction: LensDirection::ObservedFromIdeal,
-                };
+                let lens =
+                    LensMap::within(self.intrinsics, d.clone(), LensDirection::ObservedFromIdeal);
                 warp_any(input, &Then(*g, lens), size, &self.warp)?
             }
         };

@@ -5,7 +5,7 @@ use crate::{Error, warp_any};
 use aerorect_core::distortion::Distortion;
 use aerorect_core::rectify::standard_from_oblique;
 use aerorect_core::{CheckPoint, Homography, ImageSize, Intrinsics, SixAngleAttitude};
-use aerorect_raster::{AnyRaster, LensDirection, LensMap, Then, WarpOptions};
+use aerorect_raster::{AnyRaster, LensDirection, LensMap, PixelMap, Then, WarpOptions};
 
 /// One simulated frame's geometry.
 #[derive(Debug, Clone)]
@@ -52,9 +52,8 @@ impl SimulatePlan {
         match &self.distortion {
             None => Some([u, v]),
             Some(d) => {
-                let n = self.intrinsics.normalized_from_pixel(u, v);
-                let q = d.model().ideal_from_observed(n)?;
-                Some(self.intrinsics.pixel_from_normalized(q[0], q[1]))
+                LensMap::within(self.intrinsics, d.clone(), LensDirection::IdealFromObserved)
+                    .source_of(u, v)
             }
         }
     }
@@ -69,13 +68,8 @@ impl SimulatePlan {
         match &self.distortion {
             None => warp_any(ortho, &self.ortho_from_oblique, self.frame_size, warp),
             Some(d) => {
-                let k = self.intrinsics;
-                let lens = LensMap {
-                    from: k,
-                    to: k,
-                    model: d.clone(),
-                    direction: LensDirection::IdealFromObserved,
-                };
+                let lens =
+                    LensMap::within(self.intrinsics, d.clone(), LensDirection::IdealFromObserved);
                 warp_any(
                     ortho,
                     &Then(lens, self.ortho_from_oblique),

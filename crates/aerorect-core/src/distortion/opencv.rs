@@ -92,31 +92,12 @@ impl DistortionModel for OpenCv {
     }
 
     fn closed(&self, q: [f64; 2]) -> ClosedForm {
+        let (value, d_point) = self.value_d_point(q);
         let [x, y] = q;
         let r2 = x * x + y * y;
         let (r4, r6) = (r2 * r2, r2 * r2 * r2);
         let num = 1.0 + self.k1 * r2 + self.k2 * r4 + self.k3 * r6;
         let den = 1.0 + self.k4 * r2 + self.k5 * r4 + self.k6 * r6;
-        let s = num / den;
-        // ds/d(r2)
-        let dnum = self.k1 + 2.0 * self.k2 * r2 + 3.0 * self.k3 * r4;
-        let dden = self.k4 + 2.0 * self.k5 * r2 + 3.0 * self.k6 * r4;
-        let ds = (dnum * den - num * dden) / (den * den);
-        let (p1, p2) = (self.p1, self.p2);
-        let value = [
-            x * s + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
-            y * s + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y,
-        ];
-        let d_point = [
-            [
-                s + x * ds * 2.0 * x + 2.0 * p1 * y + 6.0 * p2 * x,
-                x * ds * 2.0 * y + 2.0 * p1 * x + 2.0 * p2 * y,
-            ],
-            [
-                y * ds * 2.0 * x + 2.0 * p1 * x + 2.0 * p2 * y,
-                s + y * ds * 2.0 * y + 6.0 * p1 * y + 2.0 * p2 * x,
-            ],
-        ];
         // d s / d k_i: r^(2i) / den for k1..k3, -num r^(2i) / den^2 for k4..k6
         let dk = |r: f64| [x * r / den, y * r / den];
         let dq = |r: f64| [-x * num * r / (den * den), -y * num * r / (den * den)];
