@@ -2,10 +2,10 @@
 
 use aerorect::core::ImageSize;
 use aerorect::core::distortion::Distortion;
-use aerorect::io::{CameraFile, read_control_points, read_image, same_file, write_image};
-use aerorect::raster::{Interp, WarpOptions};
+use aerorect::io::{CameraFile, read_image, write_image};
+use aerorect::raster::Interp;
 use aerorect::undistort::UndistortPlan;
-use aerorect_solve::calib::{CalibrationOptions, CalibrationReport, Observation, calibrate};
+use aerorect_solve::calib::{CalibrationOptions, CalibrationReport, calibrate};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::path::PathBuf;
@@ -68,15 +68,7 @@ pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
     if !(a.stop_px.is_finite() && a.stop_px > 0.0) {
         bail!("--stop-px {}: must be a finite number > 0", a.stop_px);
     }
-    let points = read_control_points(&a.points)?;
-    let obs: Vec<Observation> = points
-        .into_iter()
-        .map(|p| Observation {
-            image: p.image,
-            world: [p.x, p.y, p.z],
-            pixel: [p.u, p.v],
-        })
-        .collect();
+    let obs = aerorect::calibration::read_observations(&a.points)?;
     let mut opts = CalibrationOptions::new(model, size);
     opts.fix = a
         .fix
@@ -181,12 +173,7 @@ pub struct UndistortArgs {
 }
 
 pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
-    if same_file(&a.input, &a.output) {
-        bail!(
-            "{}: the output would overwrite the input",
-            a.output.display()
-        );
-    }
+    crate::commands::refuse_overwrite(&a.input, &[a.output.as_path()])?;
     let cam = CameraFile::read(&a.camera)?;
     let Some(model) = cam.distortion.clone() else {
         bail!(
@@ -197,13 +184,7 @@ pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
     let img = read_image(&a.input)?;
     let size = cam.frame_size(Some(img.size()))?;
     let k = cam.intrinsics(size)?;
-    let warp = WarpOptions {
-        interp: a.interp,
-        nodata: a.nodata,
-        alpha: a.alpha,
-    };
-    warp.nodata_as_for(&img)
-        .with_context(|| format!("--nodata {}", a.nodata))?;
+    let warp = crate::commands::warp_options(a.interp, a.nodata, a.alpha, &img)?;
     let plan = UndistortPlan::new(k, size, model, a.fit)
         .with_context(|| a.camera.display().to_string())?;
     let t = std::time::Instant::now();

@@ -8,7 +8,7 @@ use aerorect::io::{
     CameraFile, read_attitude, read_checkpoints, read_image, same_file, write_checkpoints,
     write_image,
 };
-use aerorect::raster::{Interp, WarpOptions};
+use aerorect::raster::{AnyRaster, Interp, WarpOptions};
 use aerorect::rectify::RectifyPlan;
 use aerorect::sensitivity::{SensitivityConfig, SensitivityRow};
 use aerorect::simulate::SimulatePlan;
@@ -50,13 +50,31 @@ pub struct RectifyArgs {
     report: Option<PathBuf>,
 }
 
-fn refuse_overwrite(input: &Path, outputs: &[&Path]) -> Result<()> {
+/// Refuses outputs that name the input.
+pub(crate) fn refuse_overwrite(input: &Path, outputs: &[&Path]) -> Result<()> {
     for out in outputs {
         if same_file(input, out) {
             bail!("{}: the output would overwrite the input", out.display());
         }
     }
     Ok(())
+}
+
+/// Warp options whose nodata value is checked against the image's sample type.
+pub(crate) fn warp_options(
+    interp: Interp,
+    nodata: f64,
+    alpha: bool,
+    image: &AnyRaster,
+) -> Result<WarpOptions> {
+    let warp = WarpOptions {
+        interp,
+        nodata,
+        alpha,
+    };
+    warp.nodata_as_for(image)
+        .with_context(|| format!("--nodata {nodata}"))?;
+    Ok(warp)
 }
 
 fn altitude(h1: Option<f64>, h: Option<f64>) -> Result<Option<AltitudeScale>> {
@@ -79,13 +97,7 @@ pub fn rectify(a: RectifyArgs) -> Result<()> {
     let image = read_image(&a.input)?;
     let size = cam.frame_size(Some(image.size()))?;
     let intr = cam.intrinsics(size)?;
-    let warp = WarpOptions {
-        interp: a.interp,
-        nodata: a.nodata,
-        alpha: a.alpha,
-    };
-    warp.nodata_as_for(&image)
-        .with_context(|| format!("--nodata {}", a.nodata))?;
+    let warp = warp_options(a.interp, a.nodata, a.alpha, &image)?;
     let limits = RectifyLimits {
         max_output_px: a.max_output_px,
     };

@@ -13,15 +13,7 @@ use std::time::Duration;
 fn corners() -> Vec<Observation> {
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/calib/left_corners.csv");
-    aerorect::io::read_control_points(&path)
-        .unwrap()
-        .into_iter()
-        .map(|p| Observation {
-            image: p.image,
-            world: [p.x, p.y, p.z],
-            pixel: [p.u, p.v],
-        })
-        .collect()
+    aerorect::calibration::read_observations(&path).unwrap()
 }
 
 fn lens(c: &mut Criterion) {

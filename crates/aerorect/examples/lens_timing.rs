@@ -6,7 +6,7 @@ use aerorect::core::distortion::Distortion;
 use aerorect::core::{ImageSize, Intrinsics};
 use aerorect::raster::{AnyRaster, Raster, WarpOptions};
 use aerorect::undistort::UndistortPlan;
-use aerorect_solve::calib::{CalibrationOptions, Observation, calibrate};
+use aerorect_solve::calib::{CalibrationOptions, calibrate};
 use std::time::Instant;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -17,15 +17,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn main() {
     let a: Vec<String> = std::env::args().collect();
     let repeats: usize = a[2].parse().expect("REPEATS");
-    let obs: Vec<Observation> = aerorect::io::read_control_points(a[1].as_ref())
-        .expect("corners")
-        .into_iter()
-        .map(|p| Observation {
-            image: p.image,
-            world: [p.x, p.y, p.z],
-            pixel: [p.u, p.v],
-        })
-        .collect();
+    let obs = aerorect::calibration::read_observations(a[1].as_ref()).expect("corners");
     let mut opts = CalibrationOptions::new(
         Distortion::zero("opencv").unwrap(),
         ImageSize::new(640, 480),

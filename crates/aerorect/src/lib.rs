@@ -5,6 +5,7 @@
 //! [`rectify`], [`simulate`], [`evaluate`], the attitude-error [`sensitivity`] experiment and
 //! the [`demo`].
 
+pub mod calibration;
 pub mod demo;
 pub mod error;
 pub mod evaluate;
