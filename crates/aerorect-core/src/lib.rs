@@ -12,6 +12,7 @@ pub mod evaluate;
 pub mod homography;
 pub mod motion;
 pub mod rectify;
+pub mod transform;
 
 pub use attitude::SixAngleAttitude;
 pub use camera::{ImageSize, Intrinsics};
@@ -19,6 +20,7 @@ pub use error::GeometryError;
 pub use evaluate::{CheckPoint, CheckPointStats};
 pub use homography::Homography;
 pub use rectify::{AltitudeScale, RectifyGeometry, RectifyLimits};
+pub use transform::{PiecewiseAffine, PlaneTransform, PolyKind, Polynomial};
 
 /// A 3x3 matrix of f64, row-major in memory views and in reports.
 pub type Mat3 = nalgebra::Matrix3<f64>;

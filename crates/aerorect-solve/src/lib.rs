@@ -1,6 +1,8 @@
 //! Estimators: the normalised DLT homography (Hartley) and camera calibration.
 
 pub mod calib;
+pub mod gcp;
+pub mod ransac;
 
 use aerorect_core::{Homography, Mat3};
 use nalgebra::{DMatrix, Vector3};
@@ -17,7 +19,7 @@ pub enum SolveError {
 }
 
 /// Hartley's normalisation: centroid to the origin, mean distance sqrt(2).
-fn normaliser(p: &[[f64; 2]]) -> Mat3 {
+pub(crate) fn normaliser(p: &[[f64; 2]]) -> Mat3 {
     let n = p.len() as f64;
     let (mx, my) = (
         p.iter().map(|q| q[0]).sum::<f64>() / n,
