@@ -195,7 +195,7 @@ fn ransac_rejects_gross_outliers_and_is_seeded() {
     let mut to: Vec<_> = from.iter().filter_map(|p| h.map(p[0], p[1])).collect();
     to = noisy(&to, 0.3, 13);
     let mut rng = ChaCha8Rng::seed_from_u64(14);
-    let mut outlier = vec![false; 200];
+    let mut outlier = [false; 200];
     for (k, t) in to.iter_mut().enumerate() {
         if k % 10 < 4 {
             t[0] += rng.random_range(20.0..200.0);
@@ -205,8 +205,8 @@ fn ransac_rejects_gross_outliers_and_is_seeded() {
     }
     let opts = RansacOptions::default();
     let fit = ransac_homography(&from, &to, &opts).expect("ransac");
-    for k in 0..200 {
-        assert_eq!(fit.inliers[k], !outlier[k], "pair {k}");
+    for (k, (inl, out)) in fit.inliers.iter().zip(outlier).enumerate() {
+        assert_eq!(*inl, !out, "pair {k}");
     }
     for p in scatter(10, 15) {
         let (a, b) = (
