@@ -1,6 +1,7 @@
 //! The `aerorect` command-line program: argument parsing and reports only; the work is in the
 //! `aerorect` library.
 
+mod baseline_cmds;
 mod calib_cmds;
 mod commands;
 mod motion_cmds;
@@ -49,6 +50,12 @@ enum Command {
     Undistort(calib_cmds::UndistortArgs),
     /// The paper's comparison of Tsai, Brown and the improved model on a synthetic test field.
     DistortionCompare(calib_cmds::CompareArgs),
+    /// Polynomial (or projective) correction from ground control points; residual per GCP.
+    Gcp(baseline_cmds::GcpArgs),
+    /// Register a frame to a reference image by automatic tie points; the output takes REFERENCE's grid.
+    Register(baseline_cmds::RegisterArgs),
+    /// The paper's Table 1: registration, quadratic, bilinear and six-angle corrections of a frame simulated from REFERENCE.
+    Compare(baseline_cmds::CompareArgs),
 }
 
 fn main() -> ExitCode {
@@ -66,6 +73,9 @@ fn main() -> ExitCode {
         Command::Simulate(a) => commands::simulate(a),
         Command::Evaluate(a) => commands::evaluate(a),
         Command::Sensitivity(a) => commands::sensitivity(a),
+        Command::Gcp(a) => baseline_cmds::gcp(a),
+        Command::Register(a) => baseline_cmds::register_cmd(a),
+        Command::Compare(a) => baseline_cmds::compare(a),
         Command::Demo(a) => commands::demo(a),
         Command::Shift(a) => motion_cmds::shift(a),
         Command::MotionSim(a) => motion_cmds::motion_sim_cmd(a),

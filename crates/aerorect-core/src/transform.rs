@@ -198,6 +198,22 @@ impl PlaneTransform {
             PlaneTransform::Piecewise(p) => p.map(u, v),
         }
     }
+
+    /// The transform of (u + du, v + dv): the same map read from a grid whose origin is at
+    /// (du, dv).
+    pub fn after_translation(&self, du: f64, dv: f64) -> PlaneTransform {
+        match self {
+            PlaneTransform::Polynomial(p) => {
+                let mut q = p.clone();
+                q.centre = [p.centre[0] - du, p.centre[1] - dv];
+                PlaneTransform::Polynomial(q)
+            }
+            PlaneTransform::Projective(h) => {
+                PlaneTransform::Projective(h.after(&Homography::translation(du, dv)))
+            }
+            PlaneTransform::Piecewise(p) => PlaneTransform::Piecewise(p.after_translation(du, dv)),
+        }
+    }
 }
 
 /// A piecewise-affine map over a triangulation of control points in the `a` frame: exact at
@@ -247,6 +263,37 @@ impl PiecewiseAffine {
             outside,
             index,
         })
+    }
+
+    /// The map of (u + du, v + dv).
+    pub fn after_translation(&self, du: f64, dv: f64) -> Self {
+        let vertices: Vec<[f64; 2]> = self
+            .vertices
+            .iter()
+            .map(|p| [p[0] - du, p[1] - dv])
+            .collect();
+        let affine = self
+            .affine
+            .iter()
+            .map(|m| {
+                [
+                    m[0] + m[1] * du + m[2] * dv,
+                    m[1],
+                    m[2],
+                    m[3] + m[4] * du + m[5] * dv,
+                    m[4],
+                    m[5],
+                ]
+            })
+            .collect();
+        let index = CellIndex::new(&vertices, &self.triangles);
+        Self {
+            vertices,
+            triangles: self.triangles.clone(),
+            affine,
+            outside: self.outside.after(&Homography::translation(du, dv)),
+            index,
+        }
     }
 
     pub fn triangles(&self) -> &[[usize; 3]] {
@@ -440,6 +487,27 @@ mod tests {
         );
         // Outside: the homography (identity here).
         assert_eq!(pw.map(20.0, 5.0), Some([20.0, 5.0]));
+    }
+
+    #[test]
+    fn after_translation_reads_the_same_map_from_a_shifted_grid() {
+        let from = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
+        let to = [[1.0, 2.0], [12.0, 1.0], [13.0, 14.0], [0.0, 11.0]];
+        let h =
+            Homography::new(Mat3::new(1.0, 0.1, 2.0, 0.0, 0.9, 1.0, 1e-3, 0.0, 1.0)).expect("h");
+        let pw = PiecewiseAffine::new(&from, &to, vec![[0, 1, 2], [0, 2, 3]], h).expect("ok");
+        let all = [
+            PlaneTransform::Polynomial(sample_poly(PolyKind::Cubic)),
+            PlaneTransform::Projective(h),
+            PlaneTransform::Piecewise(pw),
+        ];
+        for t in &all {
+            let s = t.after_translation(-3.0, 7.0);
+            for (u, v) in [(5.0, 1.0), (9.0, -2.0), (30.0, 4.0), (2.5, 2.5)] {
+                let (a, b) = (s.map(u, v).expect("a"), t.map(u - 3.0, v + 7.0).expect("b"));
+                assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
+            }
+        }
     }
 
     #[test]

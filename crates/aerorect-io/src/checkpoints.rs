@@ -7,57 +7,103 @@ use std::path::Path;
 
 const HEADER: [&str; 4] = ["u_oblique", "v_oblique", "u_standard", "v_standard"];
 
-/// Reads check points; the header must be exactly [`HEADER`] and every value finite.
-pub fn read_checkpoints(path: &Path) -> Result<Vec<CheckPoint>, IoError> {
+/// Reads a CSV table whose header must be exactly `header`, each record's numbers (named by
+/// `fields`, in `header`'s order of numeric columns) finite; errors name the file and line.
+fn read_table<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    header: &[&str],
+    numbers: impl Fn(&T) -> Vec<(&'static str, f64)>,
+) -> Result<Vec<T>, IoError> {
     let name = path.display().to_string();
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .from_path(path)
         .map_err(|e| IoError::field(&name, e))?;
-    let header = rdr.headers().map_err(|e| IoError::field(&name, e))?.clone();
-    if header.iter().collect::<Vec<_>>() != HEADER {
+    let got: Vec<String> = rdr
+        .headers()
+        .map_err(|e| IoError::field(&name, e))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    if got != header {
         return Err(IoError::field(
             &name,
             format!(
                 "header is '{}', expected '{}'",
-                header.iter().collect::<Vec<_>>().join(","),
-                HEADER.join(",")
+                got.join(","),
+                header.join(",")
             ),
         ));
     }
-    let mut points = Vec::new();
-    for (i, rec) in rdr.deserialize::<CheckPoint>().enumerate() {
+    let mut rows = Vec::new();
+    for (i, rec) in rdr.deserialize::<T>().enumerate() {
         let line = i + 2;
         let p = rec.map_err(|e| IoError::field(&name, format!("line {line}: {e}")))?;
-        for (field, v) in HEADER
-            .iter()
-            .zip([p.u_oblique, p.v_oblique, p.u_standard, p.v_standard])
-        {
-            if !v.is_finite() {
-                return Err(IoError::field(
-                    &name,
-                    format!("line {line}: {field} = {v} is not a finite number"),
-                ));
-            }
+        if let Some((field, v)) = numbers(&p).into_iter().find(|(_, v)| !v.is_finite()) {
+            return Err(IoError::field(
+                &name,
+                format!("line {line}: {field} = {v} is not a finite number"),
+            ));
         }
-        points.push(p);
+        rows.push(p);
     }
+    Ok(rows)
+}
+
+/// Reads check points; the header must be exactly [`HEADER`] and every value finite.
+pub fn read_checkpoints(path: &Path) -> Result<Vec<CheckPoint>, IoError> {
+    let points = read_table(path, &HEADER, |p: &CheckPoint| {
+        HEADER
+            .iter()
+            .copied()
+            .zip([p.u_oblique, p.v_oblique, p.u_standard, p.v_standard])
+            .collect()
+    })?;
     if points.is_empty() {
-        return Err(IoError::field(&name, "no check points"));
+        return Err(IoError::field(path.display(), "no check points"));
     }
     Ok(points)
 }
 
-/// Writes check points with full f64 precision, atomically.
-pub fn write_checkpoints(path: &Path, points: &[CheckPoint]) -> Result<(), IoError> {
+/// One ground control point of a polynomial correction: a pixel of the image and the same
+/// ground point's pixel in the reference (output) frame.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Gcp {
+    pub u_image: f64,
+    pub v_image: f64,
+    pub u_ref: f64,
+    pub v_ref: f64,
+}
+
+const GCP_HEADER: [&str; 4] = ["u_image", "v_image", "u_ref", "v_ref"];
+
+/// Reads GCPs: CSV with the header `u_image,v_image,u_ref,v_ref`, every value finite.
+pub fn read_gcps(path: &Path) -> Result<Vec<Gcp>, IoError> {
+    read_table(path, &GCP_HEADER, |p: &Gcp| {
+        GCP_HEADER
+            .iter()
+            .copied()
+            .zip([p.u_image, p.v_image, p.u_ref, p.v_ref])
+            .collect()
+    })
+}
+
+/// Writes rows with a serde header and full f64 precision, atomically.
+pub fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<(), IoError> {
     write_atomically(path, |w| {
         let mut wr = csv::Writer::from_writer(w);
-        for p in points {
+        for p in rows {
             wr.serialize(p)
                 .map_err(|e| IoError::field(path.display(), e))?;
         }
         wr.flush().map_err(|e| IoError::io(path, e))
     })
+}
+
+/// Writes check points with full f64 precision, atomically.
+pub fn write_checkpoints(path: &Path, points: &[CheckPoint]) -> Result<(), IoError> {
+    write_csv(path, points)
 }
 
 #[cfg(test)]
@@ -129,38 +175,9 @@ pub struct ControlPoint {
 
 /// Reads control points: CSV with the header `image,X,Y,Z,u,v`, every value finite.
 pub fn read_control_points(path: &Path) -> Result<Vec<ControlPoint>, IoError> {
-    let name = path.display().to_string();
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_path(path)
-        .map_err(|e| IoError::field(&name, e))?;
-    let header: Vec<String> = rdr
-        .headers()
-        .map_err(|e| IoError::field(&name, e))?
-        .iter()
-        .map(str::to_string)
-        .collect();
-    if header != ["image", "X", "Y", "Z", "u", "v"] {
-        return Err(IoError::field(
-            &name,
-            format!(
-                "header is '{}', expected 'image,X,Y,Z,u,v'",
-                header.join(",")
-            ),
-        ));
-    }
-    let mut points = vec![];
-    for (i, rec) in rdr.deserialize::<ControlPoint>().enumerate() {
-        let p = rec.map_err(|e| IoError::field(&name, format!("line {}: {e}", i + 2)))?;
-        for (field, v) in [("X", p.x), ("Y", p.y), ("Z", p.z), ("u", p.u), ("v", p.v)] {
-            if !v.is_finite() {
-                return Err(IoError::field(
-                    &name,
-                    format!("line {}: {field} = {v} is not a finite number", i + 2),
-                ));
-            }
-        }
-        points.push(p);
-    }
-    Ok(points)
+    read_table(
+        path,
+        &["image", "X", "Y", "Z", "u", "v"],
+        |p: &ControlPoint| vec![("X", p.x), ("Y", p.y), ("Z", p.z), ("u", p.u), ("v", p.v)],
+    )
 }

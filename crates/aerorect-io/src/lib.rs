@@ -13,6 +13,9 @@ mod tiff_file;
 
 pub use attitude::read_attitude;
 pub use camera::CameraFile;
-pub use checkpoints::{ControlPoint, read_checkpoints, read_control_points, write_checkpoints};
+pub use checkpoints::{
+    ControlPoint, Gcp, read_checkpoints, read_control_points, read_gcps, write_checkpoints,
+    write_csv,
+};
 pub use error::IoError;
 pub use image_file::{decode_image_bytes, read_image, same_file, write_atomically, write_image};

@@ -6,6 +6,7 @@
 
 pub mod error;
 pub mod map;
+pub mod pyramid;
 pub mod raster;
 pub mod shift;
 pub mod warp;

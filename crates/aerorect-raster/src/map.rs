@@ -1,6 +1,6 @@
 //! Destination pixel -> source pixel maps for the warp engine.
 
-use aerorect_core::Homography;
+use aerorect_core::{Homography, PiecewiseAffine, PlaneTransform, Polynomial};
 
 /// Where each destination pixel comes from in the source image (pixel-centre coordinates).
 pub trait PixelMap: Sync {
@@ -47,6 +47,42 @@ impl PixelMap for Homography {
     }
 }
 
+/// A polynomial `source_from_destination`: each row is a cubic in the normalised column.
+impl PixelMap for Polynomial {
+    fn source_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+        Some(self.map(col, row))
+    }
+
+    fn source_row(&self, row: usize, col0: usize, xs: &mut [f64], ys: &mut [f64]) {
+        let [cu, cv] = self.along_row(row as f64);
+        for (i, (x, y)) in xs.iter_mut().zip(ys.iter_mut()).enumerate() {
+            let [p, _] = self.normalise((col0 + i) as f64, row as f64);
+            *x = ((cu[3] * p + cu[2]) * p + cu[1]) * p + cu[0];
+            *y = ((cv[3] * p + cv[2]) * p + cv[1]) * p + cv[0];
+        }
+    }
+}
+
+impl PixelMap for PiecewiseAffine {
+    fn source_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+        self.map(col, row)
+    }
+}
+
+impl PixelMap for PlaneTransform {
+    fn source_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+        self.map(col, row)
+    }
+
+    fn source_row(&self, row: usize, col0: usize, xs: &mut [f64], ys: &mut [f64]) {
+        match self {
+            PlaneTransform::Polynomial(p) => p.source_row(row, col0, xs, ys),
+            PlaneTransform::Projective(h) => h.source_row(row, col0, xs, ys),
+            PlaneTransform::Piecewise(p) => p.source_row(row, col0, xs, ys),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -63,6 +99,21 @@ mod tests {
             let p = h.map((3 + i) as f64, 7.0).expect("ground");
             assert!((xs[i] - p[0]).abs() < 1e-12 * p[0].abs().max(1.0));
             assert!((ys[i] - p[1]).abs() < 1e-12 * p[1].abs().max(1.0));
+        }
+    }
+
+    #[test]
+    fn polynomial_rows_equal_point_map() {
+        let kind = aerorect_core::PolyKind::Cubic;
+        let c: Vec<f64> = (0..10).map(|k| 1.0 + 0.3 * k as f64).collect();
+        let d: Vec<f64> = (0..10).map(|k| -2.0 + 0.1 * (k * k) as f64).collect();
+        let p = Polynomial::from_normalised(kind, [200.0, 100.0], 0.01, [c, d]).expect("ok");
+        let t = PlaneTransform::Polynomial(p.clone());
+        let (mut xs, mut ys) = (vec![0.0; 30], vec![0.0; 30]);
+        t.source_row(9, 5, &mut xs, &mut ys);
+        for i in 0..30 {
+            let q = p.map((5 + i) as f64, 9.0);
+            assert!((xs[i] - q[0]).abs() < 1e-9 && (ys[i] - q[1]).abs() < 1e-9);
         }
     }
 

@@ -6,12 +6,15 @@
 //! the [`demo`].
 
 pub mod calibration;
+pub mod compare;
 pub mod demo;
 pub mod error;
 pub mod evaluate;
+pub mod gcp;
 pub mod lens_compare;
 pub mod motion;
 pub mod rectify;
+pub mod register;
 pub mod sensitivity;
 pub mod simulate;
 pub mod undistort;

@@ -47,7 +47,8 @@ pub struct SensitivityRow {
     pub fov_deg: [f64; 2],
 }
 
-fn perturbed(a: &SixAngleAttitude, d: [f64; 6]) -> SixAngleAttitude {
+/// `a` with the angle errors `d` (radians, in the paper's order) added.
+pub(crate) fn perturbed(a: &SixAngleAttitude, d: [f64; 6]) -> SixAngleAttitude {
     SixAngleAttitude {
         azimuth: a.azimuth + d[0],
         elevation: a.elevation + d[1],
