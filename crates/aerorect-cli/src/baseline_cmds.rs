@@ -215,7 +215,9 @@ pub fn register_cmd(a: RegisterArgs) -> Result<()> {
         seed: a.seed,
         ..RegisterOptions::default()
     };
-    if a.patch < 16 || !(a.ransac_px > 0.0) || !(a.max_scale >= 1.0) {
+    let ransac_ok = a.ransac_px.is_finite() && a.ransac_px > 0.0;
+    let scale_ok = a.max_scale.is_finite() && a.max_scale >= 1.0;
+    if a.patch < 16 || !ransac_ok || !scale_ok {
         bail!(
             "--patch {} (>= 16), --ransac-px {} (> 0) and --max-scale {} (>= 1) are out of range",
             a.patch,

@@ -167,7 +167,8 @@ fn footprint(
     }
     let (x0, y0) = (lo[0].floor(), lo[1].floor());
     let (ow, oh) = (hi[0].ceil() - x0 + 1.0, hi[1].ceil() - y0 + 1.0);
-    if !(ow * oh <= limits.max_output_px as f64) {
+    let pixels = ow * oh;
+    if pixels.is_nan() || pixels > limits.max_output_px as f64 {
         return Err(Error::Invalid(format!(
             "the image's footprint under the fit is {ow} x {oh} px, beyond the limit of {} px: \
              the GCPs do not constrain the border (give the output grid explicitly)",
