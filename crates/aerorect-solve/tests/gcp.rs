@@ -218,3 +218,38 @@ fn ransac_rejects_gross_outliers_and_is_seeded() {
     let again = ransac_homography(&from, &to, &opts).expect("ransac");
     assert_eq!(again.model, fit.model);
 }
+
+/// A stored peer result: GDAL 3.10's GCP transformer (through rasterio 1.4.4's GCPTransformer,
+/// order 2 chosen by GDAL for 30 GCPs) on 30 grid GCPs of a 1024 x 1024 image mapped by a
+/// perspective, evaluated georeferenced -> pixel (GDAL's +0.5 pixel-centre offsets removed).
+/// bench/gcp_vs_gdal.py builds the same GCPs.
+#[test]
+fn quadratic_equals_gdal_gcp_transformer() {
+    let h = Homography::new(Mat3::new(
+        0.92, 0.15, 40.0, -0.06, 1.05, 25.0, 1.2e-4, 2.5e-4, 1.0,
+    ))
+    .expect("h");
+    let (mut image, mut reference) = (vec![], vec![]);
+    for gy in 0..5 {
+        for gx in 0..6 {
+            let (u, v) = (
+                20.0 + gx as f64 * 983.0 / 5.0,
+                20.0 + gy as f64 * 983.0 / 4.0,
+            );
+            image.push([u, v]);
+            reference.push(h.map(u, v).expect("ground"));
+        }
+    }
+    let fit = fit_polynomial(PolyKind::Quadratic, &reference, &image).expect("fit");
+    let gdal = [
+        ([160.0, 87.0], [125.92153993078149, 69.38870287264305]),
+        ([460.0, 387.0], [468.2389352323723, 431.6191465326595]),
+    ];
+    for (r, want) in gdal {
+        let got = fit.map(r[0], r[1]);
+        assert!(
+            (got[0] - want[0]).abs() < 1e-9 && (got[1] - want[1]).abs() < 1e-9,
+            "{got:?} vs {want:?}"
+        );
+    }
+}
