@@ -11,6 +11,7 @@ pub mod error;
 pub mod evaluate;
 pub mod homography;
 pub mod motion;
+pub mod orientation;
 pub mod rectify;
 pub mod transform;
 
@@ -19,6 +20,7 @@ pub use camera::{ImageSize, Intrinsics};
 pub use error::GeometryError;
 pub use evaluate::{CheckPoint, CheckPointStats};
 pub use homography::Homography;
+pub use orientation::CameraRotation;
 pub use rectify::{AltitudeScale, RectifyGeometry, RectifyLimits};
 pub use transform::{PiecewiseAffine, PlaneTransform, PolyKind, Polynomial};
 

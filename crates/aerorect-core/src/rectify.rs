@@ -16,13 +16,7 @@ pub const MIN_KEPT_GROUND_FRACTION: f64 = 0.25;
 
 /// `F = K R K^-1`: oblique pixel -> standard (nadir) pixel, eq. (12). w > 0 on the ground.
 pub fn standard_from_oblique(intr: &Intrinsics, attitude: &SixAngleAttitude) -> Homography {
-    let k = intr.pixel_from_camera();
-    let kinv = intr.camera_from_pixel();
-    let r = attitude.ground_from_camera();
-    let f = k * r * kinv;
-    let g = k * r.transpose() * kinv;
-    // K^-1 K is exact and R^T = R^-1, so G = F^-1 (eq. 13) without a numerical inverse.
-    Homography::from_pair(f, g)
+    crate::orientation::standard_from_rotation(intr, &attitude.into())
 }
 
 /// Altitude normalisation (eq. 14): a frame taken at `altitude_m` rescaled to `base_altitude_m`.

@@ -9,6 +9,7 @@ pub mod camera;
 pub mod checkpoints;
 pub mod error;
 pub mod image_file;
+pub mod metadata;
 mod tiff_file;
 
 pub use attitude::read_attitude;
@@ -19,3 +20,4 @@ pub use checkpoints::{
 };
 pub use error::IoError;
 pub use image_file::{decode_image_bytes, read_image, same_file, write_atomically, write_image};
+pub use metadata::{PhotoMetadata, read_photo_metadata};
