@@ -111,17 +111,33 @@ fn raster_from_dynamic(img: DynamicImage) -> Result<AnyRaster, String> {
 
 /// Writes `raster` to `path` (TIFF or PNG by extension), keeping the bit depth; atomically.
 pub fn write_image(path: &Path, raster: &AnyRaster) -> Result<(), IoError> {
+    write_image_geo(path, raster, None)
+}
+
+/// Writes `raster` like [`write_image`]; with `geo`, a .tif becomes a GeoTIFF and a .png gets a
+/// world file beside it (written after the image).
+pub fn write_image_geo(
+    path: &Path,
+    raster: &AnyRaster,
+    geo: Option<&crate::geotiff::GeoReference>,
+) -> Result<(), IoError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
         Some("tif") | Some("tiff") => write_atomically(path, |w| {
-            tiff_file::write(w, raster).map_err(|e| IoError::encode(path, e))
+            tiff_file::write(w, raster, geo).map_err(|e| IoError::encode(path, e))
         }),
-        Some("png") => write_atomically(path, |w| {
-            write_png(w, raster).map_err(|e| IoError::encode(path, e))
-        }),
+        Some("png") => {
+            write_atomically(path, |w| {
+                write_png(w, raster).map_err(|e| IoError::encode(path, e))
+            })?;
+            if let Some(g) = geo {
+                crate::geotiff::write_world_file(path, g)?;
+            }
+            Ok(())
+        }
         _ => Err(IoError::encode(
             path,
             "unknown output format: use a .tif, .tiff or .png file name",

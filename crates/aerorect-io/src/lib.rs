@@ -8,6 +8,7 @@ pub mod attitude;
 pub mod camera;
 pub mod checkpoints;
 pub mod error;
+pub mod geotiff;
 pub mod image_file;
 pub mod metadata;
 mod tiff_file;
@@ -19,5 +20,8 @@ pub use checkpoints::{
     write_csv,
 };
 pub use error::IoError;
-pub use image_file::{decode_image_bytes, read_image, same_file, write_atomically, write_image};
+pub use geotiff::{GeoReference, read_georeference, write_world_file};
+pub use image_file::{
+    decode_image_bytes, read_image, same_file, write_atomically, write_image, write_image_geo,
+};
 pub use metadata::{PhotoMetadata, read_photo_metadata};

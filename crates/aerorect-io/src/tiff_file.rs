@@ -2,6 +2,7 @@
 //! uncompressed, LZW, Deflate or PackBits when reading; Deflate when writing.
 
 use crate::error::IoError;
+use crate::geotiff::GeoReference;
 use crate::image_file::MAX_DECODED_BYTES;
 use aerorect_core::ImageSize;
 use aerorect_raster::{AnyRaster, Raster, Sample};
@@ -81,31 +82,35 @@ gray_alpha!(GrayAlpha8, u8, 8, SampleFormat::Uint);
 gray_alpha!(GrayAlpha16, u16, 16, SampleFormat::Uint);
 gray_alpha!(GrayAlpha32Float, f32, 32, SampleFormat::IEEEFP);
 
-pub(crate) fn write<W: Write + Seek>(w: W, raster: &AnyRaster) -> Result<(), String> {
+pub(crate) fn write<W: Write + Seek>(
+    w: W,
+    raster: &AnyRaster,
+    geo: Option<&GeoReference>,
+) -> Result<(), String> {
     match raster {
         AnyRaster::U8(r) => match r.bands() {
-            1 => put::<_, colortype::Gray8, u8>(w, r),
-            2 => put::<_, GrayAlpha8, u8>(w, r),
-            3 => put::<_, colortype::RGB8, u8>(w, r),
-            4 => put::<_, colortype::RGBA8, u8>(w, r),
+            1 => put::<_, colortype::Gray8, u8>(w, r, geo),
+            2 => put::<_, GrayAlpha8, u8>(w, r, geo),
+            3 => put::<_, colortype::RGB8, u8>(w, r, geo),
+            4 => put::<_, colortype::RGBA8, u8>(w, r, geo),
             b => Err(format!(
                 "TIFF output holds 1 to 4 bands, this image has {b}"
             )),
         },
         AnyRaster::U16(r) => match r.bands() {
-            1 => put::<_, colortype::Gray16, u16>(w, r),
-            2 => put::<_, GrayAlpha16, u16>(w, r),
-            3 => put::<_, colortype::RGB16, u16>(w, r),
-            4 => put::<_, colortype::RGBA16, u16>(w, r),
+            1 => put::<_, colortype::Gray16, u16>(w, r, geo),
+            2 => put::<_, GrayAlpha16, u16>(w, r, geo),
+            3 => put::<_, colortype::RGB16, u16>(w, r, geo),
+            4 => put::<_, colortype::RGBA16, u16>(w, r, geo),
             b => Err(format!(
                 "TIFF output holds 1 to 4 bands, this image has {b}"
             )),
         },
         AnyRaster::F32(r) => match r.bands() {
-            1 => put::<_, colortype::Gray32Float, f32>(w, r),
-            2 => put::<_, GrayAlpha32Float, f32>(w, r),
-            3 => put::<_, colortype::RGB32Float, f32>(w, r),
-            4 => put::<_, colortype::RGBA32Float, f32>(w, r),
+            1 => put::<_, colortype::Gray32Float, f32>(w, r, geo),
+            2 => put::<_, GrayAlpha32Float, f32>(w, r, geo),
+            3 => put::<_, colortype::RGB32Float, f32>(w, r, geo),
+            4 => put::<_, colortype::RGBA32Float, f32>(w, r, geo),
             b => Err(format!(
                 "TIFF output holds 1 to 4 bands, this image has {b}"
             )),
@@ -113,7 +118,7 @@ pub(crate) fn write<W: Write + Seek>(w: W, raster: &AnyRaster) -> Result<(), Str
     }
 }
 
-fn put<W, C, T>(w: W, r: &Raster<T>) -> Result<(), String>
+fn put<W, C, T>(w: W, r: &Raster<T>, geo: Option<&GeoReference>) -> Result<(), String>
 where
     W: Write + Seek,
     C: colortype::ColorType<Inner = T>,
@@ -132,6 +137,9 @@ where
         img.encoder()
             .write_tag(Tag::ExtraSamples, &[2u16][..])
             .map_err(|e| e.to_string())?;
+    }
+    if let Some(g) = geo {
+        g.write_tags(img.encoder()).map_err(|e| e.to_string())?;
     }
     // One interleaved copy of the image: the tiff crate (0.11) compresses only in `write_data`;
     // its `write_strip` would write raw strips under a Deflate tag.
