@@ -19,35 +19,44 @@ use std::path::{Path, PathBuf};
 #[derive(Args)]
 pub struct RectifyArgs {
     /// The oblique frame (PNG, JPEG or TIFF).
-    input: PathBuf,
+    pub(crate) input: PathBuf,
     /// The rectified image (.tif or .png; keeps the input's bit depth).
-    output: PathBuf,
-    /// Camera file (TOML).
+    pub(crate) output: PathBuf,
+    /// Camera file (TOML); default: from the photo's metadata.
     #[arg(long)]
-    camera: PathBuf,
-    /// Attitude: a TOML file, or azimuth=..,elevation=..,image_rotation=..,pitch=..,roll=..,yaw=.. (degrees).
+    pub(crate) camera: Option<PathBuf>,
+    /// Attitude: a TOML file, or azimuth=..,elevation=..,image_rotation=..,pitch=..,roll=..,yaw=..
+    /// (degrees). Without it the photo's metadata is used (DJI gimbal angles, GPS, height) and the
+    /// output is georeferenced: a GeoTIFF in the UTM zone, or a PNG with a world file.
     #[arg(long)]
-    attitude: String,
+    pub(crate) attitude: Option<String>,
     #[arg(long, default_value = "bilinear")]
-    interp: Interp,
+    pub(crate) interp: Interp,
+    /// Ground sample distance of the georeferenced output, metres (default: the frame's own at nadir).
+    #[arg(long, conflicts_with = "attitude")]
+    pub(crate) gsd_m: Option<f64>,
+    /// Ground elevation (m above sea level) against the photo's AbsoluteAltitude; default: the
+    /// height above the take-off point (RelativeAltitude).
+    #[arg(long, conflicts_with = "attitude")]
+    pub(crate) ground_height_m: Option<f64>,
     /// Flying height of this frame, for altitude normalisation (eq. 14); needs --base-altitude-m.
     #[arg(long)]
-    altitude_m: Option<f64>,
+    pub(crate) altitude_m: Option<f64>,
     /// Base altitude all frames are scaled to.
     #[arg(long)]
-    base_altitude_m: Option<f64>,
+    pub(crate) base_altitude_m: Option<f64>,
     /// Value of output pixels with no source.
     #[arg(long, default_value_t = 0.0)]
-    nodata: f64,
+    pub(crate) nodata: f64,
     /// Add an alpha band (opaque where the frame has data).
     #[arg(long)]
-    alpha: bool,
+    pub(crate) alpha: bool,
     /// Largest output in pixels; a footprint reaching the horizon is clipped to it.
     #[arg(long, default_value_t = DEFAULT_MAX_OUTPUT_PX)]
-    max_output_px: u64,
+    pub(crate) max_output_px: u64,
     /// Write a JSON report (homography, output grid, timing, inputs).
     #[arg(long)]
-    report: Option<PathBuf>,
+    pub(crate) report: Option<PathBuf>,
 }
 
 /// Refuses outputs that name the input.
@@ -91,8 +100,14 @@ pub fn rectify(a: RectifyArgs) -> Result<()> {
     let mut outs = vec![a.output.as_path()];
     outs.extend(a.report.as_deref());
     refuse_overwrite(&a.input, &outs)?;
-    let cam = CameraFile::read(&a.camera)?;
-    let attitude = read_attitude(&a.attitude)?;
+    let Some(attitude) = &a.attitude else {
+        return crate::drone_cmds::rectify_from_metadata(&a);
+    };
+    let Some(camera) = &a.camera else {
+        bail!("--attitude needs --camera (or give neither to use the photo's metadata)");
+    };
+    let cam = CameraFile::read(camera)?;
+    let attitude = read_attitude(attitude)?;
     let alt = altitude(a.altitude_m, a.base_altitude_m)?;
     let image = read_image(&a.input)?;
     let size = cam.frame_size(Some(image.size()))?;

@@ -4,6 +4,7 @@
 mod baseline_cmds;
 mod calib_cmds;
 mod commands;
+mod drone_cmds;
 mod motion_cmds;
 mod plot;
 
@@ -56,6 +57,10 @@ enum Command {
     Register(baseline_cmds::RegisterArgs),
     /// The paper's Table 1: registration, quadratic, bilinear and six-angle corrections of a frame simulated from REFERENCE.
     Compare(baseline_cmds::CompareArgs),
+    /// Rectify a whole flight from the photos' metadata into georeferenced frames.
+    Batch(drone_cmds::BatchArgs),
+    /// Misalignment of two georeferenced frames over their overlap (phase correlation of tiles).
+    Overlap(drone_cmds::OverlapArgs),
 }
 
 fn main() -> ExitCode {
@@ -76,6 +81,8 @@ fn main() -> ExitCode {
         Command::Gcp(a) => baseline_cmds::gcp(a),
         Command::Register(a) => baseline_cmds::register_cmd(a),
         Command::Compare(a) => baseline_cmds::compare(a),
+        Command::Batch(a) => drone_cmds::batch(a),
+        Command::Overlap(a) => drone_cmds::overlap(a),
         Command::Demo(a) => commands::demo(a),
         Command::Shift(a) => motion_cmds::shift(a),
         Command::MotionSim(a) => motion_cmds::motion_sim_cmd(a),

@@ -51,7 +51,7 @@ impl CameraRotation {
     /// Wraps a matrix; refuses one that is not a proper rotation (to 1e-9).
     pub fn from_matrix(m: Mat3) -> Result<Self, GeometryError> {
         let err = (m.transpose() * m - Mat3::identity()).abs().max();
-        if !(err < 1e-9) || (m.determinant() - 1.0).abs() > 1e-9 {
+        if err.is_nan() || err >= 1e-9 || (m.determinant() - 1.0).abs() > 1e-9 {
             return Err(GeometryError::InvalidParameter {
                 field: "rotation matrix",
                 value: err,

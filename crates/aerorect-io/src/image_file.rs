@@ -188,11 +188,15 @@ pub fn write_atomically(
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".aerorect-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(|e| IoError::io(path, e))?;
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".aerorect-").suffix(".tmp");
+    // Outputs are ordinary files (rw-r--r-- before the umask), not tempfile's private 0600.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o644));
+    }
+    let mut tmp = builder.tempfile_in(dir).map_err(|e| IoError::io(path, e))?;
     {
         let mut w = BufWriter::new(tmp.as_file_mut());
         write(&mut w)?;
@@ -218,4 +222,40 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
         (Some(x), Some(y)) => x == y,
         _ => false,
     }
+}
+
+/// A PNG of `raster` scaled to fit `max_side` (8-bit: 16-bit samples are shifted, float
+/// samples clamped to [0, 1]); for report thumbnails.
+pub fn thumbnail_png(raster: &AnyRaster, max_side: u32) -> Result<Vec<u8>, String> {
+    use image::{DynamicImage, ImageBuffer, ImageFormat, Luma, Rgb, Rgba};
+    let size = raster.size();
+    let to8: Vec<u8> = match raster {
+        AnyRaster::U8(r) => r.to_interleaved(),
+        AnyRaster::U16(r) => r.to_interleaved().iter().map(|v| (v >> 8) as u8).collect(),
+        AnyRaster::F32(r) => r
+            .to_interleaved()
+            .iter()
+            .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+            .collect(),
+    };
+    let (w, h) = (size.width as u32, size.height as u32);
+    let bad = || "thumbnail: buffer size mismatch".to_string();
+    let img = match raster.bands() {
+        1 => DynamicImage::ImageLuma8(
+            ImageBuffer::<Luma<u8>, _>::from_raw(w, h, to8).ok_or_else(bad)?,
+        ),
+        3 => {
+            DynamicImage::ImageRgb8(ImageBuffer::<Rgb<u8>, _>::from_raw(w, h, to8).ok_or_else(bad)?)
+        }
+        4 => DynamicImage::ImageRgba8(
+            ImageBuffer::<Rgba<u8>, _>::from_raw(w, h, to8).ok_or_else(bad)?,
+        ),
+        b => return Err(format!("thumbnail of {b} bands")),
+    };
+    let thumb = img.thumbnail(max_side, max_side);
+    let mut out = std::io::Cursor::new(Vec::new());
+    thumb
+        .write_to(&mut out, ImageFormat::Png)
+        .map_err(|e| e.to_string())?;
+    Ok(out.into_inner())
 }

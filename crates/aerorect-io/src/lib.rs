@@ -22,6 +22,7 @@ pub use checkpoints::{
 pub use error::IoError;
 pub use geotiff::{GeoReference, read_georeference, write_world_file};
 pub use image_file::{
-    decode_image_bytes, read_image, same_file, write_atomically, write_image, write_image_geo,
+    decode_image_bytes, read_image, same_file, thumbnail_png, write_atomically, write_image,
+    write_image_geo,
 };
 pub use metadata::{PhotoMetadata, read_photo_metadata};

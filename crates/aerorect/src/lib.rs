@@ -8,6 +8,7 @@
 pub mod calibration;
 pub mod compare;
 pub mod demo;
+pub mod drone;
 pub mod error;
 pub mod evaluate;
 pub mod gcp;
@@ -15,6 +16,7 @@ pub mod lens_compare;
 pub mod motion;
 pub mod rectify;
 pub mod register;
+pub mod report_html;
 pub mod sensitivity;
 pub mod simulate;
 pub mod undistort;

@@ -16,7 +16,8 @@ use std::time::Instant;
 pub struct RectifyPlan {
     pub intrinsics: Intrinsics,
     pub input_size: ImageSize,
-    pub attitude: SixAngleAttitude,
+    /// The six angles, when the plan was made from them.
+    pub attitude: Option<SixAngleAttitude>,
     pub altitude: Option<AltitudeScale>,
     pub limits: RectifyLimits,
     pub warp: WarpOptions,
@@ -39,13 +40,33 @@ impl RectifyPlan {
         Ok(Self {
             intrinsics,
             input_size,
-            attitude,
+            attitude: Some(attitude),
             altitude,
             limits,
             warp,
             geometry,
             distortion: None,
         })
+    }
+
+    /// A plan for a grid planned elsewhere (for example georeferenced from photo metadata).
+    pub fn from_geometry(
+        intrinsics: Intrinsics,
+        input_size: ImageSize,
+        geometry: RectifyGeometry,
+        limits: RectifyLimits,
+        warp: WarpOptions,
+    ) -> Self {
+        Self {
+            intrinsics,
+            input_size,
+            attitude: None,
+            altitude: None,
+            limits,
+            warp,
+            geometry,
+            distortion: None,
+        }
     }
 
     /// Undistorts the frame while rectifying. The output grid still comes from the frame's
@@ -99,7 +120,7 @@ impl RectifyPlan {
             warp_seconds,
             input_size: [self.input_size.width, self.input_size.height],
             intrinsics_px: self.intrinsics,
-            attitude_deg: self.attitude.to_degrees(),
+            attitude_deg: self.attitude.map(|a| a.to_degrees()),
             altitude_m: self.altitude.map(|a| a.altitude_m),
             base_altitude_m: self.altitude.map(|a| a.base_altitude_m),
             max_output_px: self.limits.max_output_px,
@@ -127,7 +148,7 @@ pub struct RectifyReport {
     pub warp_seconds: f64,
     pub input_size: [usize; 2],
     pub intrinsics_px: Intrinsics,
-    pub attitude_deg: SixAngleDegrees,
+    pub attitude_deg: Option<SixAngleDegrees>,
     pub altitude_m: Option<f64>,
     pub base_altitude_m: Option<f64>,
     pub max_output_px: u64,

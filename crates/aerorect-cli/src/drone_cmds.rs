@@ -1,0 +1,310 @@
+//! Drone photos from their own metadata: `rectify` without --attitude, and `batch`.
+
+use crate::commands::{RectifyArgs, refuse_overwrite, warp_options};
+use aerorect::core::RectifyLimits;
+use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
+use aerorect::demo::write_text;
+use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo};
+use aerorect::io::{CameraFile, read_image};
+use aerorect::raster::{Interp, WarpOptions};
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// The camera override of a camera file, sized for `input`.
+fn camera_override(
+    camera: Option<&Path>,
+    input: &Path,
+) -> Result<
+    Option<(
+        aerorect::core::Intrinsics,
+        Option<aerorect::core::distortion::Distortion>,
+    )>,
+> {
+    let Some(p) = camera else { return Ok(None) };
+    let cam = CameraFile::read(p)?;
+    let size = read_image(input)?.size();
+    let size = cam.frame_size(Some(size))?;
+    Ok(Some((cam.intrinsics(size)?, cam.distortion.clone())))
+}
+
+pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
+    if a.altitude_m.is_some() || a.base_altitude_m.is_some() {
+        bail!("--altitude-m / --base-altitude-m go with --attitude; from metadata use --gsd-m");
+    }
+    let probe = read_image(&a.input)?;
+    let warp = warp_options(a.interp, a.nodata, a.alpha, &probe)?;
+    drop(probe);
+    let opts = DroneOptions {
+        gsd_m: a.gsd_m,
+        ground_height_m: a.ground_height_m,
+        camera: camera_override(a.camera.as_deref(), &a.input)?,
+        limits: RectifyLimits {
+            max_output_px: a.max_output_px,
+        },
+        warp,
+    };
+    let r = rectify_photo(&a.input, &a.output, &opts, None)?;
+    if let Some(p) = &a.report {
+        write_text(p, &serde_json::to_string_pretty(&r)?)?;
+    }
+    println!("{}", result_line(&r));
+    for w in &r.info.warnings {
+        eprintln!("warning: {}: {w}", a.input.display());
+    }
+    Ok(())
+}
+
+fn result_line(r: &PhotoResult) -> String {
+    let i = &r.info;
+    format!(
+        "{} -> {}: {} x {} px at {:.3} m/px, EPSG:{}, gimbal yaw {:.1} pitch {:.1}, height {:.1} m{}, {:.2} s",
+        r.input,
+        r.output,
+        r.output_size[0],
+        r.output_size[1],
+        i.gsd_m,
+        i.geo.epsg,
+        i.gimbal_yaw_pitch_roll_deg[0],
+        i.gimbal_yaw_pitch_roll_deg[1],
+        i.height_m,
+        if i.clipped { ", far field clipped" } else { "" },
+        r.seconds
+    )
+}
+
+#[derive(Args)]
+pub struct BatchArgs {
+    /// Photos of a flight (JPEG with DJI metadata, or any image with --camera and the same tags).
+    #[arg(required = true)]
+    inputs: Vec<PathBuf>,
+    /// Where the rectified frames go (NAME.tif, or NAME.png + NAME.pgw with --format png).
+    #[arg(long)]
+    out_dir: PathBuf,
+    /// Ground sample distance, metres; default: each frame's own at nadir. Give it to put every
+    /// frame on one ground grid.
+    #[arg(long)]
+    gsd_m: Option<f64>,
+    /// Ground elevation against AbsoluteAltitude (default: height above the take-off point).
+    #[arg(long)]
+    ground_height_m: Option<f64>,
+    /// Camera file for every frame (overrides the metadata's camera).
+    #[arg(long)]
+    camera: Option<PathBuf>,
+    /// Frames processed at once (each also uses all threads for its warp).
+    #[arg(long, default_value_t = 2)]
+    jobs: usize,
+    /// Rewrite outputs that already exist.
+    #[arg(long)]
+    force: bool,
+    /// tif (GeoTIFF) or png (with a world file).
+    #[arg(long, default_value = "tif")]
+    format: String,
+    #[arg(long, default_value = "bilinear")]
+    interp: Interp,
+    #[arg(long, default_value_t = 0.0)]
+    nodata: f64,
+    #[arg(long, default_value_t = DEFAULT_MAX_OUTPUT_PX)]
+    max_output_px: u64,
+    /// A self-contained HTML report: footprint map, before/after thumbnails, per-frame attitude,
+    /// height, GSD and warnings.
+    #[arg(long)]
+    report_html: Option<PathBuf>,
+}
+
+/// What became of one input.
+enum Outcome {
+    Done(Box<PhotoResult>),
+    Skipped(String),
+    Failed(String),
+}
+
+fn output_for(a: &BatchArgs, input: &Path) -> Result<PathBuf> {
+    let stem = input
+        .file_stem()
+        .with_context(|| format!("{}: no file name", input.display()))?;
+    Ok(a.out_dir.join(stem).with_extension(&a.format))
+}
+
+pub fn batch(a: BatchArgs) -> Result<()> {
+    if a.format != "tif" && a.format != "png" {
+        bail!("--format '{}': expected tif or png", a.format);
+    }
+    if a.jobs == 0 {
+        bail!("--jobs 0: at least one frame must be in flight");
+    }
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("{}: cannot create", a.out_dir.display()))?;
+    for input in &a.inputs {
+        let mut outs = vec![output_for(&a, input)?];
+        outs.extend(a.report_html.clone());
+        let refs: Vec<&Path> = outs.iter().map(PathBuf::as_path).collect();
+        refuse_overwrite(input, &refs)?;
+    }
+    let warp = WarpOptions {
+        interp: a.interp,
+        nodata: a.nodata,
+        alpha: false,
+    };
+    let started = std::time::Instant::now();
+    let pb =
+        ProgressBar::with_draw_target(Some(a.inputs.len() as u64), ProgressDrawTarget::stderr());
+    pb.set_style(
+        ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} frames, {elapsed} elapsed, eta {eta} {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let say = |line: String| {
+        if pb.is_hidden() {
+            println!("{line}");
+        } else {
+            pb.println(line);
+        }
+    };
+    let queue = Mutex::new(a.inputs.iter().enumerate());
+    let outcomes: Mutex<Vec<(usize, Outcome)>> = Mutex::new(Vec::new());
+    // `jobs` workers take frames from one queue: at most `jobs` frames are in memory at once.
+    std::thread::scope(|s| {
+        for _ in 0..a.jobs.min(a.inputs.len()) {
+            s.spawn(|| {
+                loop {
+                    let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
+                    let Some((k, input)) = next else { break };
+                    let outcome = process(&a, input, warp);
+                    let line = match &outcome {
+                        Outcome::Done(r) => result_line(r),
+                        Outcome::Skipped(why) => format!("{}: skipped: {why}", input.display()),
+                        Outcome::Failed(why) => format!("{}: FAILED: {why}", input.display()),
+                    };
+                    say(line);
+                    pb.inc(1);
+                    if let Ok(mut o) = outcomes.lock() {
+                        o.push((k, outcome));
+                    }
+                }
+            });
+        }
+    });
+    pb.finish_and_clear();
+    let mut outcomes = outcomes.into_inner().unwrap_or_default();
+    outcomes.sort_by_key(|(k, _)| *k);
+    summarise(&a, &outcomes, started.elapsed().as_secs_f64())
+}
+
+fn process(a: &BatchArgs, input: &Path, warp: WarpOptions) -> Outcome {
+    let output = match output_for(a, input) {
+        Ok(o) => o,
+        Err(e) => return Outcome::Failed(format!("{e:#}")),
+    };
+    if output.exists() && !a.force {
+        return Outcome::Skipped(format!(
+            "{} exists (use --force to rewrite)",
+            output.display()
+        ));
+    }
+    let run = || -> Result<PhotoResult> {
+        let opts = DroneOptions {
+            gsd_m: a.gsd_m,
+            ground_height_m: a.ground_height_m,
+            camera: camera_override(a.camera.as_deref(), input)?,
+            limits: RectifyLimits {
+                max_output_px: a.max_output_px,
+            },
+            warp,
+        };
+        let thumbs = a.report_html.as_ref().map(|_| 320);
+        Ok(rectify_photo(input, &output, &opts, thumbs)?)
+    };
+    match run() {
+        Ok(r) => Outcome::Done(Box::new(r)),
+        Err(e) => Outcome::Failed(format!("{e:#}")),
+    }
+}
+
+fn summarise(a: &BatchArgs, outcomes: &[(usize, Outcome)], seconds: f64) -> Result<()> {
+    let done: Vec<&PhotoResult> = outcomes
+        .iter()
+        .filter_map(|(_, o)| match o {
+            Outcome::Done(r) => Some(r.as_ref()),
+            _ => None,
+        })
+        .collect();
+    let listed = |want_failed: bool| -> Vec<(String, String)> {
+        outcomes
+            .iter()
+            .filter_map(|(k, o)| match (o, want_failed) {
+                (Outcome::Failed(w), true) | (Outcome::Skipped(w), false) => {
+                    Some((a.inputs[*k].display().to_string(), w.clone()))
+                }
+                _ => None,
+            })
+            .collect()
+    };
+    let (failed, skipped) = (listed(true), listed(false));
+    if let Some(p) = &a.report_html {
+        let html = aerorect::report_html::render(&done, &skipped, &failed, seconds);
+        write_text(p, &html)?;
+        println!("report: {}", p.display());
+    }
+    println!(
+        "{} frames: {} rectified, {} skipped, {} failed, {:.2} s",
+        outcomes.len(),
+        done.len(),
+        skipped.len(),
+        failed.len(),
+        seconds
+    );
+    if !failed.is_empty() {
+        for (f, why) in &failed {
+            eprintln!("failed: {f}: {why}");
+        }
+        bail!(
+            "{} of {} frames failed (listed above)",
+            failed.len(),
+            outcomes.len()
+        );
+    }
+    Ok(())
+}
+
+#[derive(Args)]
+pub struct OverlapArgs {
+    /// A georeferenced frame (GeoTIFF written by rectify or batch).
+    a: PathBuf,
+    /// Another on the same grid (same EPSG and GSD).
+    b: PathBuf,
+    /// Side of the matched tiles, pixels.
+    #[arg(long, default_value_t = 256)]
+    patch: usize,
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn overlap(a: OverlapArgs) -> Result<()> {
+    if a.patch < 16 {
+        bail!("--patch {} is below 16", a.patch);
+    }
+    let r = aerorect::drone::overlap_shift(&a.a, &a.b, a.patch)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        println!(
+            "{} vs {}: {} tiles of {} px over a {} x {} px overlap: B is offset by ({:.2}, {:.2}) px = ({:.3} m east, {:.3} m north) (median), RMS {:.2} px",
+            a.a.display(),
+            a.b.display(),
+            r.patches,
+            a.patch,
+            r.overlap_px[0],
+            r.overlap_px[1],
+            r.median_px[0],
+            r.median_px[1],
+            r.median_m[0],
+            r.median_m[1],
+            r.rms_px
+        );
+    }
+    Ok(())
+}

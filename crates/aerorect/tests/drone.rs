@@ -1,0 +1,266 @@
+//! Photos rectified from metadata: camera sources, UTM against PROJ, the georeferenced grid
+//! against an independent ray-ground intersection, and (extended) the real DJI frames.
+#![allow(clippy::unwrap_used)]
+
+use aerorect::core::{CameraRotation, ImageSize, Intrinsics};
+use aerorect::drone::{
+    CameraSource, DroneOptions, camera_from_metadata, parse_dewarp, plan_from_metadata,
+    rectify_photo, utm_from_wgs84,
+};
+use aerorect::io::PhotoMetadata;
+use std::path::PathBuf;
+
+fn dji(yaw: f64, pitch: f64, roll: f64) -> PhotoMetadata {
+    let mut m = PhotoMetadata {
+        model: Some("FC220".into()),
+        focal_length_mm: Some(4.73),
+        focal_length_35mm: Some(26.0),
+        latitude_deg: Some(53.9),
+        longitude_deg: Some(27.55),
+        ..Default::default()
+    };
+    m.dji.gimbal_yaw_deg = Some(yaw);
+    m.dji.gimbal_pitch_deg = Some(pitch);
+    m.dji.gimbal_roll_deg = Some(roll);
+    m.dji.relative_altitude_m = Some(100.0);
+    m.dji.absolute_altitude_m = Some(330.0);
+    m
+}
+
+const SIZE: ImageSize = ImageSize {
+    width: 4000,
+    height: 2250,
+};
+
+/// Stored peer results: PROJ 9 through rasterio 1.4.4 (`rasterio.warp.transform`).
+#[test]
+fn utm_matches_proj() {
+    let (en, epsg) = utm_from_wgs84(53.9, 27.55).unwrap();
+    assert_eq!(epsg, 32635);
+    assert!(
+        (en[0] - 536138.4290761272).abs() < 1e-3 && (en[1] - 5972535.8563540345).abs() < 1e-3,
+        "{en:?}"
+    );
+    let (en, epsg) = utm_from_wgs84(-33.4, -70.6).unwrap();
+    assert_eq!(epsg, 32719);
+    assert!(
+        (en[0] - 351205.0646216514).abs() < 1e-3 && (en[1] - 6303223.750659056).abs() < 1e-3,
+        "{en:?}"
+    );
+    assert!(utm_from_wgs84(86.0, 0.0).is_err());
+}
+
+#[test]
+fn camera_sources_in_order_of_trust() {
+    let m = dji(0.0, -90.0, 0.0);
+    let c = camera_from_metadata(&m, SIZE, "x").unwrap();
+    assert_eq!(c.source, CameraSource::SensorTable("FC220"));
+    // 4.73 mm over a 6.17 mm wide sensor of 4000 px (the 16:9 mode keeps the width).
+    assert!((c.intrinsics.fx - 4.73 / (6.17 / 4000.0)).abs() < 1e-9);
+    let mut unknown = m.clone();
+    unknown.model = Some("XYZ".into());
+    let c = camera_from_metadata(&unknown, SIZE, "x").unwrap();
+    assert_eq!(c.source, CameraSource::Equivalent35mm);
+    assert!((c.intrinsics.fx - 26.0 * 4000f64.hypot(2250.0) / 36f64.hypot(24.0)).abs() < 1e-9);
+    assert_eq!(c.warnings.len(), 1);
+    let mut dewarp = m.clone();
+    dewarp.dji.dewarp_data =
+        Some("2018-09-04;3678.9,3671.5,10.5,-17.2,-0.26,0.11,0.001,-0.0003,-0.23".into());
+    let c = camera_from_metadata(&dewarp, SIZE, "x").unwrap();
+    assert_eq!(c.source, CameraSource::DewarpData);
+    assert_eq!((c.intrinsics.fx, c.intrinsics.fy), (3678.9, 3671.5));
+    assert!((c.intrinsics.cx - (1999.5 + 10.5)).abs() < 1e-12);
+    assert!(c.distortion.is_some());
+    let mut cal = dewarp.clone();
+    cal.dji.calibrated_focal_length_px = Some(3050.0);
+    assert_eq!(
+        camera_from_metadata(&cal, SIZE, "x").unwrap().source,
+        CameraSource::DjiCalibrated
+    );
+    unknown.focal_length_35mm = None;
+    let e = camera_from_metadata(&unknown, SIZE, "DJI_9.JPG")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("DJI_9.JPG") && e.contains("XYZ"), "{e}");
+    assert!(parse_dewarp("2018;1,2,3", SIZE).is_err());
+}
+
+/// Every output pixel's ground position (from the GeoTIFF's geotransform) equals the ground
+/// point its source pixel's ray hits, intersected independently in ENU.
+#[test]
+fn georeferenced_grid_matches_ray_ground_intersection() {
+    for (yaw, pitch, roll) in [(0.0, -90.0, 0.0), (37.0, -60.0, 0.0), (-117.0, -35.0, 2.0)] {
+        let m = dji(yaw, pitch, roll);
+        let opts = DroneOptions {
+            gsd_m: Some(0.25),
+            ..Default::default()
+        };
+        let (plan, info) = plan_from_metadata(&m, SIZE, &opts, "x").unwrap();
+        let k: Intrinsics = plan.intrinsics;
+        let r = *CameraRotation::dji_gimbal(yaw, pitch, roll)
+            .unwrap()
+            .ground_from_camera();
+        let g = &plan.geometry;
+        for (c, row) in [
+            (10usize, 10usize),
+            (g.output_size.width / 2, g.output_size.height / 2),
+            (g.output_size.width - 5, g.output_size.height / 3),
+        ] {
+            let Some(src) = g.oblique_from_output.map(c as f64, row as f64) else {
+                continue;
+            };
+            let ray =
+                r * nalgebra::Vector3::new((src[0] - k.cx) / k.fx, -(src[1] - k.cy) / k.fy, -1.0);
+            if ray.z >= 0.0 {
+                continue;
+            }
+            let t = 100.0 / -ray.z;
+            let want = [
+                info.easting_northing_m[0] + t * ray.x,
+                info.easting_northing_m[1] + t * ray.y,
+            ];
+            let got = info.geo.ground_of_pixel(c as f64, row as f64);
+            assert!(
+                (got[0] - want[0]).abs() < 1e-6 && (got[1] - want[1]).abs() < 1e-6,
+                "{yaw} {pitch}: {got:?} vs {want:?}"
+            );
+        }
+        // The grid is aligned to multiples of the GSD.
+        for v in info.geo.top_left {
+            assert!((v / 0.25 - (v / 0.25).round()).abs() < 1e-6);
+        }
+    }
+}
+
+/// DJI gimbal angles are world-frame: the aircraft's angles must not change the result.
+#[test]
+fn flight_angles_are_not_composed_on_the_gimbal() {
+    let a = dji(117.6, -19.0, 0.0);
+    let mut b = a.clone();
+    b.dji.flight_roll_deg = Some(2.0);
+    b.dji.flight_pitch_deg = Some(2.8);
+    b.dji.flight_yaw_deg = Some(117.6);
+    let (pa, _) = plan_from_metadata(&a, SIZE, &DroneOptions::default(), "a").unwrap();
+    let (pb, _) = plan_from_metadata(&b, SIZE, &DroneOptions::default(), "b").unwrap();
+    assert_eq!(pa.geometry, pb.geometry);
+}
+
+#[test]
+fn height_from_ground_elevation_and_missing_fields() {
+    let m = dji(0.0, -90.0, 0.0);
+    let opts = DroneOptions {
+        ground_height_m: Some(250.0),
+        ..Default::default()
+    };
+    let (_, info) = plan_from_metadata(&m, SIZE, &opts, "x").unwrap();
+    assert_eq!(info.height_m, 80.0);
+    let mut none = m.clone();
+    none.dji.gimbal_pitch_deg = None;
+    let e = plan_from_metadata(&none, SIZE, &DroneOptions::default(), "f.jpg")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("f.jpg") && e.contains("GimbalPitchDegree"),
+        "{e}"
+    );
+    let mut nogps = m.clone();
+    nogps.latitude_deg = None;
+    assert!(
+        plan_from_metadata(&nogps, SIZE, &DroneOptions::default(), "x")
+            .unwrap_err()
+            .to_string()
+            .contains("GPS")
+    );
+    let opts = DroneOptions {
+        ground_height_m: Some(400.0),
+        ..Default::default()
+    };
+    assert!(
+        plan_from_metadata(&m, SIZE, &opts, "x")
+            .unwrap_err()
+            .to_string()
+            .contains("not positive")
+    );
+}
+
+fn shared(rel: &str) -> Option<PathBuf> {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data")
+        .join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!(
+            "SKIP: {} not found (extended test needs ../shared/data)",
+            p.display()
+        );
+        None
+    }
+}
+
+/// Extended: a real DJI frame's metadata, the GeoTIFF read back, and the camera position
+/// inside the nadir frame's footprint.
+#[test]
+fn real_dji_frame_geotiff_reads_back() {
+    let Some(p) = shared("drone-xmp/DJI_0010.JPG") else {
+        return;
+    };
+    let meta = aerorect::io::read_photo_metadata(&p).unwrap();
+    assert_eq!(meta.model.as_deref(), Some("FC220"));
+    assert_eq!(meta.dji.gimbal_yaw_deg, Some(37.1));
+    assert_eq!(meta.dji.relative_altitude_m, Some(98.9));
+    assert!(
+        (meta.latitude_deg.unwrap() - 53.9).abs() < 0.1
+            && (meta.longitude_deg.unwrap() - 27.55).abs() < 0.1
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("n.tif");
+    let opts = DroneOptions {
+        gsd_m: Some(0.2),
+        ..Default::default()
+    };
+    let r = rectify_photo(&p, &out, &opts, None).unwrap();
+    let geo = aerorect::io::read_georeference(&out).unwrap().unwrap();
+    assert_eq!(geo, r.info.geo);
+    assert_eq!(geo.epsg, 32635);
+    let img = aerorect::io::read_image(&out).unwrap();
+    assert_eq!([img.size().width, img.size().height], r.output_size);
+    let [e, n] = r.info.easting_northing_m;
+    let [x0, y0] = geo.top_left;
+    assert!(e > x0 && e < x0 + 0.2 * img.size().width as f64);
+    assert!(n < y0 && n > y0 - 0.2 * img.size().height as f64);
+}
+
+/// Extended: 0030 and 0031 (one hover point): the registration's homography against the one
+/// the gimbal angles predict, K R31^T R30 K^-1, at the centre of 0030.
+#[test]
+fn gimbal_angles_predict_the_registered_homography() {
+    let (Some(a), Some(b)) = (
+        shared("drone-xmp/DJI_0030.JPG"),
+        shared("drone-xmp/DJI_0031.JPG"),
+    ) else {
+        return;
+    };
+    let (ma, mb) = (
+        aerorect::io::read_photo_metadata(&a).unwrap(),
+        aerorect::io::read_photo_metadata(&b).unwrap(),
+    );
+    let k = camera_from_metadata(&ma, SIZE, "a").unwrap().intrinsics;
+    let (ra, rb) = (
+        aerorect::drone::rotation_from_metadata(&ma, "a").unwrap(),
+        aerorect::drone::rotation_from_metadata(&mb, "b").unwrap(),
+    );
+    let km = k.pixel_from_camera();
+    let predicted =
+        km * rb.ground_from_camera().transpose() * ra.ground_from_camera() * k.camera_from_pixel();
+    let p = predicted * nalgebra::Vector3::new(1999.5, 1124.5, 1.0);
+    let p = [p.x / p.z, p.y / p.z];
+    let img = aerorect::motion::gray(&aerorect::io::read_image(&b).unwrap()).unwrap();
+    let reference = aerorect::motion::gray(&aerorect::io::read_image(&a).unwrap()).unwrap();
+    let reg = aerorect::register::register(&img, &reference, &Default::default()).unwrap();
+    let q = reg.image_from_ref.map(1999.5, 1124.5).unwrap();
+    let d = (p[0] - q[0]).hypot(p[1] - q[1]);
+    eprintln!("gimbal-predicted {p:?}, registered {q:?}: {d:.1} px apart");
+    // About 1 degree of gimbal-angle error at f = 3066 px is 54 px.
+    assert!(d < 110.0, "{d}");
+}
