@@ -3,7 +3,7 @@
 //! Gauss-Newton on the geometric error), and the piecewise-affine map over a Delaunay
 //! triangulation.
 
-use crate::{SolveError, fit_homography, normaliser};
+use crate::{SolveError, fit_homography, normaliser, positive_at_centroid};
 use aerorect_core::{Homography, Mat3, PiecewiseAffine, PlaneTransform, PolyKind, Polynomial};
 use nalgebra::{DMatrix, SMatrix, SVector};
 
@@ -167,16 +167,7 @@ pub fn fit_projective(from: &[[f64; 2]], to: &[[f64; 2]]) -> Result<Homography, 
         }
     }
     let m = Mat3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], 1.0);
-    let mut full = tb_inv * m * ta;
-    let c = nalgebra::Vector3::new(
-        from[..n].iter().map(|q| q[0]).sum::<f64>() / n as f64,
-        from[..n].iter().map(|q| q[1]).sum::<f64>() / n as f64,
-        1.0,
-    );
-    if (full * c).z < 0.0 {
-        full = -full;
-    }
-    Homography::new(full / full.norm()).map_err(|_| SolveError::Degenerate)
+    positive_at_centroid(tb_inv * m * ta, &from[..n])
 }
 
 /// The piecewise-affine map through every pair, over the Delaunay triangulation of `from`;

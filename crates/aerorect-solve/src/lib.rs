@@ -67,15 +67,18 @@ pub fn fit_homography(from: &[[f64; 2]], to: &[[f64; 2]]) -> Result<Homography, 
     let h = v_t.row(order[0]);
     let hn = Mat3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]);
     let tb_inv = tb.try_inverse().ok_or(SolveError::Degenerate)?;
-    let mut m = tb_inv * hn * ta;
+    positive_at_centroid(tb_inv * hn * ta, &from[..n])
+}
+
+/// `m` scaled to unit norm with w > 0 at the centroid of `from` (the crate's sign of w).
+pub(crate) fn positive_at_centroid(m: Mat3, from: &[[f64; 2]]) -> Result<Homography, SolveError> {
+    let n = from.len().max(1) as f64;
     let c = Vector3::new(
-        from[..n].iter().map(|q| q[0]).sum::<f64>() / n as f64,
-        from[..n].iter().map(|q| q[1]).sum::<f64>() / n as f64,
+        from.iter().map(|q| q[0]).sum::<f64>() / n,
+        from.iter().map(|q| q[1]).sum::<f64>() / n,
         1.0,
     );
-    if (m * c).z < 0.0 {
-        m = -m;
-    }
+    let m = if (m * c).z < 0.0 { -m } else { m };
     Homography::new(m / m.norm()).map_err(|_| SolveError::Degenerate)
 }
 

@@ -125,3 +125,20 @@ pub fn oracle_warp<T: Sample, M: PixelMap>(
         })
         .collect()
 }
+
+/// `../shared/data/REL` beside the repository (extended tests), or `None` after saying on
+/// stderr that the test is skipped.
+pub fn shared_data(rel: &str) -> Option<std::path::PathBuf> {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data")
+        .join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!(
+            "SKIP: {} is absent; this extended test did not run",
+            p.display()
+        );
+        None
+    }
+}

@@ -14,7 +14,6 @@ use aerorect::register::{RegisterOptions, TieModel, register};
 use aerorect::simulate::SimulatePlan;
 use aerorect::warp_any;
 use aerorect_solve::gcp::GcpModel;
-use std::path::PathBuf;
 
 fn scene() -> AnyRaster {
     decode_image_bytes(aerorect::demo::SCENE_JPEG, "aero1.jpg").unwrap()
@@ -40,13 +39,9 @@ fn simulated() -> (SimulatePlan, AnyRaster) {
     (plan, img)
 }
 
-/// Exact projective GCPs give the true transform, zero residuals, and the same pixels as a warp
-/// through the true homography.
-#[test]
-fn projective_gcps_reproduce_the_true_warp() {
-    let (plan, frame) = simulated();
-    let image_from_ref = plan.ortho_from_oblique.inverse();
-    let gcps: Vec<Gcp> = (0..30)
+/// 30 exact GCPs on a 6 x 5 grid of the frame.
+fn grid_gcps(plan: &SimulatePlan) -> Vec<Gcp> {
+    (0..30)
         .map(|k| {
             let (u, v) = (20.0 + (k % 6) as f64 * 55.0, 15.0 + (k / 6) as f64 * 50.0);
             let r = plan.ortho_from_oblique.map(u, v).unwrap();
@@ -57,7 +52,16 @@ fn projective_gcps_reproduce_the_true_warp() {
                 v_ref: r[1],
             }
         })
-        .collect();
+        .collect()
+}
+
+/// Exact projective GCPs give the true transform, zero residuals, and the same pixels as a warp
+/// through the true homography.
+#[test]
+fn projective_gcps_reproduce_the_true_warp() {
+    let (plan, frame) = simulated();
+    let image_from_ref = plan.ortho_from_oblique.inverse();
+    let gcps = grid_gcps(&plan);
     let grid = ([100, 80], ImageSize::new(300, 200));
     let fit = GcpPlan::fit(
         &gcps,
@@ -106,18 +110,7 @@ fn projective_gcps_reproduce_the_true_warp() {
 #[test]
 fn polynomial_residuals_rank_the_orders() {
     let (plan, frame) = simulated();
-    let gcps: Vec<Gcp> = (0..30)
-        .map(|k| {
-            let (u, v) = (20.0 + (k % 6) as f64 * 55.0, 15.0 + (k / 6) as f64 * 50.0);
-            let r = plan.ortho_from_oblique.map(u, v).unwrap();
-            Gcp {
-                u_image: u,
-                v_image: v,
-                u_ref: r[0],
-                v_ref: r[1],
-            }
-        })
-        .collect();
+    let gcps = grid_gcps(&plan);
     let rms = |m: &str| {
         GcpPlan::fit(
             &gcps,
@@ -199,20 +192,7 @@ fn noise_free_table_isolates_model_error() {
     assert!(rmse("quadratic") > 10.0 * rmse("registration"));
 }
 
-fn shared(rel: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!(
-            "SKIP: {} not found (extended test needs ../shared/data)",
-            p.display()
-        );
-        None
-    }
-}
+use aerorect_testkit::shared_data as shared;
 
 /// Extended: Table 1 on the USC-SIPI airport with the CLI's defaults keeps the paper's ranking
 /// (registration and six-angle < quadratic < bilinear) for several noise draws.

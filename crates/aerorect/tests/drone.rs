@@ -8,7 +8,6 @@ use aerorect::drone::{
     rectify_photo, utm_from_wgs84,
 };
 use aerorect::io::PhotoMetadata;
-use std::path::PathBuf;
 
 fn dji(yaw: f64, pitch: f64, roll: f64) -> PhotoMetadata {
     let mut m = PhotoMetadata {
@@ -183,20 +182,7 @@ fn height_from_ground_elevation_and_missing_fields() {
     );
 }
 
-fn shared(rel: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!(
-            "SKIP: {} not found (extended test needs ../shared/data)",
-            p.display()
-        );
-        None
-    }
-}
+use aerorect_testkit::shared_data as shared;
 
 /// Extended: a real DJI frame's metadata, the GeoTIFF read back, and the camera position
 /// inside the nadir frame's footprint.

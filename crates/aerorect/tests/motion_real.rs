@@ -4,22 +4,8 @@
 use aerorect::core::ImageSize;
 use aerorect::io::read_image;
 use aerorect::motion::{Displacement, Method, MotionSimConfig, Tracker, gray, motion_sim};
-use std::path::PathBuf;
 
-fn shared(sub: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(sub);
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!(
-            "SKIP: {} is absent; this extended test did not run",
-            p.display()
-        );
-        None
-    }
-}
+use aerorect_testkit::shared_data as shared;
 
 /// The paper's headline: JTC error RMS <= 0.1 px at SNR 4 dB on airport, coast, roads, urban
 /// (256 x 256 windows, shifts by linear interpolation, noise on both frames).
