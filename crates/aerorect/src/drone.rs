@@ -349,6 +349,11 @@ pub fn plan_from_metadata(
         warnings
             .push("the far field near the horizon was cut to respect the output size limit".into());
     }
+    if let Some(o) = meta.orientation.filter(|&o| o != 1) {
+        warnings.push(format!(
+            "EXIF Orientation {o}: the pixels are used as stored, the camera angles assume the sensor's own orientation"
+        ));
+    }
     if opts.ground_height_m.is_none() {
         warnings.push(
             "height from RelativeAltitude: assumes the ground is level with the take-off point"
