@@ -7,8 +7,8 @@ use std::path::Path;
 
 const HEADER: [&str; 4] = ["u_oblique", "v_oblique", "u_standard", "v_standard"];
 
-/// Reads a CSV table whose header must be exactly `header`, each record's numbers (named by
-/// `fields`, in `header`'s order of numeric columns) finite; errors name the file and line.
+/// Reads a CSV table whose header must be exactly `header` and whose numbers (each record's,
+/// listed with their column names by `numbers`) are finite; errors name the file and line.
 fn read_table<T: serde::de::DeserializeOwned>(
     path: &Path,
     header: &[&str],

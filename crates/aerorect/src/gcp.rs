@@ -125,6 +125,7 @@ impl GcpPlan {
                     matrix: m.map(|r| r.map(|x| x / s)),
                 }
             }
+            // Not produced by a GCP fit (only registration makes piecewise maps).
             PlaneTransform::Piecewise(_) => Coefficients::Polynomial {
                 terms: vec![],
                 u: vec![],

@@ -134,7 +134,8 @@ pub fn register(
     let side = opts.coarse_side;
     let img_pyr = pyramid(image, side);
     let ref_pyr = pyramid(reference, side);
-    let top = (img_pyr.len().max(ref_pyr.len()) - 1).min(img_pyr.len().min(ref_pyr.len()) - 1);
+    // The coarsest level both pyramids reach (both are reduced by the same factor there).
+    let top = img_pyr.len().min(ref_pyr.len()) - 1;
     let (coarse, mut h) = coarse_search(&img_pyr[top], &ref_pyr[top], top, opts)?;
     let mut last = Vec::new();
     for level in (0..=top).rev() {
