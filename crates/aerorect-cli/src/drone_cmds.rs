@@ -1,11 +1,11 @@
 //! Drone photos from their own metadata: `rectify` without --attitude, and `batch`.
 
-use crate::commands::{RectifyArgs, refuse_overwrite, warp_options};
+use crate::commands::{RectifyArgs, refuse_overwrite};
 use aerorect::core::RectifyLimits;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
 use aerorect::demo::write_text;
 use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo};
-use aerorect::io::{CameraFile, read_image};
+use aerorect::io::CameraFile;
 use aerorect::raster::{Interp, WarpOptions};
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -13,34 +13,20 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-/// The camera override of a camera file, sized for `input`.
-fn camera_override(
-    camera: Option<&Path>,
-    input: &Path,
-) -> Result<
-    Option<(
-        aerorect::core::Intrinsics,
-        Option<aerorect::core::distortion::Distortion>,
-    )>,
-> {
-    let Some(p) = camera else { return Ok(None) };
-    let cam = CameraFile::read(p)?;
-    let size = read_image(input)?.size();
-    let size = cam.frame_size(Some(size))?;
-    Ok(Some((cam.intrinsics(size)?, cam.distortion.clone())))
-}
-
 pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
     if a.altitude_m.is_some() || a.base_altitude_m.is_some() {
         bail!("--altitude-m / --base-altitude-m go with --attitude; from metadata use --gsd-m");
     }
-    let probe = read_image(&a.input)?;
-    let warp = warp_options(a.interp, a.nodata, a.alpha, &probe)?;
-    drop(probe);
+    // The nodata value is checked against the photo's sample type when it is read.
+    let warp = WarpOptions {
+        interp: a.interp,
+        nodata: a.nodata,
+        alpha: a.alpha,
+    };
     let opts = DroneOptions {
         gsd_m: a.gsd_m,
         ground_height_m: a.ground_height_m,
-        camera: camera_override(a.camera.as_deref(), &a.input)?,
+        camera: a.camera.as_deref().map(CameraFile::read).transpose()?,
         limits: RectifyLimits {
             max_output_px: a.max_output_px,
         },
@@ -143,10 +129,19 @@ pub fn batch(a: BatchArgs) -> Result<()> {
         let refs: Vec<&Path> = outs.iter().map(PathBuf::as_path).collect();
         refuse_overwrite(input, &refs)?;
     }
-    let warp = WarpOptions {
-        interp: a.interp,
-        nodata: a.nodata,
-        alpha: false,
+    // One camera file and one set of options for every frame.
+    let opts = DroneOptions {
+        gsd_m: a.gsd_m,
+        ground_height_m: a.ground_height_m,
+        camera: a.camera.as_deref().map(CameraFile::read).transpose()?,
+        limits: RectifyLimits {
+            max_output_px: a.max_output_px,
+        },
+        warp: WarpOptions {
+            interp: a.interp,
+            nodata: a.nodata,
+            alpha: false,
+        },
     };
     let started = std::time::Instant::now();
     let pb =
@@ -173,7 +168,7 @@ pub fn batch(a: BatchArgs) -> Result<()> {
                 loop {
                     let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
                     let Some((k, input)) = next else { break };
-                    let outcome = process(&a, input, warp);
+                    let outcome = process(&a, input, &opts);
                     let line = match &outcome {
                         Outcome::Done(r) => result_line(r),
                         Outcome::Skipped(why) => format!("{}: skipped: {why}", input.display()),
@@ -194,7 +189,7 @@ pub fn batch(a: BatchArgs) -> Result<()> {
     summarise(&a, &outcomes, started.elapsed().as_secs_f64())
 }
 
-fn process(a: &BatchArgs, input: &Path, warp: WarpOptions) -> Outcome {
+fn process(a: &BatchArgs, input: &Path, opts: &DroneOptions) -> Outcome {
     let output = match output_for(a, input) {
         Ok(o) => o,
         Err(e) => return Outcome::Failed(format!("{e:#}")),
@@ -205,20 +200,8 @@ fn process(a: &BatchArgs, input: &Path, warp: WarpOptions) -> Outcome {
             output.display()
         ));
     }
-    let run = || -> Result<PhotoResult> {
-        let opts = DroneOptions {
-            gsd_m: a.gsd_m,
-            ground_height_m: a.ground_height_m,
-            camera: camera_override(a.camera.as_deref(), input)?,
-            limits: RectifyLimits {
-                max_output_px: a.max_output_px,
-            },
-            warp,
-        };
-        let thumbs = a.report_html.as_ref().map(|_| 320);
-        Ok(rectify_photo(input, &output, &opts, thumbs)?)
-    };
-    match run() {
+    let thumbs = a.report_html.as_ref().map(|_| 320);
+    match rectify_photo(input, &output, opts, thumbs) {
         Ok(r) => Outcome::Done(Box::new(r)),
         Err(e) => Outcome::Failed(format!("{e:#}")),
     }

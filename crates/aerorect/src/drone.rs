@@ -9,7 +9,7 @@ use aerorect_core::orientation::standard_from_rotation;
 use aerorect_core::{
     CameraRotation, Homography, ImageSize, Intrinsics, Mat3, RectifyGeometry, RectifyLimits,
 };
-use aerorect_io::{GeoReference, PhotoMetadata};
+use aerorect_io::{CameraFile, GeoReference, PhotoMetadata};
 use aerorect_raster::WarpOptions;
 use serde::Serialize;
 
@@ -279,8 +279,8 @@ pub struct DroneOptions {
     /// Output ground sample distance; default: the frame's own at nadir (H / f).
     pub gsd_m: Option<f64>,
     pub ground_height_m: Option<f64>,
-    /// Overrides the camera from metadata.
-    pub camera: Option<(Intrinsics, Option<Distortion>)>,
+    /// Overrides the camera from metadata (sized for each photo as it is read).
+    pub camera: Option<CameraFile>,
     pub limits: RectifyLimits,
     pub warp: WarpOptions,
 }
@@ -294,12 +294,15 @@ pub fn plan_from_metadata(
     file: &str,
 ) -> Result<(RectifyPlan, DronePlanInfo), Error> {
     let camera = match &opts.camera {
-        Some((intr, d)) => PhotoCamera {
-            intrinsics: *intr,
-            source: CameraSource::CameraFile,
-            distortion: d.clone(),
-            warnings: vec![],
-        },
+        Some(cam) => {
+            let size = cam.frame_size(Some(size))?;
+            PhotoCamera {
+                intrinsics: cam.intrinsics(size)?,
+                source: CameraSource::CameraFile,
+                distortion: cam.distortion.clone(),
+                warnings: vec![],
+            }
+        }
         None => camera_from_metadata(meta, size, file)?,
     };
     let rotation = rotation_from_metadata(meta, file)?;
@@ -413,7 +416,7 @@ pub fn rectify_photo(
     let image = aerorect_io::read_image(input)?;
     opts.warp
         .nodata_as_for(&image)
-        .map_err(|e| Error::Invalid(format!("nodata: {e}")))?;
+        .map_err(|e| Error::Invalid(format!("--nodata {}: {e}", opts.warp.nodata)))?;
     let size = image.size();
     let (plan, info) = plan_from_metadata(&meta, size, opts, &file)?;
     let (out, _) = plan.run(&image)?;
