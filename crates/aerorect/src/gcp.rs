@@ -149,25 +149,17 @@ fn footprint(
     limits: RectifyLimits,
 ) -> Result<([i64; 2], ImageSize), Error> {
     let (w, h) = (size.width as f64 - 1.0, size.height as f64 - 1.0);
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for k in 0..=64 {
+    let border = (0..=64).flat_map(|k| {
         let t = k as f64 / 64.0;
-        for p in [[t * w, 0.0], [t * w, h], [0.0, t * h], [w, t * h]] {
-            let q = ref_from_image.map(p[0], p[1]).ok_or_else(|| {
-                Error::Invalid(format!(
-                    "image border pixel ({}, {}) has no reference position under the inverse fit",
-                    p[0], p[1]
-                ))
-            })?;
-            for d in 0..2 {
-                lo[d] = lo[d].min(q[d]);
-                hi[d] = hi[d].max(q[d]);
-            }
-        }
-    }
-    let (x0, y0) = (lo[0].floor(), lo[1].floor());
-    let (ow, oh) = (hi[0].ceil() - x0 + 1.0, hi[1].ceil() - y0 + 1.0);
+        [[t * w, 0.0], [t * w, h], [0.0, t * h], [w, t * h]]
+    });
+    let ([x0, y0], [ow, oh]) = crate::covering_grid(border, |p| ref_from_image.map(p[0], p[1]))
+        .map_err(|p| {
+            Error::Invalid(format!(
+                "image border pixel ({}, {}) has no reference position under the inverse fit",
+                p[0], p[1]
+            ))
+        })?;
     let pixels = ow * oh;
     if pixels.is_nan() || pixels > limits.max_output_px as f64 {
         return Err(Error::Invalid(format!(

@@ -42,3 +42,29 @@ pub fn warp_any<M: PixelMap>(
         AnyRaster::F32(r) => AnyRaster::F32(warp(r, map, size, opts)?),
     })
 }
+
+/// The integer grid from floor(min) to ceil(max) of `map` over `points`: its origin and its
+/// width and height (as f64, for the caller's own size check). `Err(p)`: the first point `map`
+/// has no image for.
+pub(crate) fn covering_grid(
+    points: impl IntoIterator<Item = [f64; 2]>,
+    map: impl Fn([f64; 2]) -> Option<[f64; 2]>,
+) -> Result<([f64; 2], [f64; 2]), [f64; 2]> {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for p in points {
+        let q = map(p).ok_or(p)?;
+        for d in 0..2 {
+            lo[d] = lo[d].min(q[d]);
+            hi[d] = hi[d].max(q[d]);
+        }
+    }
+    let origin = [lo[0].floor(), lo[1].floor()];
+    Ok((
+        origin,
+        [
+            hi[0].ceil() - origin[0] + 1.0,
+            hi[1].ceil() - origin[1] + 1.0,
+        ],
+    ))
+}

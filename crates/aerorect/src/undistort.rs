@@ -62,24 +62,16 @@ fn fitted(
         direction: LensDirection::IdealFromObserved,
     };
     let (w, h) = (size.width as f64 - 1.0, size.height as f64 - 1.0);
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
     let border = (0..size.width)
-        .flat_map(|x| [(x as f64, 0.0), (x as f64, h)])
-        .chain((0..size.height).flat_map(|y| [(0.0, y as f64), (w, y as f64)]));
-    for (u, v) in border {
-        let p = back.source_of(u, v).ok_or_else(|| {
+        .flat_map(|x| [[x as f64, 0.0], [x as f64, h]])
+        .chain((0..size.height).flat_map(|y| [[0.0, y as f64], [w, y as f64]]));
+    let ([x0, y0], [nw, nh]) = crate::covering_grid(border, |p| back.source_of(p[0], p[1]))
+        .map_err(|p| {
             Error::Invalid(format!(
-                "the lens model cannot undistort border pixel ({u}, {v})"
+                "the lens model cannot undistort border pixel ({}, {})",
+                p[0], p[1]
             ))
         })?;
-        for i in 0..2 {
-            lo[i] = lo[i].min(p[i]);
-            hi[i] = hi[i].max(p[i]);
-        }
-    }
-    let (x0, y0) = (lo[0].floor(), lo[1].floor());
-    let (nw, nh) = (hi[0].ceil() - x0 + 1.0, hi[1].ceil() - y0 + 1.0);
     // NaN-safe: a non-finite size fails `is_finite` and is refused too.
     let pixels = nw * nh;
     if !pixels.is_finite() || pixels > MAX_FIT_GROWTH * size.pixels() as f64 {
