@@ -1,7 +1,7 @@
 //! The paper's baselines: `gcp` (polynomial correction), `register` (to a reference image) and
 //! `compare` (Table 1).
 
-use crate::commands::{refuse_overwrite, warp_options};
+use crate::commands::{refuse_overwrite, warp_options, write_image_and_report};
 use aerorect::compare::{CompareConfig, CompareResult};
 use aerorect::core::{ImageSize, RectifyLimits, SixAngleAttitude, rectify::DEFAULT_MAX_OUTPUT_PX};
 use aerorect::demo::write_text;
@@ -111,10 +111,7 @@ pub fn gcp(a: GcpArgs) -> Result<()> {
         seconds,
     };
     let json = serde_json::to_string_pretty(&report)?;
-    write_image(&a.output, &out)?;
-    if let Some(r) = &a.report {
-        write_text(r, &json)?;
-    }
+    write_image_and_report(&a.output, &out, a.report.as_deref(), &json)?;
     println!(
         "{} -> {}: {} fit to {} GCPs, residual RMS {:.4} px, {} x {} px at reference ({}, {}), {:.1} ms",
         a.input.display(),
@@ -234,10 +231,7 @@ pub fn register_cmd(a: RegisterArgs) -> Result<()> {
     let out = warp_any(&image, &reg.image_from_ref, reference.size(), &warp)?;
     let seconds = t.elapsed().as_secs_f64();
     let json = register_report(&a, &reg, seconds)?;
-    write_image(&a.output, &out)?;
-    if let Some(r) = &a.report {
-        write_text(r, &json)?;
-    }
+    write_image_and_report(&a.output, &out, a.report.as_deref(), &json)?;
     println!(
         "{} -> {}: {} tie points, {} inliers, inlier RMS {:.3} px, coarse rotation {:.0} deg scale {:.2}, {:.2} s",
         a.input.display(),

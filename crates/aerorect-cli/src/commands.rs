@@ -69,6 +69,21 @@ pub(crate) fn refuse_overwrite(input: &Path, outputs: &[&Path]) -> Result<()> {
     Ok(())
 }
 
+/// Writes the image, then the JSON report when one is asked for (the report is serialised by
+/// the caller first, so a serialisation error leaves nothing written).
+pub(crate) fn write_image_and_report(
+    output: &Path,
+    image: &AnyRaster,
+    report: Option<&Path>,
+    json: &str,
+) -> Result<()> {
+    write_image(output, image)?;
+    if let Some(r) = report {
+        aerorect::demo::write_text(r, json)?;
+    }
+    Ok(())
+}
+
 /// Warp options whose nodata value is checked against the image's sample type.
 pub(crate) fn warp_options(
     interp: Interp,
@@ -131,10 +146,7 @@ pub fn rectify(a: RectifyArgs) -> Result<()> {
         seconds,
     );
     let json = serde_json::to_string_pretty(&report)?;
-    write_image(&a.output, &out)?;
-    if let Some(r) = &a.report {
-        aerorect::demo::write_text(r, &json)?;
-    }
+    write_image_and_report(&a.output, &out, a.report.as_deref(), &json)?;
     let g = &plan.geometry;
     println!(
         "{} -> {}: {} x {} px, standard origin ({}, {}){}, {} warp {:.1} ms",
