@@ -522,17 +522,14 @@ pub fn overlap_shift(
     while y + step <= y1 {
         let mut x = x0;
         while x + step <= x1 {
-            let mut valid = true;
             for r in 0..patch {
                 let ra = (y as usize + r) * sa.width + x as usize;
                 let rb = (y - off[1]) as usize * sb.width + r * sb.width + (x - off[0]) as usize;
                 pa[r * patch..(r + 1) * patch].copy_from_slice(&ia.plane(0)[ra..ra + patch]);
                 pb[r * patch..(r + 1) * patch].copy_from_slice(&ib.plane(0)[rb..rb + patch]);
             }
-            // Nodata (0) anywhere in either patch: not both valid.
-            if pa.iter().chain(pb.iter()).any(|&v| v == 0.0) {
-                valid = false;
-            }
+            // Tiles with nodata (0) in either frame are not compared.
+            let valid = !pa.iter().chain(pb.iter()).any(|&v| v == 0.0);
             if valid
                 && let Ok(e) = pc.estimate(&pa, &pb)
                 && e.confidence > 0.05

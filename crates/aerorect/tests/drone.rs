@@ -250,3 +250,41 @@ fn gimbal_angles_predict_the_registered_homography() {
     // About 1 degree of gimbal-angle error at f = 3066 px is 54 px.
     assert!(d < 110.0, "{d}");
 }
+
+/// Two GeoTIFFs on one grid whose content is offset by a known whole number of pixels: the
+/// overlap measurement gives that offset, in pixels and in metres.
+#[test]
+fn overlap_shift_measures_a_known_offset() {
+    use aerorect::io::{GeoReference, write_image_geo};
+    use aerorect::raster::{AnyRaster, Raster};
+    let big: Raster<u8> = aerorect_testkit::textured_scene(ImageSize::new(600, 600), 1, 200.0, 7);
+    let crop = |x0: usize, y0: usize| {
+        let p: Vec<u8> = (0..512 * 512)
+            .map(|i| big.plane(0)[(y0 + i / 512) * 600 + x0 + i % 512])
+            .collect();
+        AnyRaster::U8(Raster::from_planes(ImageSize::new(512, 512), vec![p]).unwrap())
+    };
+    let geo = GeoReference {
+        epsg: 32635,
+        pixel_size: [0.5, 0.5],
+        top_left: [1000.0, 2000.0],
+        nodata: Some(0.0),
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.tif"), dir.path().join("b.tif"));
+    write_image_geo(&a, &crop(50, 50), Some(&geo)).unwrap();
+    // B(c, r) = A(c - 3, r + 2): a feature at (x, y) in A is at (x + 3, y - 2) in B.
+    write_image_geo(&b, &crop(47, 52), Some(&geo)).unwrap();
+    let r = aerorect::drone::overlap_shift(&a, &b, 128).unwrap();
+    assert_eq!(r.patches, 16);
+    assert!(
+        (r.median_px[0] - 3.0).abs() < 0.05 && (r.median_px[1] + 2.0).abs() < 0.05,
+        "{:?}",
+        r.median_px
+    );
+    assert!(
+        (r.median_m[0] - 1.5).abs() < 0.03 && (r.median_m[1] - 1.0).abs() < 0.03,
+        "{:?}",
+        r.median_m
+    );
+}
