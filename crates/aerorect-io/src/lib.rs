@@ -11,6 +11,7 @@ pub mod error;
 pub mod geotiff;
 pub mod image_file;
 pub mod metadata;
+pub mod sensors;
 mod tiff_file;
 
 pub use attitude::read_attitude;
@@ -26,3 +27,4 @@ pub use image_file::{
     write_image_geo,
 };
 pub use metadata::{PhotoMetadata, read_photo_metadata};
+pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};
