@@ -24,6 +24,12 @@ pub enum GeometryError {
         pixels: u64,
         limit: u64,
     },
+    /// An image resized to another aspect ratio (cropped, not scaled).
+    #[error(
+        "the calibration is for a {}x{} image but the image is {}x{}: not the same aspect ratio (cropped?)",
+        from[0], from[1], to[0], to[1]
+    )]
+    AspectMismatch { from: [usize; 2], to: [usize; 2] },
     /// A homography matrix is singular.
     #[error("the homography is singular")]
     Singular,

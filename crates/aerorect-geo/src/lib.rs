@@ -1,0 +1,19 @@
+//! Georeferencing: projected CRSs and the rotation from local east-north-up to a CRS's grid
+//! axes (grid convergence), exterior orientation, terrain heights, and the ground-to-image map
+//! an orthophoto is resampled through.
+//!
+//! World frame: a projected CRS's easting, northing and height (metres), treated as Cartesian
+//! (as photogrammetric tools do); local frame: east, north, up at the camera. Camera frame as
+//! in `aerorect_core::camera`: x right, y up, z backwards.
+
+mod crs;
+mod error;
+mod ortho;
+mod pose;
+mod terrain;
+
+pub use crs::{Projection, convergence_deg, grid_from_enu};
+pub use error::GeoError;
+pub use ortho::{GroundMap, OrthoGrid, march_to_ground};
+pub use pose::{Mounting, Pose};
+pub use terrain::{Dem, HeightGrid, Sampling, Terrain};

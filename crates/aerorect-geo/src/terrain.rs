@@ -1,0 +1,177 @@
+//! Terrain heights: a DEM in its own CRS, and a height grid resampled from it onto the world
+//! CRS for the ground-to-image map (sampled bilinearly between cell centres).
+
+use crate::{GeoError, Projection};
+
+/// A north-up raster of heights in any CRS; NaN is no data. `top_left` is the outer corner of
+/// cell (0, 0), so the centre of cell (c, r) is (x0 + (c + 0.5) sx, y0 - (r + 0.5) sy).
+#[derive(Debug, Clone)]
+pub struct Dem {
+    pub name: String,
+    pub values: Vec<f32>,
+    pub width: usize,
+    pub height: usize,
+    pub top_left: [f64; 2],
+    pub cell_size: [f64; 2],
+    pub projection: Projection,
+}
+
+/// Bilinear interpolation between cell centres of a row-major grid; `None` outside the centres'
+/// hull or where a tap is NaN.
+#[inline]
+fn bilinear(values: &[f32], width: usize, height: usize, col: f64, row: f64) -> Option<f64> {
+    if !(col >= 0.0 && row >= 0.0 && col <= (width - 1) as f64 && row <= (height - 1) as f64) {
+        return None;
+    }
+    let (c0, r0) = (
+        (col.floor() as usize).min(width.saturating_sub(2)),
+        (row.floor() as usize).min(height.saturating_sub(2)),
+    );
+    let (c1, r1) = ((c0 + 1).min(width - 1), (r0 + 1).min(height - 1));
+    let (fx, fy) = (col - c0 as f64, row - r0 as f64);
+    let at = |c: usize, r: usize| values[r * width + c] as f64;
+    let top = at(c0, r0) * (1.0 - fx) + at(c1, r0) * fx;
+    let bottom = at(c0, r1) * (1.0 - fx) + at(c1, r1) * fx;
+    let h = top * (1.0 - fy) + bottom * fy;
+    h.is_finite().then_some(h)
+}
+
+impl Dem {
+    /// Checks the shape and that some height is valid.
+    pub fn validate(&self) -> Result<(), GeoError> {
+        let bad = |m: String| Err(GeoError::Dem(format!("{}: {m}", self.name)));
+        if self.width < 2 || self.height < 2 || self.values.len() != self.width * self.height {
+            return bad(format!(
+                "{} x {} is too small for interpolation",
+                self.width, self.height
+            ));
+        }
+        if !(self.cell_size[0] > 0.0 && self.cell_size[1] > 0.0) {
+            return bad(format!("cell size {:?} is not positive", self.cell_size));
+        }
+        if !self.values.iter().any(|v| v.is_finite()) {
+            return bad("has no valid height (all nodata)".into());
+        }
+        Ok(())
+    }
+
+    /// The height at (x, y) of the DEM's CRS, bilinear between cell centres.
+    pub fn height_at(&self, x: f64, y: f64) -> Option<f64> {
+        let col = (x - self.top_left[0]) / self.cell_size[0] - 0.5;
+        let row = (self.top_left[1] - y) / self.cell_size[1] - 0.5;
+        bilinear(&self.values, self.width, self.height, col, row)
+    }
+
+    /// Lowest and highest valid heights.
+    pub fn range(&self) -> Option<(f64, f64)> {
+        let v = self
+            .values
+            .iter()
+            .filter(|v| v.is_finite())
+            .map(|&v| v as f64);
+        let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), h| {
+            (a.min(h), b.max(h))
+        });
+        (lo <= hi).then_some((lo, hi))
+    }
+}
+
+/// Heights at the nodes of a north-up world grid (no holes: they were filled when sampled).
+#[derive(Debug, Clone)]
+pub struct HeightGrid {
+    /// World position of node (0, 0), the top-left one.
+    pub origin: [f64; 2],
+    pub spacing: f64,
+    pub width: usize,
+    pub height: usize,
+    pub values: Vec<f32>,
+}
+
+/// What sampling a DEM onto a world grid found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sampling {
+    pub nodes: usize,
+    /// Nodes outside the DEM or on nodata, given the fill height.
+    pub filled: usize,
+}
+
+impl HeightGrid {
+    /// Samples `dem` at the nodes of a grid over `bounds` = [xmin, ymin, xmax, ymax] of the
+    /// `world` CRS every `spacing` metres. Nodes without a height get `fill`.
+    pub fn from_dem(
+        dem: &Dem,
+        world: &Projection,
+        bounds: [f64; 4],
+        spacing: f64,
+        fill: f64,
+    ) -> Result<(Self, Sampling), GeoError> {
+        let width = ((bounds[2] - bounds[0]) / spacing).ceil() as usize + 2;
+        let height = ((bounds[3] - bounds[1]) / spacing).ceil() as usize + 2;
+        if width.saturating_mul(height) > 50_000_000 {
+            return Err(GeoError::Dem(format!(
+                "{}: a {width} x {height} height grid is too large",
+                dem.name
+            )));
+        }
+        let origin = [bounds[0] - spacing / 2.0, bounds[3] + spacing / 2.0];
+        let same = *world == dem.projection;
+        let mut values = Vec::with_capacity(width * height);
+        let mut filled = 0;
+        for r in 0..height {
+            for c in 0..width {
+                let (x, y) = (
+                    origin[0] + c as f64 * spacing,
+                    origin[1] - r as f64 * spacing,
+                );
+                let at = if same {
+                    Some([x, y])
+                } else {
+                    world.transform(&dem.projection, x, y).ok()
+                };
+                let h = at.and_then(|p| dem.height_at(p[0], p[1]));
+                filled += h.is_none() as usize;
+                values.push(h.unwrap_or(fill) as f32);
+            }
+        }
+        let grid = Self {
+            origin,
+            spacing,
+            width,
+            height,
+            values,
+        };
+        Ok((
+            grid,
+            Sampling {
+                nodes: width * height,
+                filled,
+            },
+        ))
+    }
+
+    /// The height at world (x, y), bilinear; positions outside take the nearest edge.
+    #[inline]
+    pub fn height_at(&self, x: f64, y: f64) -> f64 {
+        let col = ((x - self.origin[0]) / self.spacing).clamp(0.0, (self.width - 1) as f64);
+        let row = ((self.origin[1] - y) / self.spacing).clamp(0.0, (self.height - 1) as f64);
+        bilinear(&self.values, self.width, self.height, col, row).unwrap_or(f64::NAN)
+    }
+}
+
+/// The ground under the frame.
+#[derive(Debug, Clone)]
+pub enum Terrain {
+    /// Level ground at this height (world frame).
+    Flat(f64),
+    Grid(HeightGrid),
+}
+
+impl Terrain {
+    #[inline]
+    pub fn height_at(&self, x: f64, y: f64) -> f64 {
+        match self {
+            Terrain::Flat(z) => *z,
+            Terrain::Grid(g) => g.height_at(x, y),
+        }
+    }
+}
