@@ -41,17 +41,18 @@ def main():
                        check=True, capture_output=True)
         r = json.load(open(rep))
         geo = r["info"]["geo"]
+        epsg = geo["crs"]["Epsg"]  # drone output is always a UTM EPSG code
         x0, y0 = geo["top_left"]
         sx, sy = geo["pixel_size"]
         with rasterio.open(out) as ds:
             checks = {
-                "crs": (ds.crs.to_epsg(), geo["epsg"]),
+                "crs": (ds.crs.to_epsg(), epsg),
                 "transform": (tuple(round(v, 6) for v in ds.transform[:6]), (round(sx, 6), 0.0, round(x0, 6), 0.0, round(-sy, 6), round(y0, 6))),
                 "size": ((ds.width, ds.height), tuple(r["output_size"])),
                 "nodata": (ds.nodata, geo["nodata"]),
                 "area_or_point": (ds.tags().get("AREA_OR_POINT"), "Area"),
             }
-        e, n = transform("EPSG:4326", f"EPSG:{geo['epsg']}", [r["info"]["longitude_deg"]], [r["info"]["latitude_deg"]])
+        e, n = transform("EPSG:4326", f"EPSG:{epsg}", [r["info"]["longitude_deg"]], [r["info"]["latitude_deg"]])
         en = r["info"]["easting_northing_m"]
         checks["camera position (PROJ vs aerorect, mm)"] = (round(1000 * max(abs(e[0] - en[0]), abs(n[0] - en[1]))), 0)
         ok = all(a == b for a, b in checks.values())

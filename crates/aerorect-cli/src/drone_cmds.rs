@@ -46,13 +46,13 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
 fn result_line(r: &PhotoResult) -> String {
     let i = &r.info;
     format!(
-        "{} -> {}: {} x {} px at {:.3} m/px, EPSG:{}, gimbal yaw {:.1} pitch {:.1}, height {:.1} m{}, {:.2} s",
+        "{} -> {}: {} x {} px at {:.3} m/px, {}, gimbal yaw {:.1} pitch {:.1}, height {:.1} m{}, {:.2} s",
         r.input,
         r.output,
         r.output_size[0],
         r.output_size[1],
         i.gsd_m,
-        i.geo.epsg,
+        i.geo.crs,
         i.gimbal_yaw_pitch_roll_deg[0],
         i.gimbal_yaw_pitch_roll_deg[1],
         i.height_m,

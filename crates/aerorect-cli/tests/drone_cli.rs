@@ -63,7 +63,7 @@ fn rectify_from_metadata_writes_a_geotiff_and_a_world_file() {
     let geo = aerorect::io::read_georeference(&d.join("a.tif"))
         .unwrap()
         .unwrap();
-    assert_eq!(geo.epsg, 32635);
+    assert_eq!(geo.crs.epsg(), Some(32635));
     assert_eq!(geo.pixel_size, [0.5, 0.5]);
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("a.json")).unwrap()).unwrap();

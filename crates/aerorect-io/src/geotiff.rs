@@ -1,78 +1,126 @@
 //! GeoTIFF georeferencing written by hand with the `tiff` crate's tags (33550
-//! ModelPixelScale, 33922 ModelTiepoint, 34735 GeoKeyDirectory, 42113 GDAL_NODATA), a world
-//! file beside PNG output, and the same tags read back.
+//! ModelPixelScale, 33922 ModelTiepoint or 34264 ModelTransformation, 34735-34737 GeoKeys,
+//! 42113 GDAL_NODATA), a world file beside PNG output, and the same tags read back.
 //!
-//! Convention: north-up grids, PixelIsArea; `top_left` is the outer corner of pixel (0, 0), so
-//! the centre of pixel (c, r) is (x0 + (c + 0.5) sx, y0 - (r + 0.5) sy).
+//! Convention: PixelIsArea; `top_left` is the outer corner of pixel (0, 0), so on a north-up
+//! grid the centre of pixel (c, r) is (x0 + (c + 0.5) sx, y0 - (r + 0.5) sy).
 
+use crate::crs::Crs;
 use crate::error::IoError;
+use crate::geokeys::{self, GEO_ASCII_PARAMS, GEO_DOUBLE_PARAMS, GEO_KEY_DIRECTORY};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use tiff::tags::Tag;
 
 pub(crate) const MODEL_PIXEL_SCALE: u16 = 33550;
 pub(crate) const MODEL_TIEPOINT: u16 = 33922;
-pub(crate) const GEO_KEY_DIRECTORY: u16 = 34735;
+pub(crate) const MODEL_TRANSFORMATION: u16 = 34264;
 pub(crate) const GDAL_NODATA: u16 = 42113;
 
-/// A north-up grid in a projected CRS given by its EPSG code (metres).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// An image's grid on the ground: GDAL's geotransform in its parts, and the CRS.
+///
+/// Ground (x, y) of the outer corner of pixel (c, r):
+/// x = top_left[0] + c pixel_size[0] + r rotation[0], y = top_left[1] + c rotation[1] - r pixel_size[1].
+/// A north-up grid has `rotation` zero and both `pixel_size` > 0 (aerorect writes only those).
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct GeoReference {
-    pub epsg: u16,
-    /// Ground size of a pixel along x (east) and y (north), both > 0.
+    pub crs: Crs,
+    /// Ground size of a pixel along x (east) and y (north): GDAL's gt[1] and -gt[5].
     pub pixel_size: [f64; 2],
     /// The outer corner of pixel (0, 0): easting, northing.
     pub top_left: [f64; 2],
+    /// GDAL's gt[2] and gt[4] (0 for a north-up grid).
+    pub rotation: [f64; 2],
     pub nodata: Option<f64>,
 }
 
 impl GeoReference {
     /// The ground position of pixel centre (c, r).
     pub fn ground_of_pixel(&self, c: f64, r: f64) -> [f64; 2] {
-        [
-            self.top_left[0] + (c + 0.5) * self.pixel_size[0],
-            self.top_left[1] - (r + 0.5) * self.pixel_size[1],
-        ]
+        let g = self.geotransform();
+        let (c, r) = (c + 0.5, r + 0.5);
+        [g[0] + c * g[1] + r * g[2], g[3] + c * g[4] + r * g[5]]
     }
 
-    /// GDAL's geotransform (x0, sx, 0, y0, 0, -sy).
+    /// The pixel-centre coordinates (c, r) of a ground position; `None` for a degenerate grid.
+    pub fn pixel_of_ground(&self, x: f64, y: f64) -> Option<[f64; 2]> {
+        let g = self.geotransform();
+        let det = g[1] * g[5] - g[2] * g[4];
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let (dx, dy) = (x - g[0], y - g[3]);
+        let c = (g[5] * dx - g[2] * dy) / det;
+        let r = (g[1] * dy - g[4] * dx) / det;
+        Some([c - 0.5, r - 0.5])
+    }
+
+    /// GDAL's geotransform (x0, sx, rx, y0, ry, -sy).
     pub fn geotransform(&self) -> [f64; 6] {
         [
             self.top_left[0],
             self.pixel_size[0],
-            0.0,
+            self.rotation[0],
             self.top_left[1],
-            0.0,
+            self.rotation[1],
             -self.pixel_size[1],
         ]
     }
 
-    /// The GeoKeyDirectory: projected, PixelIsArea, the EPSG code, metres.
-    pub(crate) fn geo_keys(&self) -> Vec<u16> {
-        vec![
-            1, 1, 0, 4, // version 1.1.0, four keys
-            1024, 0, 1, 1, // GTModelTypeGeoKey = ModelTypeProjected
-            1025, 0, 1, 1, // GTRasterTypeGeoKey = RasterPixelIsArea
-            3072, 0, 1, self.epsg, // ProjectedCSTypeGeoKey
-            3076, 0, 1, 9001, // ProjLinearUnitsGeoKey = metre
-        ]
+    /// The grid of GDAL's geotransform `gt`.
+    pub fn from_geotransform(crs: Crs, gt: [f64; 6], nodata: Option<f64>) -> Self {
+        GeoReference {
+            crs,
+            pixel_size: [gt[1], -gt[5]],
+            top_left: [gt[0], gt[3]],
+            rotation: [gt[2], gt[4]],
+            nodata,
+        }
+    }
+
+    fn is_north_up(&self) -> bool {
+        self.rotation == [0.0, 0.0] && self.pixel_size[0] > 0.0 && self.pixel_size[1] > 0.0
     }
 
     pub(crate) fn write_tags<W: std::io::Write + std::io::Seek, K: tiff::encoder::TiffKind>(
         &self,
         enc: &mut tiff::encoder::DirectoryEncoder<'_, W, K>,
-    ) -> tiff::TiffResult<()> {
-        enc.write_tag(
-            Tag::Unknown(MODEL_PIXEL_SCALE),
-            &[self.pixel_size[0], self.pixel_size[1], 0.0][..],
-        )?;
-        enc.write_tag(
-            Tag::Unknown(MODEL_TIEPOINT),
-            &[0.0, 0.0, 0.0, self.top_left[0], self.top_left[1], 0.0][..],
-        )?;
-        enc.write_tag(Tag::Unknown(GEO_KEY_DIRECTORY), &self.geo_keys()[..])?;
+    ) -> Result<(), String> {
+        let (dir, doubles, ascii) = geokeys::encode(&self.crs).map_err(|e| e.to_string())?;
+        let e = |e: tiff::TiffError| e.to_string();
+        if self.is_north_up() {
+            enc.write_tag(
+                Tag::Unknown(MODEL_PIXEL_SCALE),
+                &[self.pixel_size[0], self.pixel_size[1], 0.0][..],
+            )
+            .map_err(e)?;
+            enc.write_tag(
+                Tag::Unknown(MODEL_TIEPOINT),
+                &[0.0, 0.0, 0.0, self.top_left[0], self.top_left[1], 0.0][..],
+            )
+            .map_err(e)?;
+        } else {
+            let g = self.geotransform();
+            let m = [
+                g[1], g[2], 0.0, g[0], g[4], g[5], 0.0, g[3], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                1.0,
+            ];
+            enc.write_tag(Tag::Unknown(MODEL_TRANSFORMATION), &m[..])
+                .map_err(e)?;
+        }
+        enc.write_tag(Tag::Unknown(GEO_KEY_DIRECTORY), &dir[..])
+            .map_err(e)?;
+        if !doubles.is_empty() {
+            enc.write_tag(Tag::Unknown(GEO_DOUBLE_PARAMS), &doubles[..])
+                .map_err(e)?;
+        }
+        if !ascii.is_empty() {
+            enc.write_tag(Tag::Unknown(GEO_ASCII_PARAMS), ascii.as_str())
+                .map_err(e)?;
+        }
         if let Some(nd) = self.nodata {
-            enc.write_tag(Tag::Unknown(GDAL_NODATA), format!("{nd}").as_str())?;
+            enc.write_tag(Tag::Unknown(GDAL_NODATA), format!("{nd}").as_str())
+                .map_err(e)?;
         }
         Ok(())
     }
@@ -94,14 +142,10 @@ pub fn world_file_path(image: &Path) -> PathBuf {
     image.with_extension(w)
 }
 
-/// Writes the six-line world file (pixel size, rotations, centre of the top-left pixel).
+/// Writes the six-line world file (gt[1], gt[4], gt[2], gt[5], centre of the top-left pixel).
 pub fn write_world_file(image: &Path, geo: &GeoReference) -> Result<PathBuf, IoError> {
     let path = world_file_path(image);
-    let c = geo.ground_of_pixel(0.0, 0.0);
-    let text = format!(
-        "{:.12}\n0\n0\n{:.12}\n{:.6}\n{:.6}\n",
-        geo.pixel_size[0], -geo.pixel_size[1], c[0], c[1]
-    );
+    let text = world_file_text(geo);
     crate::write_atomically(&path, |w| {
         use std::io::Write;
         w.write_all(text.as_bytes())
@@ -110,59 +154,115 @@ pub fn write_world_file(image: &Path, geo: &GeoReference) -> Result<PathBuf, IoE
     Ok(path)
 }
 
-/// The georeferencing of a GeoTIFF written as above; `None` for a TIFF without it.
+pub(crate) fn world_file_text(geo: &GeoReference) -> String {
+    let g = geo.geotransform();
+    let c = geo.ground_of_pixel(0.0, 0.0);
+    format!(
+        "{:.12}\n{:.12}\n{:.12}\n{:.12}\n{:.6}\n{:.6}\n",
+        g[1], g[4], g[2], g[5], c[0], c[1]
+    )
+}
+
+/// The georeferencing of a GeoTIFF: CRS from its GeoKeys (EPSG code, GDAL's user-defined
+/// projection keys, or a WKT citation), geotransform from ModelTransformation or
+/// ModelTiepoint + ModelPixelScale (PixelIsPoint shifted by half a pixel, as GDAL does), and
+/// GDAL_NODATA. `None` for a TIFF without a GeoKeyDirectory.
 pub fn read_georeference(path: &Path) -> Result<Option<GeoReference>, IoError> {
     let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
     let mut dec = tiff::decoder::Decoder::new(std::io::BufReader::new(file))
         .map_err(|e| IoError::decode(path, e))?;
-    let err = |e: tiff::TiffError| IoError::decode(path, e);
-    if dec
-        .find_tag(Tag::Unknown(GEO_KEY_DIRECTORY))
-        .map_err(err)?
-        .is_none()
-    {
+    let Some(dir) = tag_u16s(&mut dec, path, GEO_KEY_DIRECTORY)? else {
         return Ok(None);
-    }
-    let scale = dec
-        .get_tag_f64_vec(Tag::Unknown(MODEL_PIXEL_SCALE))
-        .map_err(err)?;
-    let tie = dec
-        .get_tag_f64_vec(Tag::Unknown(MODEL_TIEPOINT))
-        .map_err(err)?;
-    let keys = dec
-        .get_tag_u16_vec(Tag::Unknown(GEO_KEY_DIRECTORY))
-        .map_err(err)?;
-    let nodata = match dec.find_tag(Tag::Unknown(GDAL_NODATA)).map_err(err)? {
-        Some(_) => dec
-            .get_tag_ascii_string(Tag::Unknown(GDAL_NODATA))
-            .map_err(err)?
-            .trim_matches(char::from(0))
-            .trim()
-            .parse::<f64>()
-            .ok(),
-        None => None,
     };
-    let epsg = keys
-        .chunks_exact(4)
-        .skip(1)
-        .find(|k| k[0] == 3072)
-        .map(|k| k[3])
-        .ok_or_else(|| {
-            IoError::field(
+    let doubles = tag_f64s(&mut dec, path, GEO_DOUBLE_PARAMS)?.unwrap_or_default();
+    let ascii = tag_ascii(&mut dec, path, GEO_ASCII_PARAMS)?.unwrap_or_default();
+    let keys = geokeys::GeoKeys::parse(&dir, &doubles, &ascii)
+        .and_then(|k| Ok((k.crs()?, k.pixel_is_point())))
+        .map_err(|e| IoError::field(path.display(), format!("GeoKeyDirectory: {e}")))?;
+    let (crs, pixel_is_point) = keys;
+    crs.to_proj()
+        .map_err(|e| IoError::field(path.display(), format!("GeoKeyDirectory: {e}")))?;
+    let mut gt = geotransform(&mut dec, path)?;
+    if pixel_is_point {
+        gt[0] -= 0.5 * (gt[1] + gt[2]);
+        gt[3] -= 0.5 * (gt[4] + gt[5]);
+    }
+    let nodata = match tag_ascii(&mut dec, path, GDAL_NODATA)? {
+        None => None,
+        Some(t) => {
+            let t = t.trim_matches(char::from(0)).trim();
+            Some(t.parse::<f64>().map_err(|_| {
+                IoError::field(
+                    path.display(),
+                    format!("GDAL_NODATA (42113) = '{t}' is not a number"),
+                )
+            })?)
+        }
+    };
+    Ok(Some(GeoReference::from_geotransform(crs, gt, nodata)))
+}
+
+type Dec = tiff::decoder::Decoder<std::io::BufReader<std::fs::File>>;
+
+/// GDAL's geotransform from ModelTransformation, else ModelTiepoint + ModelPixelScale.
+fn geotransform(dec: &mut Dec, path: &Path) -> Result<[f64; 6], IoError> {
+    if let Some(m) = tag_f64s(dec, path, MODEL_TRANSFORMATION)? {
+        if m.len() < 8 {
+            return Err(IoError::field(
                 path.display(),
-                "GeoKeyDirectory has no ProjectedCSTypeGeoKey",
-            )
-        })?;
+                format!("ModelTransformation (34264) has {} values, not 16", m.len()),
+            ));
+        }
+        return Ok([m[3], m[0], m[1], m[7], m[4], m[5]]);
+    }
+    let scale = tag_f64s(dec, path, MODEL_PIXEL_SCALE)?.unwrap_or_default();
+    let tie = tag_f64s(dec, path, MODEL_TIEPOINT)?.unwrap_or_default();
     if scale.len() < 2 || tie.len() < 6 {
         return Err(IoError::field(
             path.display(),
-            "short ModelPixelScale or ModelTiepoint",
+            "no ModelTransformation (34264), and ModelPixelScale (33550) or ModelTiepoint (33922) is missing or short",
         ));
     }
-    Ok(Some(GeoReference {
-        epsg,
-        pixel_size: [scale[0], scale[1]],
-        top_left: [tie[3] - tie[0] * scale[0], tie[4] + tie[1] * scale[1]],
-        nodata,
-    }))
+    let (sx, sy) = (scale[0], scale[1]);
+    Ok([
+        tie[3] - tie[0] * sx,
+        sx,
+        0.0,
+        tie[4] + tie[1] * sy,
+        0.0,
+        -sy,
+    ])
+}
+
+fn tag_f64s(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<Vec<f64>>, IoError> {
+    let t = Tag::Unknown(tag);
+    match dec.find_tag(t).map_err(|e| IoError::decode(path, e))? {
+        None => Ok(None),
+        Some(_) => dec
+            .get_tag_f64_vec(t)
+            .map(Some)
+            .map_err(|e| IoError::decode(path, e)),
+    }
+}
+
+fn tag_u16s(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<Vec<u16>>, IoError> {
+    let t = Tag::Unknown(tag);
+    match dec.find_tag(t).map_err(|e| IoError::decode(path, e))? {
+        None => Ok(None),
+        Some(_) => dec
+            .get_tag_u16_vec(t)
+            .map(Some)
+            .map_err(|e| IoError::decode(path, e)),
+    }
+}
+
+fn tag_ascii(dec: &mut Dec, path: &Path, tag: u16) -> Result<Option<String>, IoError> {
+    let t = Tag::Unknown(tag);
+    match dec.find_tag(t).map_err(|e| IoError::decode(path, e))? {
+        None => Ok(None),
+        Some(_) => dec
+            .get_tag_ascii_string(t)
+            .map(Some)
+            .map_err(|e| IoError::decode(path, e)),
+    }
 }

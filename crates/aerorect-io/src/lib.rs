@@ -7,7 +7,10 @@
 pub mod attitude;
 pub mod camera;
 pub mod checkpoints;
+pub mod crs;
+pub mod dem;
 pub mod error;
+mod geokeys;
 pub mod geotiff;
 pub mod image_file;
 pub mod metadata;
@@ -20,6 +23,8 @@ pub use checkpoints::{
     ControlPoint, Gcp, read_checkpoints, read_control_points, read_gcps, write_checkpoints,
     write_csv,
 };
+pub use crs::Crs;
+pub use dem::{Dem, read_dem};
 pub use error::IoError;
 pub use geotiff::{GeoReference, read_georeference, write_world_file};
 pub use image_file::{

@@ -1,5 +1,6 @@
-//! TIFF through the `tiff` crate: 8/16-bit and f32 samples, 1-4 bands, strips or tiles,
-//! uncompressed, LZW, Deflate or PackBits when reading; Deflate when writing.
+//! TIFF through the `tiff` crate: 1-4 bands, strips or tiles, TIFF or BigTIFF; any integer or
+//! float sample type, uncompressed, LZW, Deflate, PackBits or JPEG (YCbCr turned into RGB) when
+//! reading; 8/16-bit and f32 with Deflate when writing.
 
 use crate::error::IoError;
 use crate::geotiff::GeoReference;
@@ -13,7 +14,17 @@ use tiff::decoder::{Decoder, DecodingResult, Limits};
 use tiff::encoder::{Compression, DeflateLevel, TiffEncoder, TiffValue, colortype};
 use tiff::tags::{PhotometricInterpretation, SampleFormat, Tag};
 
-pub(crate) fn read(path: &Path) -> Result<AnyRaster, IoError> {
+/// A TIFF's first image: size, bands and interleaved samples as the `tiff` crate decoded them,
+/// YCbCr already turned into RGB.
+pub(crate) struct Decoded {
+    pub size: ImageSize,
+    pub bands: usize,
+    pub samples: DecodingResult,
+}
+
+/// Decodes the first image of a TIFF or BigTIFF (any compression the `tiff` crate reads, JPEG
+/// included).
+pub(crate) fn decode(path: &Path) -> Result<Decoded, IoError> {
     let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
     let mut limits = Limits::default();
     limits.decoding_buffer_size = MAX_DECODED_BYTES as usize;
@@ -22,10 +33,11 @@ pub(crate) fn read(path: &Path) -> Result<AnyRaster, IoError> {
         .map_err(|e| IoError::decode(path, e))?
         .with_limits(limits);
     let (w, h) = dec.dimensions().map_err(|e| IoError::decode(path, e))?;
-    let bands = match dec.colortype().map_err(|e| IoError::decode(path, e))? {
+    let colour = dec.colortype().map_err(|e| IoError::decode(path, e))?;
+    let bands = match colour {
         ColorType::Gray(_) => 1,
         ColorType::GrayA(_) => 2,
-        ColorType::RGB(_) => 3,
+        ColorType::RGB(_) | ColorType::YCbCr(8) => 3,
         ColorType::RGBA(_) => 4,
         ColorType::Multiband { num_samples, .. } if (1..=4).contains(&num_samples) => {
             num_samples as usize
@@ -38,27 +50,67 @@ pub(crate) fn read(path: &Path) -> Result<AnyRaster, IoError> {
         }
     };
     let size = ImageSize::new(w as usize, h as usize);
-    let result = dec.read_image().map_err(|e| IoError::decode(path, e))?;
+    let mut samples = dec.read_image().map_err(|e| IoError::decode(path, e))?;
+    if colour == ColorType::YCbCr(8)
+        && let DecodingResult::U8(v) = &mut samples
+    {
+        ycbcr_to_rgb(v);
+    }
+    Ok(Decoded {
+        size,
+        bands,
+        samples,
+    })
+}
+
+/// JFIF's YCbCr -> RGB (ITU-R BT.601 full range, ReferenceBlackWhite at its default), in place.
+fn ycbcr_to_rgb(v: &mut [u8]) {
+    let to8 = |x: f32| x.round().clamp(0.0, 255.0) as u8;
+    for px in v.chunks_exact_mut(3) {
+        let y = f32::from(px[0]);
+        let cb = f32::from(px[1]) - 128.0;
+        let cr = f32::from(px[2]) - 128.0;
+        px[0] = to8(y + 1.402 * cr);
+        px[1] = to8(y - 0.344_136 * cb - 0.714_136 * cr);
+        px[2] = to8(y + 1.772 * cb);
+    }
+}
+
+/// Every sample as f32 (signed and wider integers, f16 and f64 included).
+pub(crate) fn samples_f32(samples: DecodingResult) -> Vec<f32> {
+    match samples {
+        DecodingResult::U8(v) => v.into_iter().map(f32::from).collect(),
+        DecodingResult::U16(v) => v.into_iter().map(f32::from).collect(),
+        DecodingResult::U32(v) => v.into_iter().map(|x| x as f32).collect(),
+        DecodingResult::U64(v) => v.into_iter().map(|x| x as f32).collect(),
+        DecodingResult::I8(v) => v.into_iter().map(f32::from).collect(),
+        DecodingResult::I16(v) => v.into_iter().map(f32::from).collect(),
+        DecodingResult::I32(v) => v.into_iter().map(|x| x as f32).collect(),
+        DecodingResult::I64(v) => v.into_iter().map(|x| x as f32).collect(),
+        DecodingResult::F16(v) => v.into_iter().map(|x| x.to_f32()).collect(),
+        DecodingResult::F32(v) => v,
+        DecodingResult::F64(v) => v.into_iter().map(|x| x as f32).collect(),
+    }
+}
+
+/// A TIFF image: 8/16-bit unsigned samples kept, every other sample type as f32.
+pub(crate) fn read(path: &Path) -> Result<AnyRaster, IoError> {
+    let Decoded {
+        size,
+        bands,
+        samples,
+    } = decode(path)?;
     let err = |e: aerorect_raster::RasterError| IoError::decode(path, e);
-    Ok(match result {
+    Ok(match samples {
         DecodingResult::U8(v) => {
             AnyRaster::U8(Raster::from_interleaved(size, bands, &v).map_err(err)?)
         }
         DecodingResult::U16(v) => {
             AnyRaster::U16(Raster::from_interleaved(size, bands, &v).map_err(err)?)
         }
-        DecodingResult::F32(v) => {
+        other => {
+            let v = samples_f32(other);
             AnyRaster::F32(Raster::from_interleaved(size, bands, &v).map_err(err)?)
-        }
-        DecodingResult::F64(v) => {
-            let v: Vec<f32> = v.iter().map(|&x| x as f32).collect();
-            AnyRaster::F32(Raster::from_interleaved(size, bands, &v).map_err(err)?)
-        }
-        _ => {
-            return Err(IoError::decode(
-                path,
-                "unsupported sample type (8/16-bit unsigned or float only)",
-            ));
         }
     })
 }
@@ -139,7 +191,7 @@ where
             .map_err(|e| e.to_string())?;
     }
     if let Some(g) = geo {
-        g.write_tags(img.encoder()).map_err(|e| e.to_string())?;
+        g.write_tags(img.encoder())?;
     }
     // One interleaved copy of the image: the tiff crate (0.11) compresses only in `write_data`;
     // its `write_strip` would write raw strips under a Deflate tag.

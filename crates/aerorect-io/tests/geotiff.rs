@@ -2,16 +2,17 @@
 #![allow(clippy::unwrap_used)]
 
 use aerorect_core::ImageSize;
-use aerorect_io::{GeoReference, read_georeference, read_image, write_image_geo};
+use aerorect_io::{Crs, GeoReference, read_georeference, read_image, write_image_geo};
 use aerorect_raster::{AnyRaster, Raster};
 use tiff::decoder::Decoder;
 use tiff::tags::Tag;
 
 fn geo() -> GeoReference {
     GeoReference {
-        epsg: 32635,
+        crs: Crs::Epsg(32635),
         pixel_size: [0.25, 0.25],
         top_left: [500_123.5, 5_975_432.25],
+        rotation: [0.0, 0.0],
         nodata: Some(0.0),
     }
 }

@@ -9,7 +9,7 @@ use aerorect_core::orientation::standard_from_rotation;
 use aerorect_core::{
     CameraRotation, Homography, ImageSize, Intrinsics, Mat3, RectifyGeometry, RectifyLimits,
 };
-use aerorect_io::{CameraFile, GeoReference, PhotoMetadata};
+use aerorect_io::{CameraFile, Crs, GeoReference, PhotoMetadata};
 use aerorect_raster::WarpOptions;
 use serde::Serialize;
 
@@ -342,9 +342,10 @@ pub fn plan_from_metadata(
             .map_err(Error::geometry(format!("{file}: rectify")))?;
     let [i0, j0] = geometry.standard_origin;
     let geo = GeoReference {
-        epsg,
+        crs: Crs::Epsg(epsg),
         pixel_size: [gsd, gsd],
         top_left: [i0 * gsd, -j0 * gsd],
+        rotation: [0.0, 0.0],
         nodata: (!opts.warp.alpha).then_some(opts.warp.nodata),
     };
     let mut warnings = camera.warnings.clone();
@@ -477,13 +478,13 @@ pub fn overlap_shift(
             .ok_or_else(|| Error::Invalid(format!("{}: not a GeoTIFF", p.display())))
     };
     let (ga, gb) = (geo(a)?, geo(b)?);
-    if ga.epsg != gb.epsg || (ga.pixel_size[0] - gb.pixel_size[0]).abs() > 1e-9 * ga.pixel_size[0] {
+    if ga.crs != gb.crs || (ga.pixel_size[0] - gb.pixel_size[0]).abs() > 1e-9 * ga.pixel_size[0] {
         return Err(Error::Invalid(format!(
-            "{} and {} are not on one grid (EPSG {} / {}, GSD {} / {})",
+            "{} and {} are not on one grid (CRS {} / {}, GSD {} / {})",
             a.display(),
             b.display(),
-            ga.epsg,
-            gb.epsg,
+            ga.crs,
+            gb.crs,
             ga.pixel_size[0],
             gb.pixel_size[0]
         )));

@@ -114,7 +114,7 @@ fn frame_row(f: &PhotoResult) -> String {
             .join("<br>")
     };
     format!(
-        "<tr><td><b>{}</b><br>{} x {} &rarr; {} x {} px<br>EPSG:{}<br>{:.2} s</td><td>{before}</td><td>{after}</td>\
+        "<tr><td><b>{}</b><br>{} x {} &rarr; {} x {} px<br>{}<br>{:.2} s</td><td>{before}</td><td>{after}</td>\
          <td>gimbal yaw {:.1}&deg;<br>pitch {:.1}&deg;<br>roll {:.1}&deg;<br>off nadir {:.1}&deg;</td>\
          <td>{:.1} m<br><small>{}</small></td><td>{:.3} m</td><td>{warnings}</td></tr>",
         esc(&name(&f.input)),
@@ -122,7 +122,7 @@ fn frame_row(f: &PhotoResult) -> String {
         f.input_size[1],
         f.output_size[0],
         f.output_size[1],
-        i.geo.epsg,
+        esc(&i.geo.crs.to_string()),
         f.seconds,
         i.gimbal_yaw_pitch_roll_deg[0],
         i.gimbal_yaw_pitch_roll_deg[1],

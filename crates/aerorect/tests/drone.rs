@@ -208,7 +208,7 @@ fn real_dji_frame_geotiff_reads_back() {
     let r = rectify_photo(&p, &out, &opts, None).unwrap();
     let geo = aerorect::io::read_georeference(&out).unwrap().unwrap();
     assert_eq!(geo, r.info.geo);
-    assert_eq!(geo.epsg, 32635);
+    assert_eq!(geo.crs.epsg(), Some(32635));
     let img = aerorect::io::read_image(&out).unwrap();
     assert_eq!([img.size().width, img.size().height], r.output_size);
     let [e, n] = r.info.easting_northing_m;
@@ -265,9 +265,10 @@ fn overlap_shift_measures_a_known_offset() {
         AnyRaster::U8(Raster::from_planes(ImageSize::new(512, 512), vec![p]).unwrap())
     };
     let geo = GeoReference {
-        epsg: 32635,
+        crs: aerorect::io::Crs::Epsg(32635),
         pixel_size: [0.5, 0.5],
         top_left: [1000.0, 2000.0],
+        rotation: [0.0, 0.0],
         nodata: Some(0.0),
     };
     let dir = tempfile::tempdir().unwrap();
