@@ -57,6 +57,13 @@ pub struct RectifyArgs {
     /// Write a JSON report (homography, output grid, timing, inputs).
     #[arg(long)]
     pub(crate) report: Option<PathBuf>,
+    /// Exterior orientation x,y,z,omega,phi,kappa (world CRS of --crs; degrees, PATB
+    /// omega-phi-kappa about the CRS's axes) instead of the photo's metadata; needs --dem or
+    /// --ground-height-m.
+    #[arg(long, conflicts_with = "attitude", allow_hyphen_values = true)]
+    pub(crate) pose: Option<String>,
+    #[command(flatten)]
+    pub(crate) geo: crate::drone_cmds::GeoArgs,
 }
 
 /// Refuses outputs that name the input.

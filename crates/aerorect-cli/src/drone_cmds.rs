@@ -5,13 +5,132 @@ use aerorect::core::RectifyLimits;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
 use aerorect::demo::write_text;
 use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo};
-use aerorect::io::CameraFile;
+use aerorect::geo::{Mounting, Projection};
+use aerorect::georef::load_dem;
+use aerorect::io::{CameraFile, Crs, PoseRecord};
 use aerorect::raster::{Interp, WarpOptions};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::sync::Mutex;
+
+/// Georeferencing options shared by `rectify` (without --attitude) and `batch`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct GeoArgs {
+    /// DEM or DSM GeoTIFF (any CRS, float or integer, nodata honoured): each output pixel is
+    /// projected at its terrain height; the camera's height is AbsoluteAltitude (or EXIF
+    /// GPSAltitude, or the pose's z) + --vertical-offset-m, in the DEM's vertical datum.
+    #[arg(long)]
+    pub dem: Option<PathBuf>,
+    /// Added to the camera's altitude to bring it to the DEM's vertical datum (e.g. minus the
+    /// geoid undulation for ellipsoidal GNSS heights over an EGM96/EGM2008 DEM).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub vertical_offset_m: f64,
+    /// DEM holes or a DEM that does not cover the frame are errors (default: a warning and the
+    /// level fallback).
+    #[arg(long)]
+    pub strict: bool,
+    /// Output CRS: EPSG:code, a PROJ string or WKT (default: the position's UTM zone; required
+    /// with poses, or read from the pose table's .prj).
+    #[arg(long, allow_hyphen_values = true)]
+    pub crs: Option<String>,
+    /// Boresight: fixed rotation of the camera in its mount, three angles about the camera's
+    /// x, y, z axes in degrees (Rx Ry Rz), applied after the recorded attitude.
+    #[arg(long, value_name = "RX,RY,RZ", allow_hyphen_values = true)]
+    pub boresight_deg: Option<String>,
+    /// Lever arm: the camera's projection centre from the GNSS antenna, metres, in the
+    /// aircraft body frame (x forward, y right, z down; DJI Flight angles) or the pose's camera
+    /// frame.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub lever_arm_m: Option<String>,
+}
+
+/// Three comma-separated finite numbers of a flag.
+fn triple(flag: &str, text: &str) -> Result<[f64; 3]> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--{flag} '{text}': expected three numbers"))?;
+    match v[..] {
+        [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok([a, b, c]),
+        _ => bail!("--{flag} '{text}': expected three finite numbers"),
+    }
+}
+
+/// The options every frame of a command shares.
+pub(crate) fn ortho_options(
+    geo: &GeoArgs,
+    common: (Option<f64>, Option<f64>, Option<&Path>),
+    limits: RectifyLimits,
+    warp: WarpOptions,
+    poses: Option<&Path>,
+) -> Result<DroneOptions> {
+    let (gsd_m, ground_height_m, camera) = common;
+    if !geo.vertical_offset_m.is_finite() {
+        bail!(
+            "--vertical-offset-m {}: not a finite number",
+            geo.vertical_offset_m
+        );
+    }
+    let mounting = Mounting::from_angles(
+        geo.boresight_deg
+            .as_deref()
+            .map(|t| triple("boresight-deg", t))
+            .transpose()?
+            .unwrap_or([0.0; 3]),
+        geo.lever_arm_m
+            .as_deref()
+            .map(|t| triple("lever-arm-m", t))
+            .transpose()?
+            .unwrap_or([0.0; 3]),
+    );
+    let crs_text = match (&geo.crs, poses) {
+        (Some(c), _) => Some(c.clone()),
+        (None, Some(p)) => {
+            let prj = p.with_extension("prj");
+            match std::fs::read_to_string(&prj) {
+                Ok(t) => Some(t.trim().to_string()),
+                Err(_) => None,
+            }
+        }
+        (None, None) => None,
+    };
+    let crs = crs_text
+        .map(|t| -> Result<_> {
+            let c = Crs::parse(&t).with_context(|| format!("--crs '{t}'"))?;
+            let def = c.to_proj_string().with_context(|| format!("--crs '{t}'"))?;
+            let p = Projection::new(&def).with_context(|| format!("--crs '{t}'"))?;
+            if p.is_geographic() {
+                bail!("--crs '{t}' is geographic: orthos need a projected CRS in metres");
+            }
+            Ok((c, p))
+        })
+        .transpose()?;
+    let poses = poses
+        .map(|p| -> Result<_> {
+            let rows = aerorect::io::read_poses(p)?;
+            Ok(Arc::new(
+                rows.into_iter().map(|r| (r.filename.clone(), r)).collect(),
+            ))
+        })
+        .transpose()?;
+    Ok(DroneOptions {
+        gsd_m,
+        ground_height_m,
+        dem: geo.dem.as_deref().map(load_dem).transpose()?.map(Arc::new),
+        vertical_offset_m: geo.vertical_offset_m,
+        strict: geo.strict,
+        crs,
+        camera: camera.map(CameraFile::read).transpose()?,
+        poses,
+        mounting,
+        limits,
+        warp,
+    })
+}
 
 pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
     if a.altitude_m.is_some() || a.base_altitude_m.is_some() {
@@ -23,15 +142,45 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
         nodata: a.nodata,
         alpha: a.alpha,
     };
-    let opts = DroneOptions {
-        gsd_m: a.gsd_m,
-        ground_height_m: a.ground_height_m,
-        camera: a.camera.as_deref().map(CameraFile::read).transpose()?,
-        limits: RectifyLimits {
-            max_output_px: a.max_output_px,
-        },
-        warp,
+    let limits = RectifyLimits {
+        max_output_px: a.max_output_px,
     };
+    let mut opts = ortho_options(
+        &a.geo,
+        (a.gsd_m, a.ground_height_m, a.camera.as_deref()),
+        limits,
+        warp,
+        None,
+    )?;
+    if let Some(text) = &a.pose {
+        let v: Vec<f64> = text
+            .split(',')
+            .map(|t| t.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .with_context(|| format!("--pose '{text}': expected x,y,z,omega,phi,kappa"))?;
+        let [x, y, z, omega, phi, kappa] = v[..] else {
+            bail!("--pose '{text}': expected six numbers x,y,z,omega,phi,kappa");
+        };
+        if let Some(bad) = v.iter().find(|x| !x.is_finite()) {
+            bail!("--pose '{text}': {bad} is not a finite number");
+        }
+        let name = a
+            .input
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or("")
+            .to_string();
+        let rec = PoseRecord {
+            filename: name.clone(),
+            x,
+            y,
+            z,
+            omega,
+            phi,
+            kappa,
+        };
+        opts.poses = Some(Arc::new([(name, rec)].into_iter().collect()));
+    }
     let r = rectify_photo(&a.input, &a.output, &opts, None)?;
     if let Some(p) = &a.report {
         write_text(p, &serde_json::to_string_pretty(&r)?)?;
@@ -79,6 +228,12 @@ pub struct BatchArgs {
     /// Camera file for every frame (overrides the metadata's camera).
     #[arg(long)]
     camera: Option<PathBuf>,
+    /// Exterior orientation of the frames: CSV `filename,x,y,z,omega,phi,kappa` (the world CRS
+    /// from --crs or the CSV's .prj sidecar; angles in degrees, PATB omega-phi-kappa).
+    #[arg(long)]
+    poses: Option<PathBuf>,
+    #[command(flatten)]
+    geo: GeoArgs,
     /// Frames processed at once (each also uses all threads for its warp).
     #[arg(long, default_value_t = 2)]
     jobs: usize,
@@ -130,19 +285,19 @@ pub fn batch(a: BatchArgs) -> Result<()> {
         refuse_overwrite(input, &refs)?;
     }
     // One camera file and one set of options for every frame.
-    let opts = DroneOptions {
-        gsd_m: a.gsd_m,
-        ground_height_m: a.ground_height_m,
-        camera: a.camera.as_deref().map(CameraFile::read).transpose()?,
-        limits: RectifyLimits {
+    let opts = ortho_options(
+        &a.geo,
+        (a.gsd_m, a.ground_height_m, a.camera.as_deref()),
+        RectifyLimits {
             max_output_px: a.max_output_px,
         },
-        warp: WarpOptions {
+        WarpOptions {
             interp: a.interp,
             nodata: a.nodata,
             alpha: false,
         },
-    };
+        a.poses.as_deref(),
+    )?;
     let started = std::time::Instant::now();
     let pb =
         ProgressBar::with_draw_target(Some(a.inputs.len() as u64), ProgressDrawTarget::stderr());

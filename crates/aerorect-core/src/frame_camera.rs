@@ -67,7 +67,7 @@ impl Camera {
     /// lens model has no answer.
     #[inline]
     pub fn pixel_from_camera_point(&self, p: Vec3) -> Option<[f64; 2]> {
-        if !(p.z < 0.0) {
+        if p.z >= 0.0 || p.z.is_nan() {
             return None;
         }
         let n = [p.x / -p.z, p.y / p.z];
@@ -89,12 +89,11 @@ impl Camera {
         Some(Vec3::new(q[0], -q[1], -1.0))
     }
 
-    /// Points along the image's outer edge (the outer corners of the edge pixels), `per_side`
-    /// intervals on every side, clockwise from the top-left corner.
+    /// Points along the outline through the corner pixels' centres (the convention of the
+    /// output grid), `per_side` intervals on every side, clockwise from the top-left corner.
     pub fn border_pixels(&self, per_side: usize) -> Vec<[f64; 2]> {
         let n = per_side.max(1);
-        let (w, h) = (self.size.width as f64 - 0.5, self.size.height as f64 - 0.5);
-        let corners = [[-0.5, -0.5], [w, -0.5], [w, h], [-0.5, h]];
+        let corners = self.size.corner_pixels();
         let mut out = Vec::with_capacity(4 * n);
         for s in 0..4 {
             let (a, b) = (corners[s], corners[(s + 1) % 4]);
@@ -187,7 +186,7 @@ mod tests {
     }
 
     #[test]
-    fn border_walks_the_outer_edge_clockwise() {
+    fn border_walks_through_the_corner_pixel_centres_clockwise() {
         let cam = Camera::new(
             Intrinsics::new(10.0, 10.0, 1.5, 0.5).unwrap(),
             None,
@@ -195,10 +194,11 @@ mod tests {
         );
         let b = cam.border_pixels(2);
         assert_eq!(b.len(), 8);
-        assert_eq!(b[0], [-0.5, -0.5]);
-        assert_eq!(b[1], [1.5, -0.5]);
-        assert_eq!(b[2], [3.5, -0.5]);
-        assert_eq!(b[4], [3.5, 1.5]);
-        assert_eq!(b[6], [-0.5, 1.5]);
+        assert_eq!(b[0], [0.0, 0.0]);
+        assert_eq!(b[1], [1.5, 0.0]);
+        assert_eq!(b[2], [3.0, 0.0]);
+        assert_eq!(b[3], [3.0, 0.5]);
+        assert_eq!(b[4], [3.0, 1.0]);
+        assert_eq!(b[6], [0.0, 1.0]);
     }
 }

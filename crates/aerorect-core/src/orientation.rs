@@ -96,6 +96,16 @@ impl CameraRotation {
         &self.ground_from_camera
     }
 
+    /// Omega, phi, kappa (degrees) of this rotation: the inverse of
+    /// [`CameraRotation::omega_phi_kappa`] (phi within [-90, 90]), for exporting poses.
+    pub fn to_omega_phi_kappa(&self) -> [f64; 3] {
+        let r = &self.ground_from_camera;
+        let omega = (-r[(1, 2)]).atan2(r[(2, 2)]);
+        let phi = r[(0, 2)].clamp(-1.0, 1.0).asin();
+        let kappa = (-r[(0, 1)]).atan2(r[(0, 0)]);
+        [omega.to_degrees(), phi.to_degrees(), kappa.to_degrees()]
+    }
+
     /// The optical axis (the camera's -z) in the ground frame.
     pub fn optical_axis(&self) -> Vector3<f64> {
         -self.ground_from_camera.column(2).into_owned()
@@ -227,5 +237,20 @@ mod tests {
         let a = standard_from_rotation(&intr, &CameraRotation::from(&att));
         let b = crate::rectify::standard_from_oblique(&intr, &att);
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn omega_phi_kappa_round_trips() {
+        for opk in [
+            [0.0, 0.0, 0.0],
+            [-0.349, 0.298, -179.087],
+            [25.0, -40.0, 130.0],
+        ] {
+            let r = CameraRotation::omega_phi_kappa(opk[0], opk[1], opk[2]).unwrap();
+            let back = r.to_omega_phi_kappa();
+            for k in 0..3 {
+                assert!((back[k] - opk[k]).abs() < 1e-9, "{opk:?} -> {back:?}");
+            }
+        }
     }
 }

@@ -126,14 +126,34 @@ impl RectifyGeometry {
         size: ImageSize,
         limits: RectifyLimits,
     ) -> Result<Self, GeometryError> {
-        if size.width == 0 || size.height == 0 {
+        let corners = size.corner_pixels().to_vec();
+        Self::from_base_homography_and_border(
+            standard_from_oblique,
+            base_from_oblique,
+            size,
+            corners,
+            limits,
+        )
+    }
+
+    /// As [`RectifyGeometry::from_base_homography`], with the frame's outline given as a
+    /// polygon in the homography's own pixels: with a lens model, the undistorted image of the
+    /// border sampled densely (it bulges or pinches between the corners).
+    pub fn from_base_homography_and_border(
+        standard_from_oblique: Homography,
+        base_from_oblique: Homography,
+        size: ImageSize,
+        border: Vec<[f64; 2]>,
+        limits: RectifyLimits,
+    ) -> Result<Self, GeometryError> {
+        if size.width == 0 || size.height == 0 || border.len() < 3 {
             return Err(GeometryError::InvalidParameter {
                 field: "image_size_px",
                 value: 0.0,
                 reason: "the frame has no pixels",
             });
         }
-        let (footprint, clipped) = clip_footprint(&base_from_oblique, size, limits)?;
+        let (footprint, clipped) = clip_footprint(&base_from_oblique, border, limits)?;
         let bounds = grid_bounds(&base_from_oblique, &footprint).ok_or(GeometryError::NoGround)?;
         let origin = [bounds.u0, bounds.v0];
         let oblique_from_output = base_from_oblique
@@ -191,10 +211,9 @@ fn grid_bounds(h: &Homography, polygon: &[[f64; 2]]) -> Option<GridBounds> {
 /// frame cut by the line w = t with the smallest t whose output fits.
 fn clip_footprint(
     h: &Homography,
-    size: ImageSize,
+    corners: Vec<[f64; 2]>,
     limits: RectifyLimits,
 ) -> Result<(Vec<[f64; 2]>, bool), GeometryError> {
-    let corners = size.corner_pixels().to_vec();
     let w_of = |p: &[f64; 2]| h.map_homogeneous(p[0], p[1]).z;
     let w_max = corners.iter().map(w_of).fold(f64::NEG_INFINITY, f64::max);
     let w_min = corners.iter().map(w_of).fold(f64::INFINITY, f64::min);

@@ -111,7 +111,7 @@ pub fn march_to_ground(
     step: f64,
 ) -> Option<[f64; 3]> {
     let c = pose.centre;
-    if !(dir.z < 0.0) {
+    if dir.z >= 0.0 || dir.z.is_nan() {
         return None;
     }
     let at = |t: f64| [c[0] + t * dir.x, c[1] + t * dir.y, c[2] + t * dir.z];

@@ -1,6 +1,8 @@
 //! Georeferencing against independent results: PROJ's meridian convergence (stored), ray
 //! intersection as the inverse of projection, and a closed-form flat-ground homography.
 
+#![allow(clippy::unwrap_used)]
+
 use aerorect_core::{Camera, CameraRotation, ImageSize, Intrinsics, Vec3};
 use aerorect_geo::{
     GroundMap, HeightGrid, OrthoGrid, Pose, Projection, Terrain, convergence_deg, grid_from_enu,
@@ -195,4 +197,24 @@ fn aligned_grid_covers_the_bounds_on_multiples_of_the_gsd() {
 fn bad_crs_strings_are_refused_naming_the_string() {
     let e = Projection::new("+proj=nonsense +zone=99").unwrap_err();
     assert!(e.to_string().contains("+proj=nonsense"), "{e}");
+}
+
+/// Stored peer results: PROJ 9 through rasterio 1.4.4 (`rasterio.warp.transform`).
+#[test]
+fn utm_matches_proj() {
+    let (crs, epsg) = Projection::utm_for(27.55, 53.9).unwrap();
+    assert_eq!(epsg, 32635);
+    let en = crs.from_lon_lat(27.55, 53.9).unwrap();
+    assert!(
+        (en[0] - 536138.4290761272).abs() < 1e-3 && (en[1] - 5972535.8563540345).abs() < 1e-3,
+        "{en:?}"
+    );
+    let (crs, epsg) = Projection::utm_for(-70.6, -33.4).unwrap();
+    assert_eq!(epsg, 32719);
+    let en = crs.from_lon_lat(-70.6, -33.4).unwrap();
+    assert!(
+        (en[0] - 351205.0646216514).abs() < 1e-3 && (en[1] - 6303223.750659056).abs() < 1e-3,
+        "{en:?}"
+    );
+    assert!(Projection::utm_for(0.0, 86.0).is_err());
 }

@@ -181,3 +181,46 @@ pub fn read_control_points(path: &Path) -> Result<Vec<ControlPoint>, IoError> {
         |p: &ControlPoint| vec![("X", p.x), ("Y", p.y), ("Z", p.z), ("u", p.u), ("v", p.v)],
     )
 }
+
+/// One frame's exterior orientation (Orthority's and Pix4D's CSV): the projection centre in the
+/// world CRS and omega, phi, kappa in degrees (PATB: camera x right, y up, z back;
+/// `world_from_camera = Rx(omega) Ry(phi) Rz(kappa)` about the world CRS's own axes).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseRecord {
+    /// The image's file name or stem.
+    pub filename: String,
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub omega: f64,
+    pub phi: f64,
+    pub kappa: f64,
+}
+
+const POSE_HEADER: [&str; 7] = ["filename", "x", "y", "z", "omega", "phi", "kappa"];
+
+/// Reads a pose table (header `filename,x,y,z,omega,phi,kappa`); every number finite, no file
+/// named twice.
+pub fn read_poses(path: &Path) -> Result<Vec<PoseRecord>, IoError> {
+    let rows = read_table(path, &POSE_HEADER, |p: &PoseRecord| {
+        POSE_HEADER[1..]
+            .iter()
+            .copied()
+            .zip([p.x, p.y, p.z, p.omega, p.phi, p.kappa])
+            .collect()
+    })?;
+    if rows.is_empty() {
+        return Err(IoError::field(path.display(), "no poses"));
+    }
+    let mut seen = std::collections::BTreeSet::new();
+    for r in &rows {
+        if !seen.insert(r.filename.as_str()) {
+            return Err(IoError::field(
+                path.display(),
+                format!("filename '{}' is listed twice", r.filename),
+            ));
+        }
+    }
+    Ok(rows)
+}

@@ -20,8 +20,8 @@ mod tiff_file;
 pub use attitude::read_attitude;
 pub use camera::CameraFile;
 pub use checkpoints::{
-    ControlPoint, Gcp, read_checkpoints, read_control_points, read_gcps, write_checkpoints,
-    write_csv,
+    ControlPoint, Gcp, PoseRecord, read_checkpoints, read_control_points, read_gcps, read_poses,
+    write_checkpoints, write_csv,
 };
 pub use crs::Crs;
 pub use dem::{Dem, read_dem};

@@ -1,94 +1,42 @@
-//! Drone photos rectified from their own metadata: the camera (built-in sensor table, DJI's
-//! calibration tags, or the 35 mm equivalent), the gimbal's world-frame rotation, the height above
-//! ground, and a north-up grid in the UTM zone of the position.
+//! Drone photos orthorectified from their own metadata: the camera (DJI's DewarpData or
+//! calibration tags, the sensor database, or the 35 mm equivalent) sized from the image the tags
+//! were written for to the decoded image, the gimbal's rotation turned onto the output CRS's
+//! grid (meridian convergence), the camera's height, and the ground (level or a DEM).
 
 use crate::Error;
-use crate::rectify::RectifyPlan;
+use crate::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
 use aerorect_core::distortion::{Distortion, OpenCv};
-use aerorect_core::orientation::standard_from_rotation;
-use aerorect_core::{
-    CameraRotation, Homography, ImageSize, Intrinsics, Mat3, RectifyGeometry, RectifyLimits,
-};
-use aerorect_io::{CameraFile, Crs, GeoReference, PhotoMetadata};
+use aerorect_core::{Camera, CameraRotation, ImageSize, Intrinsics, Mat3, RectifyLimits};
+use aerorect_geo::{Mounting, Pose, Projection, convergence_deg, grid_from_enu};
+use aerorect_io::{CameraFile, Crs, GeoReference, PhotoMetadata, PoseRecord};
 use aerorect_raster::WarpOptions;
 use serde::Serialize;
-
-/// A camera of the built-in table: sensor width in mm (the 4:3 native frame; 16:9 modes crop
-/// the height and keep the width).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Sensor {
-    pub model: &'static str,
-    pub name: &'static str,
-    pub width_mm: f64,
-    pub height_mm: f64,
-}
-
-/// Common drone cameras (EXIF Model).
-pub const SENSORS: [Sensor; 7] = [
-    Sensor {
-        model: "FC220",
-        name: "DJI Mavic Pro, 1/2.3\"",
-        width_mm: 6.17,
-        height_mm: 4.55,
-    },
-    Sensor {
-        model: "FC330",
-        name: "DJI Phantom 4, 1/2.3\"",
-        width_mm: 6.17,
-        height_mm: 4.55,
-    },
-    Sensor {
-        model: "FC300X",
-        name: "DJI Phantom 3 Pro, 1/2.3\"",
-        width_mm: 6.17,
-        height_mm: 4.55,
-    },
-    Sensor {
-        model: "FC6310",
-        name: "DJI Phantom 4 Pro, 1\"",
-        width_mm: 13.2,
-        height_mm: 8.8,
-    },
-    Sensor {
-        model: "L1D-20c",
-        name: "DJI Mavic 2 Pro (Hasselblad), 1\"",
-        width_mm: 13.2,
-        height_mm: 8.8,
-    },
-    Sensor {
-        model: "FC3170",
-        name: "DJI Mavic Air 2, 1/2\"",
-        width_mm: 6.4,
-        height_mm: 4.8,
-    },
-    Sensor {
-        model: "FC7303",
-        name: "DJI Mini 2, 1/2.3\"",
-        width_mm: 6.17,
-        height_mm: 4.55,
-    },
-];
+use std::collections::BTreeMap;
+use std::sync::Arc;
 
 /// Where the focal length in pixels came from.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub enum CameraSource {
     CameraFile,
-    DjiCalibrated,
     DewarpData,
-    SensorTable(&'static str),
+    DjiCalibrated,
+    /// The sensor database's key and sensor width (mm) with EXIF FocalLength.
+    SensorDatabase(String, f64),
     Equivalent35mm,
 }
 
 /// The camera of one photo, with any warnings about how it was found.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PhotoCamera {
-    pub intrinsics: Intrinsics,
+    pub camera: Camera,
     pub source: CameraSource,
-    pub distortion: Option<Distortion>,
+    /// The image size the metadata's pixel values were written for.
+    pub tagged_size: [usize; 2],
     pub warnings: Vec<String>,
 }
 
-/// DJI's DewarpData "date;fx,fy,cx,cy,k1,k2,p1,p2,k3", cx/cy offsets from the image centre.
+/// DJI's DewarpData "date;fx,fy,cx,cy,k1,k2,p1,p2,k3" for an image of `size`: cx/cy are offsets
+/// from the image centre ((W - 1) / 2, (H - 1) / 2).
 pub fn parse_dewarp(text: &str, size: ImageSize) -> Result<(Intrinsics, Distortion), String> {
     let body = text.split(';').next_back().unwrap_or(text);
     let v: Vec<f64> = body
@@ -116,70 +64,114 @@ pub fn parse_dewarp(text: &str, size: ImageSize) -> Result<(Intrinsics, Distorti
     Ok((intr, d))
 }
 
-/// The camera of a photo of `size` from its metadata (see the module's order of sources).
+/// The size the metadata's pixel values refer to: EXIF PixelXDimension x PixelYDimension, else
+/// twice DJI's calibrated optical centre (an estimate: the centre is near, not at, the middle,
+/// so it only tells the whole resize factor), else the decoded size.
+pub fn tagged_size(meta: &PhotoMetadata, decoded: ImageSize) -> ImageSize {
+    let d = &meta.dji;
+    if let (Some(w), Some(h)) = (meta.width, meta.height)
+        && w > 0
+        && h > 0
+    {
+        return ImageSize::new(w as usize, h as usize);
+    }
+    let (Some(x), Some(y)) = (
+        d.calibrated_optical_center_x_px,
+        d.calibrated_optical_center_y_px,
+    ) else {
+        return decoded;
+    };
+    // The resize factor, to the nearest eighth (users halve or quarter their photos).
+    let k = (2.0 * x / decoded.width as f64 * 8.0).round() / 8.0;
+    if !(k.is_finite() && k > 0.0) || (2.0 * y / decoded.height as f64 - k).abs() > 0.05 * k {
+        // Twice the centre does not look like this image resized: an aspect error follows.
+        return ImageSize::new((2.0 * x).round() as usize, (2.0 * y).round() as usize);
+    }
+    ImageSize::new(
+        (decoded.width as f64 * k).round() as usize,
+        (decoded.height as f64 * k).round() as usize,
+    )
+}
+
+/// The camera, in pixels of the tagged size, from the photo's own tags.
+fn camera_from_tags(
+    meta: &PhotoMetadata,
+    size: ImageSize,
+    file: &str,
+) -> Result<(Intrinsics, Option<Distortion>, CameraSource, Vec<String>), Error> {
+    let bad = |e: aerorect_core::GeometryError| Error::Invalid(format!("{file}: camera: {e}"));
+    let dji = &meta.dji;
+    let [cx, cy] = size.centre();
+    if let Some(text) = &dji.dewarp_data {
+        let (k, d) =
+            parse_dewarp(text, size).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+        return Ok((k, Some(d), CameraSource::DewarpData, vec![]));
+    }
+    if let Some(f) = dji.calibrated_focal_length_px {
+        // DJI's optical centre is measured from the image's outer corner (W / 2 at the middle).
+        let x = dji.calibrated_optical_center_x_px.map_or(cx, |x| x - 0.5);
+        let y = dji.calibrated_optical_center_y_px.map_or(cy, |y| y - 0.5);
+        let k = Intrinsics::new(f, f, x, y).map_err(bad)?;
+        return Ok((k, None, CameraSource::DjiCalibrated, vec![]));
+    }
+    let make = meta.make.as_deref().unwrap_or("").trim();
+    let model = meta.model.as_deref().unwrap_or("").trim();
+    if let (Some(s), Some(f)) = (
+        aerorect_io::sensor_width_mm(make, model),
+        meta.focal_length_mm,
+    ) {
+        // The database's width is the sensor's long side; 16:9 modes crop the height.
+        let fpx = f * size.width.max(size.height) as f64 / s.width_mm;
+        let k = Intrinsics::new(fpx, fpx, cx, cy).map_err(bad)?;
+        return Ok((
+            k,
+            None,
+            CameraSource::SensorDatabase(s.key, s.width_mm),
+            vec![],
+        ));
+    }
+    if let Some(f35) = meta.focal_length_35mm {
+        let diag = (size.width as f64).hypot(size.height as f64);
+        let fpx = f35 * diag / 36f64.hypot(24.0);
+        let k = Intrinsics::new(fpx, fpx, cx, cy).map_err(bad)?;
+        let w = format!(
+            "camera '{make} {model}' is not in the sensor database: focal length from the 35 mm equivalent {f35} mm, assuming the image spans the sensor's diagonal (wrong for cropped modes)"
+        );
+        return Ok((k, None, CameraSource::Equivalent35mm, vec![w]));
+    }
+    Err(Error::Invalid(format!(
+        "{file}: no focal length in pixels: no DJI calibration tags, camera '{make} {model}' is not in the sensor database, and no 35 mm equivalent; give --camera"
+    )))
+}
+
+/// The camera of a photo decoded at `size` from its metadata, scaled from the size its tags
+/// were written for.
 pub fn camera_from_metadata(
     meta: &PhotoMetadata,
     size: ImageSize,
     file: &str,
 ) -> Result<PhotoCamera, Error> {
-    let [cx, cy] = size.centre();
-    let bad = |e: aerorect_core::GeometryError| Error::Invalid(format!("{file}: camera: {e}"));
-    let dji = &meta.dji;
-    if let Some(f) = dji.calibrated_focal_length_px {
-        let (x, y) = (
-            dji.calibrated_optical_center_x_px.unwrap_or(cx),
-            dji.calibrated_optical_center_y_px.unwrap_or(cy),
-        );
-        return Ok(PhotoCamera {
-            intrinsics: Intrinsics::new(f, f, x, y).map_err(bad)?,
-            source: CameraSource::DjiCalibrated,
-            distortion: None,
-            warnings: vec![],
-        });
+    let tagged = tagged_size(meta, size);
+    let (k, distortion, source, mut warnings) = camera_from_tags(meta, tagged, file)?;
+    let camera = Camera::new(k, distortion, tagged)
+        .resized(size)
+        .map_err(|e| Error::Invalid(format!("{file}: EXIF PixelX/YDimension: {e}")))?;
+    if tagged != size {
+        warnings.push(format!(
+            "the calibration was written for {} x {} px; scaled to the image's {} x {}",
+            tagged.width, tagged.height, size.width, size.height
+        ));
     }
-    if let Some(text) = &dji.dewarp_data {
-        let (intrinsics, d) =
-            parse_dewarp(text, size).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
-        return Ok(PhotoCamera {
-            intrinsics,
-            source: CameraSource::DewarpData,
-            distortion: Some(d),
-            warnings: vec![],
-        });
-    }
-    let model = meta.model.as_deref().unwrap_or("").trim();
-    if let (Some(s), Some(f)) = (
-        SENSORS.iter().find(|s| s.model == model),
-        meta.focal_length_mm,
-    ) {
-        let pitch_mm = s.width_mm / size.width as f64;
-        let fpx = f / pitch_mm;
-        return Ok(PhotoCamera {
-            intrinsics: Intrinsics::new(fpx, fpx, cx, cy).map_err(bad)?,
-            source: CameraSource::SensorTable(s.model),
-            distortion: None,
-            warnings: vec![],
-        });
-    }
-    if let Some(f35) = meta.focal_length_35mm {
-        let diag = (size.width as f64).hypot(size.height as f64);
-        let fpx = f35 * diag / 36f64.hypot(24.0);
-        return Ok(PhotoCamera {
-            intrinsics: Intrinsics::new(fpx, fpx, cx, cy).map_err(bad)?,
-            source: CameraSource::Equivalent35mm,
-            distortion: None,
-            warnings: vec![format!(
-                "camera '{model}' is not in the sensor table: focal length from the 35 mm equivalent {f35} mm, assuming the image spans the sensor's diagonal (wrong for cropped modes)"
-            )],
-        });
-    }
-    Err(Error::Invalid(format!(
-        "{file}: no focal length in pixels: no DJI calibration tags, camera model '{model}' is not in the sensor table, and no 35 mm equivalent; give --camera"
-    )))
+    Ok(PhotoCamera {
+        camera,
+        source,
+        tagged_size: [tagged.width, tagged.height],
+        warnings,
+    })
 }
 
-/// The gimbal's rotation. DJI's gimbal angles are world-frame and already include the
-/// aircraft's attitude: the Flight angles are deliberately not used.
+/// The gimbal's rotation in local east-north-up. DJI's gimbal angles are world-frame and
+/// already include the aircraft's attitude: the Flight angles are deliberately not used.
 pub fn rotation_from_metadata(meta: &PhotoMetadata, file: &str) -> Result<CameraRotation, Error> {
     let d = &meta.dji;
     let (Some(yaw), Some(pitch)) = (d.gimbal_yaw_deg, d.gimbal_pitch_deg) else {
@@ -191,69 +183,101 @@ pub fn rotation_from_metadata(meta: &PhotoMetadata, file: &str) -> Result<Camera
         .map_err(Error::geometry(format!("{file}: gimbal angles")))
 }
 
-/// Height of the camera above the ground and how it was found.
-pub fn height_above_ground(
-    meta: &PhotoMetadata,
-    ground_height_m: Option<f64>,
-    file: &str,
-) -> Result<(f64, String), Error> {
-    let h = match ground_height_m {
-        Some(g) => {
-            let abs = meta
-                .dji
-                .absolute_altitude_m
-                .or(meta.gps_altitude_m)
-                .ok_or_else(|| {
-                    Error::Invalid(format!(
-                        "{file}: --ground-height-m needs AbsoluteAltitude or EXIF GPSAltitude"
-                    ))
-                })?;
-            (abs - g, format!("AbsoluteAltitude {abs} m - ground {g} m"))
-        }
-        None => {
-            let r = meta.dji.relative_altitude_m.ok_or_else(|| {
-                Error::Invalid(format!(
-                    "{file}: no XMP drone-dji:RelativeAltitude; give --ground-height-m"
-                ))
-            })?;
-            (r, "RelativeAltitude (above the take-off point)".to_string())
-        }
+/// The aircraft body (x forward, y right, z down) in local east-north-up, from the Flight angles
+/// (NED Z-Y-X); the lever arm is given in this frame. `None` without Flight angles.
+fn enu_from_body(meta: &PhotoMetadata) -> Option<Mat3> {
+    let d = &meta.dji;
+    let (y, p, r) = (d.flight_yaw_deg?, d.flight_pitch_deg?, d.flight_roll_deg?);
+    let rot = |a: nalgebra::Unit<aerorect_core::Vec3>, deg: f64| {
+        nalgebra::Rotation3::from_axis_angle(&a, deg.to_radians()).into_inner()
     };
-    if !(h.0.is_finite() && h.0 > 0.5) {
+    let ned_from_body = rot(aerorect_core::Vec3::z_axis(), y)
+        * rot(aerorect_core::Vec3::y_axis(), p)
+        * rot(aerorect_core::Vec3::x_axis(), r);
+    let enu_from_ned = Mat3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0);
+    Some(enu_from_ned * ned_from_body)
+}
+
+/// The camera's height in the world frame and the ground under it.
+#[derive(Debug, Clone, Serialize)]
+pub struct Heights {
+    pub camera_z_m: f64,
+    pub source: String,
+    /// The level ground's height (flat), or the DEM fallback.
+    pub ground_z_m: Option<f64>,
+}
+
+fn heights(
+    meta: &PhotoMetadata,
+    opts: &DroneOptions,
+    file: &str,
+) -> Result<(Heights, Ground), Error> {
+    let abs = meta.dji.absolute_altitude_m.or(meta.gps_altitude_m);
+    let need_abs = |why: &str| {
+        abs.ok_or_else(|| {
+            Error::Invalid(format!(
+                "{file}: {why} needs XMP AbsoluteAltitude or EXIF GPSAltitude"
+            ))
+        })
+    };
+    let (h, ground) = if let Some(dem) = &opts.dem {
+        let a = need_abs("--dem")?;
+        let z = a + opts.vertical_offset_m;
+        let fallback = meta.dji.relative_altitude_m.map(|r| a - r);
+        let src = format!(
+            "AbsoluteAltitude/GPSAltitude {a} m + vertical offset {} m, against DEM {}",
+            opts.vertical_offset_m, dem.name
+        );
+        let g = Ground::Dem {
+            dem: Arc::clone(dem),
+            fallback,
+            strict: opts.strict,
+        };
+        (
+            Heights {
+                camera_z_m: z,
+                source: src,
+                ground_z_m: fallback,
+            },
+            g,
+        )
+    } else if let Some(g) = opts.ground_height_m {
+        let a = need_abs("--ground-height-m")?;
+        let src = format!("AbsoluteAltitude {a} m over ground at {g} m");
+        (
+            Heights {
+                camera_z_m: a,
+                source: src,
+                ground_z_m: Some(g),
+            },
+            Ground::Flat(g),
+        )
+    } else {
+        let r = meta.dji.relative_altitude_m.ok_or_else(|| {
+            Error::Invalid(format!(
+                "{file}: no XMP drone-dji:RelativeAltitude; give --ground-height-m or --dem"
+            ))
+        })?;
+        let src = "RelativeAltitude (above the take-off point)".to_string();
+        (
+            Heights {
+                camera_z_m: r,
+                source: src,
+                ground_z_m: Some(0.0),
+            },
+            Ground::Flat(0.0),
+        )
+    };
+    if let Some(z) = h.ground_z_m
+        && (h.camera_z_m - z <= 0.5 || !h.camera_z_m.is_finite() || z.is_nan())
+    {
         return Err(Error::Invalid(format!(
             "{file}: height above ground {} m ({}) is not positive",
-            h.0, h.1
+            h.camera_z_m - z,
+            h.source
         )));
     }
-    Ok(h)
-}
-
-/// UTM zone (1-60) and EPSG code (326zz north, 327zz south) of a position.
-pub fn utm_zone(lat_deg: f64, lon_deg: f64) -> (u8, u16) {
-    let zone = (((lon_deg + 180.0) / 6.0).floor() as i64).clamp(0, 59) as u8 + 1;
-    let epsg = if lat_deg >= 0.0 { 32600 } else { 32700 } + zone as u16;
-    (zone, epsg)
-}
-
-/// Easting and northing (m) of a WGS84 position in its UTM zone, with proj4rs.
-pub fn utm_from_wgs84(lat_deg: f64, lon_deg: f64) -> Result<([f64; 2], u16), Error> {
-    if !(lat_deg.abs() <= 84.0 && lon_deg.abs() <= 180.0) {
-        return Err(Error::Invalid(format!(
-            "position ({lat_deg}, {lon_deg}) is outside UTM's range (|lat| <= 84, |lon| <= 180)"
-        )));
-    }
-    let (zone, epsg) = utm_zone(lat_deg, lon_deg);
-    let south = if lat_deg < 0.0 { " +south" } else { "" };
-    let err = |e: proj4rs::errors::Error| Error::Invalid(format!("UTM projection: {e}"));
-    let from =
-        proj4rs::Proj::from_proj_string("+proj=longlat +datum=WGS84 +no_defs").map_err(err)?;
-    let to = proj4rs::Proj::from_proj_string(&format!(
-        "+proj=utm +zone={zone}{south} +datum=WGS84 +units=m +no_defs"
-    ))
-    .map_err(err)?;
-    let mut p = (lon_deg.to_radians(), lat_deg.to_radians(), 0.0);
-    proj4rs::transform::transform(&from, &to, &mut p).map_err(err)?;
-    Ok(([p.0, p.1], epsg))
+    Ok((h, ground))
 }
 
 /// Everything the georeferenced rectification of one photo needs, and what it found.
@@ -262,11 +286,15 @@ pub struct DronePlanInfo {
     pub camera: PhotoCamera,
     pub gimbal_yaw_pitch_roll_deg: [f64; 3],
     pub off_nadir_deg: f64,
+    /// Height of the camera above the ground (flat) or its world height (DEM).
     pub height_m: f64,
     pub height_source: String,
     pub latitude_deg: f64,
     pub longitude_deg: f64,
     pub easting_northing_m: [f64; 2],
+    /// Angle from true north to the CRS's grid north at the camera, clockwise.
+    pub convergence_deg: f64,
+    pub pose: Pose,
     pub gsd_m: f64,
     pub geo: GeoReference,
     pub clipped: bool,
@@ -279,112 +307,259 @@ pub struct DroneOptions {
     /// Output ground sample distance; default: the frame's own at nadir (H / f).
     pub gsd_m: Option<f64>,
     pub ground_height_m: Option<f64>,
+    /// Terrain: camera heights from AbsoluteAltitude + `vertical_offset_m` against it.
+    pub dem: Option<Arc<aerorect_geo::Dem>>,
+    pub vertical_offset_m: f64,
+    /// DEM holes or gaps are errors instead of a warning and the level fallback.
+    pub strict: bool,
+    /// Output CRS (default: the UTM zone of the position).
+    pub crs: Option<(Crs, Projection)>,
     /// Overrides the camera from metadata (sized for each photo as it is read).
     pub camera: Option<CameraFile>,
+    /// Exterior orientations by file name or stem: frames listed here take their pose from the
+    /// table instead of their metadata.
+    pub poses: Option<Arc<BTreeMap<String, PoseRecord>>>,
+    pub mounting: Mounting,
     pub limits: RectifyLimits,
     pub warp: WarpOptions,
 }
 
-/// The north-up, georeferenced rectification of a photo of `size` from its metadata. The output
-/// grid is aligned to multiples of the GSD in UTM, so every photo at one GSD shares one grid.
-pub fn plan_from_metadata(
+/// The output CRS and the camera's position in it.
+fn world_of(
     meta: &PhotoMetadata,
-    size: ImageSize,
     opts: &DroneOptions,
     file: &str,
-) -> Result<(RectifyPlan, DronePlanInfo), Error> {
-    let camera = match &opts.camera {
-        Some(cam) => {
-            let size = cam.frame_size(Some(size))?;
-            PhotoCamera {
-                intrinsics: cam.intrinsics(size)?,
-                source: CameraSource::CameraFile,
-                distortion: cam.distortion.clone(),
-                warnings: vec![],
-            }
-        }
-        None => camera_from_metadata(meta, size, file)?,
-    };
-    let rotation = rotation_from_metadata(meta, file)?;
-    let (height_m, height_source) = height_above_ground(meta, opts.ground_height_m, file)?;
+) -> Result<(Crs, Projection, [f64; 2], [f64; 2]), Error> {
     let (Some(lat), Some(lon)) = (meta.latitude_deg, meta.longitude_deg) else {
         return Err(Error::Invalid(format!(
             "{file}: no GPS position (EXIF GPS or XMP GpsLatitude/GpsLongitude)"
         )));
     };
-    let (en, epsg) =
-        utm_from_wgs84(lat, lon).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
-    let k = camera.intrinsics;
-    let gsd = opts.gsd_m.unwrap_or(height_m / k.fx);
-    if !(gsd.is_finite() && gsd > 0.0) {
-        return Err(Error::Invalid(format!(
-            "--gsd-m {gsd} must be a positive number of metres"
-        )));
-    }
-    let f = standard_from_rotation(&k, &rotation);
-    // Standard pixel -> ground grid index: east = E0 + (u - cx) H / fx = (i + 0.5) gsd,
-    // north = N0 - (v - cy) H / fy = -(j + 0.5) gsd.
-    let (sx, sy) = (height_m / k.fx / gsd, height_m / k.fy / gsd);
-    let grid_from_standard = Homography::new(Mat3::new(
-        sx,
-        0.0,
-        en[0] / gsd - sx * k.cx - 0.5,
-        0.0,
-        sy,
-        -en[1] / gsd - sy * k.cy - 0.5,
-        0.0,
-        0.0,
-        1.0,
-    ))
-    .map_err(Error::geometry(format!("{file}: ground grid")))?;
-    let geometry =
-        RectifyGeometry::from_base_homography(f, grid_from_standard.after(&f), size, opts.limits)
-            .map_err(Error::geometry(format!("{file}: rectify")))?;
-    let [i0, j0] = geometry.standard_origin;
-    let geo = GeoReference {
-        crs: Crs::Epsg(epsg),
-        pixel_size: [gsd, gsd],
-        top_left: [i0 * gsd, -j0 * gsd],
-        rotation: [0.0, 0.0],
-        nodata: (!opts.warp.alpha).then_some(opts.warp.nodata),
+    let geo = |e: aerorect_geo::GeoError| Error::Invalid(format!("{file}: {e}"));
+    let (crs, proj) = match &opts.crs {
+        Some((c, p)) => (c.clone(), p.clone()),
+        None => {
+            let (p, epsg) = Projection::utm_for(lon, lat).map_err(geo)?;
+            (Crs::Epsg(epsg), p)
+        }
     };
-    let mut warnings = camera.warnings.clone();
-    if geometry.clipped {
-        warnings
-            .push("the far field near the horizon was cut to respect the output size limit".into());
-    }
+    let en = proj.from_lon_lat(lon, lat).map_err(geo)?;
+    Ok((crs, proj, en, [lon, lat]))
+}
+
+/// The north-up, georeferenced ortho of a photo of `size` from its metadata, on a grid aligned
+/// to multiples of the GSD in the output CRS.
+pub fn plan_from_metadata(
+    meta: &PhotoMetadata,
+    size: ImageSize,
+    opts: &DroneOptions,
+    file: &str,
+) -> Result<(OrthoPlan, DronePlanInfo), Error> {
+    let camera = photo_camera(meta, size, opts, file)?;
+    let rotation = rotation_from_metadata(meta, file)?;
+    let (h, ground) = heights(meta, opts, file)?;
+    let (crs, proj, en, [lon, lat]) = world_of(meta, opts, file)?;
+    let geo = |e: aerorect_geo::GeoError| Error::Invalid(format!("{file}: {e}"));
+    let grid_from_enu = grid_from_enu(&proj, lon, lat).map_err(geo)?;
+    let recorded = Pose::from_enu([en[0], en[1], h.camera_z_m], &rotation, &grid_from_enu);
+    let lever = grid_from_enu * enu_from_body(meta).unwrap_or(*rotation.ground_from_camera());
+    let mut frame = Frame {
+        camera,
+        pose: opts.mounting.camera_pose(&recorded, &lever),
+        rotation,
+        heights: h,
+        ground,
+        crs,
+        proj,
+        lon_lat: [lon, lat],
+        warnings: vec![],
+    };
     if let Some(o) = meta.orientation.filter(|&o| o != 1) {
-        warnings.push(format!(
+        frame.warnings.push(format!(
             "EXIF Orientation {o}: the pixels are used as stored, the camera angles assume the sensor's own orientation"
         ));
     }
-    if opts.ground_height_m.is_none() {
-        warnings.push(
+    if opts.ground_height_m.is_none() && opts.dem.is_none() {
+        frame.warnings.push(
             "height from RelativeAltitude: assumes the ground is level with the take-off point"
                 .into(),
         );
     }
+    let d = &meta.dji;
+    let angles = [
+        d.gimbal_yaw_deg.unwrap_or(f64::NAN),
+        d.gimbal_pitch_deg.unwrap_or(f64::NAN),
+        d.gimbal_roll_deg.unwrap_or(0.0),
+    ];
+    finish_plan(frame, angles, opts, file)
+}
+
+/// The camera from `--camera` (sized to the image) or from the photo's tags.
+fn photo_camera(
+    meta: &PhotoMetadata,
+    size: ImageSize,
+    opts: &DroneOptions,
+    file: &str,
+) -> Result<PhotoCamera, Error> {
+    match &opts.camera {
+        Some(cam) => {
+            let s = cam.frame_size(Some(size))?;
+            Ok(PhotoCamera {
+                camera: Camera::new(cam.intrinsics(s)?, cam.distortion.clone(), s),
+                source: CameraSource::CameraFile,
+                tagged_size: [s.width, s.height],
+                warnings: vec![],
+            })
+        }
+        None => camera_from_metadata(meta, size, file),
+    }
+}
+
+/// One frame placed in the world, ready to plan.
+struct Frame {
+    camera: PhotoCamera,
+    pose: Pose,
+    rotation: CameraRotation,
+    heights: Heights,
+    ground: Ground,
+    crs: Crs,
+    proj: Projection,
+    lon_lat: [f64; 2],
+    warnings: Vec<String>,
+}
+
+fn finish_plan(
+    frame: Frame,
+    angles: [f64; 3],
+    opts: &DroneOptions,
+    file: &str,
+) -> Result<(OrthoPlan, DronePlanInfo), Error> {
+    let k = frame.camera.camera.intrinsics;
+    let ground_z = match (&frame.ground, frame.heights.ground_z_m) {
+        (Ground::Flat(z), _) => *z,
+        (Ground::Dem { .. }, Some(z)) => z,
+        (Ground::Dem { dem, .. }, None) => dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1)),
+    };
+    let height_above = frame.heights.camera_z_m - ground_z;
+    let gsd = opts.gsd_m.unwrap_or(height_above / k.fx);
+    let req = OrthoRequest {
+        camera: &frame.camera.camera,
+        pose: frame.pose,
+        world: &frame.proj,
+        ground: &frame.ground,
+        gsd_m: gsd,
+        limits: opts.limits,
+    };
+    let plan = plan_ortho(&req, opts.warp).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+    let mut warnings = frame.camera.warnings.clone();
+    warnings.extend(frame.warnings);
+    warnings.extend(plan.warnings.iter().cloned());
+    let [lon, lat] = frame.lon_lat;
+    let geo = |e: aerorect_geo::GeoError| Error::Invalid(format!("{file}: {e}"));
     let info = DronePlanInfo {
-        gimbal_yaw_pitch_roll_deg: [
-            meta.dji.gimbal_yaw_deg.unwrap_or(f64::NAN),
-            meta.dji.gimbal_pitch_deg.unwrap_or(f64::NAN),
-            meta.dji.gimbal_roll_deg.unwrap_or(0.0),
-        ],
-        off_nadir_deg: rotation.off_nadir_deg(),
-        height_m,
-        height_source,
+        gimbal_yaw_pitch_roll_deg: angles,
+        off_nadir_deg: frame.rotation.off_nadir_deg(),
+        height_m: height_above,
+        height_source: frame.heights.source,
         latitude_deg: lat,
         longitude_deg: lon,
-        easting_northing_m: en,
+        easting_northing_m: [frame.pose.centre[0], frame.pose.centre[1]],
+        convergence_deg: convergence_deg(&frame.proj, lon, lat).map_err(geo)?,
+        pose: frame.pose,
         gsd_m: gsd,
-        geo,
-        clipped: geometry.clipped,
+        geo: georeference(frame.crs, &plan, &opts.warp),
+        clipped: plan.clipped,
         warnings,
-        camera: camera.clone(),
+        camera: frame.camera,
     };
-    let plan = RectifyPlan::from_geometry(k, size, geometry, opts.limits, opts.warp)
-        .with_distortion(camera.distortion);
     Ok((plan, info))
+}
+
+/// The ortho of a frame whose exterior orientation is given (omega-phi-kappa about the world
+/// CRS's own axes, as Orthority, Pix4D and Metashape export them): no convergence is applied.
+pub fn plan_from_pose(
+    pose: &PoseRecord,
+    meta: &PhotoMetadata,
+    size: ImageSize,
+    opts: &DroneOptions,
+    file: &str,
+) -> Result<(OrthoPlan, DronePlanInfo), Error> {
+    let Some((crs, proj)) = opts.crs.clone() else {
+        return Err(Error::Invalid(format!(
+            "{file}: a pose needs the CRS it is in (--crs, or a .prj beside the pose table)"
+        )));
+    };
+    let camera = photo_camera(meta, size, opts, file)?;
+    let rotation = CameraRotation::omega_phi_kappa(pose.omega, pose.phi, pose.kappa)
+        .map_err(Error::geometry(format!("{file}: pose")))?;
+    let z = pose.z + opts.vertical_offset_m;
+    let (ground, ground_z_m, source) = match (&opts.dem, opts.ground_height_m) {
+        (Some(dem), _) => (
+            Ground::Dem {
+                dem: Arc::clone(dem),
+                fallback: opts.ground_height_m,
+                strict: opts.strict,
+            },
+            opts.ground_height_m,
+            format!(
+                "pose z {} m + vertical offset {} m, against DEM {}",
+                pose.z, opts.vertical_offset_m, dem.name
+            ),
+        ),
+        (None, Some(g)) => (
+            Ground::Flat(g),
+            Some(g),
+            format!("pose z {} m over ground at {g} m", pose.z),
+        ),
+        (None, None) => {
+            return Err(Error::Invalid(format!(
+                "{file}: a pose needs the ground: --dem or --ground-height-m"
+            )));
+        }
+    };
+    let recorded = Pose::new([pose.x, pose.y, z], rotation.ground_from_camera());
+    let lon_lat = proj
+        .transform(&Projection::wgs84(), pose.x, pose.y)
+        .map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+    let frame = Frame {
+        camera,
+        pose: opts
+            .mounting
+            .camera_pose(&recorded, rotation.ground_from_camera()),
+        rotation,
+        heights: Heights {
+            camera_z_m: z,
+            source,
+            ground_z_m,
+        },
+        ground,
+        crs,
+        proj,
+        lon_lat,
+        warnings: vec![],
+    };
+    finish_plan(frame, [pose.omega, pose.phi, pose.kappa], opts, file)
+}
+
+/// The pose of `input` in the table, by file name or stem.
+pub fn pose_for<'a>(
+    poses: &'a BTreeMap<String, PoseRecord>,
+    input: &std::path::Path,
+) -> Option<&'a PoseRecord> {
+    let name = input.file_name()?.to_str()?;
+    let stem = input.file_stem()?.to_str()?;
+    poses.get(name).or_else(|| poses.get(stem))
+}
+
+/// The GeoTIFF georeference of a planned ortho.
+pub fn georeference(crs: Crs, plan: &OrthoPlan, warp: &WarpOptions) -> GeoReference {
+    GeoReference {
+        crs,
+        pixel_size: [plan.grid.gsd, plan.grid.gsd],
+        top_left: plan.grid.top_left,
+        rotation: [0.0, 0.0],
+        nodata: (!warp.alpha).then_some(warp.nodata),
+    }
 }
 
 /// What rectifying one photo produced.
@@ -395,7 +570,7 @@ pub struct PhotoResult {
     pub info: DronePlanInfo,
     pub input_size: [usize; 2],
     pub output_size: [usize; 2],
-    /// The rectified part of the frame on the ground (easting, northing), a convex polygon.
+    /// The ground the frame covers (easting, northing).
     pub footprint_en: Vec<[f64; 2]>,
     pub seconds: f64,
     /// PNG thumbnails of the input and of the output, when asked for.
@@ -419,16 +594,16 @@ pub fn rectify_photo(
         .nodata_as_for(&image)
         .map_err(|e| Error::Invalid(format!("--nodata {}: {e}", opts.warp.nodata)))?;
     let size = image.size();
-    let (plan, info) = plan_from_metadata(&meta, size, opts, &file)?;
-    let (out, _) = plan.run(&image)?;
+    let posed = opts.poses.as_deref().map(|p| pose_for(p, input));
+    let (plan, info) = match posed {
+        Some(Some(pose)) => plan_from_pose(pose, &meta, size, opts, &file)?,
+        Some(None) => {
+            return Err(Error::Invalid(format!("{file}: not in the pose table")));
+        }
+        None => plan_from_metadata(&meta, size, opts, &file)?,
+    };
+    let out = plan.run(&image)?;
     aerorect_io::write_image_geo(output, &out, Some(&info.geo))?;
-    let g = &plan.geometry;
-    let footprint_en = g
-        .footprint
-        .iter()
-        .filter_map(|p| g.base_from_oblique.map(p[0], p[1]))
-        .map(|b| [(b[0] + 0.5) * info.gsd_m, -(b[1] + 0.5) * info.gsd_m])
-        .collect();
     let thumbnails = match thumbnail_side {
         Some(s) => {
             let err = |e: String| Error::Invalid(format!("{file}: thumbnail: {e}"));
@@ -443,128 +618,12 @@ pub fn rectify_photo(
         input: file,
         output: output.display().to_string(),
         input_size: [size.width, size.height],
-        output_size: [g.output_size.width, g.output_size.height],
-        footprint_en,
+        output_size: [plan.grid.size.width, plan.grid.size.height],
+        footprint_en: plan.footprint.clone(),
         info,
         seconds: t.elapsed().as_secs_f64(),
         thumbnails,
     })
 }
 
-/// The misalignment of two georeferenced frames on one grid, measured on their overlap.
-#[derive(Debug, Clone, Serialize)]
-pub struct OverlapShift {
-    /// Patches matched (both frames valid and textured, a clear correlation peak).
-    pub patches: usize,
-    /// Median shift of B relative to A, pixels (x east, y south) and metres (east, north).
-    pub median_px: [f64; 2],
-    pub median_m: [f64; 2],
-    /// RMS of the patch shifts' length, pixels.
-    pub rms_px: f64,
-    pub gsd_m: f64,
-    pub overlap_px: [usize; 2],
-}
-
-/// Measures where frame B's content sits relative to frame A's over their common area, with
-/// the phase correlator on `patch` x `patch` tiles. Both must share a CRS and GSD.
-pub fn overlap_shift(
-    a: &std::path::Path,
-    b: &std::path::Path,
-    patch: usize,
-) -> Result<OverlapShift, Error> {
-    use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
-    let geo = |p: &std::path::Path| -> Result<GeoReference, Error> {
-        aerorect_io::read_georeference(p)?
-            .ok_or_else(|| Error::Invalid(format!("{}: not a GeoTIFF", p.display())))
-    };
-    let (ga, gb) = (geo(a)?, geo(b)?);
-    if ga.crs != gb.crs || (ga.pixel_size[0] - gb.pixel_size[0]).abs() > 1e-9 * ga.pixel_size[0] {
-        return Err(Error::Invalid(format!(
-            "{} and {} are not on one grid (CRS {} / {}, GSD {} / {})",
-            a.display(),
-            b.display(),
-            ga.crs,
-            gb.crs,
-            ga.pixel_size[0],
-            gb.pixel_size[0]
-        )));
-    }
-    let gsd = ga.pixel_size[0];
-    let ia = crate::motion::gray(&aerorect_io::read_image(a)?)?;
-    let ib = crate::motion::gray(&aerorect_io::read_image(b)?)?;
-    // Offset of B's pixel grid in A's pixels (integral when both are aligned to the GSD).
-    let off = [
-        ((gb.top_left[0] - ga.top_left[0]) / gsd).round() as i64,
-        ((ga.top_left[1] - gb.top_left[1]) / gsd).round() as i64,
-    ];
-    let (sa, sb) = (ia.size(), ib.size());
-    let x0 = off[0].max(0);
-    let y0 = off[1].max(0);
-    let x1 = (sa.width as i64).min(off[0] + sb.width as i64);
-    let y1 = (sa.height as i64).min(off[1] + sb.height as i64);
-    if x1 - x0 < patch as i64 || y1 - y0 < patch as i64 {
-        return Err(Error::Invalid(
-            "the frames do not overlap by one patch".into(),
-        ));
-    }
-    let mut pc = PhaseCorrelator::new(
-        patch,
-        patch,
-        PhaseOptions {
-            weighting: Weighting::Phase,
-            window: true,
-        },
-    )
-    .map_err(|e| Error::Invalid(e.to_string()))?;
-    let (mut pa, mut pb) = (vec![0f32; patch * patch], vec![0f32; patch * patch]);
-    let mut shifts = Vec::new();
-    let step = patch as i64;
-    let mut y = y0;
-    while y + step <= y1 {
-        let mut x = x0;
-        while x + step <= x1 {
-            for r in 0..patch {
-                let ra = (y as usize + r) * sa.width + x as usize;
-                let rb = (y - off[1]) as usize * sb.width + r * sb.width + (x - off[0]) as usize;
-                pa[r * patch..(r + 1) * patch].copy_from_slice(&ia.plane(0)[ra..ra + patch]);
-                pb[r * patch..(r + 1) * patch].copy_from_slice(&ib.plane(0)[rb..rb + patch]);
-            }
-            // Tiles with nodata (0) in either frame are not compared.
-            let valid = !pa.iter().chain(pb.iter()).any(|&v| v == 0.0);
-            if valid
-                && let Ok(e) = pc.estimate(&pa, &pb)
-                && e.confidence > 0.05
-                && e.dx.abs().max(e.dy.abs()) < patch as f64 / 4.0
-            {
-                shifts.push([e.dx, e.dy]);
-            }
-            x += step;
-        }
-        y += step;
-    }
-    if shifts.is_empty() {
-        return Err(Error::Invalid(
-            "no overlapping patch could be matched".into(),
-        ));
-    }
-    let median = |d: usize| {
-        let mut v: Vec<f64> = shifts.iter().map(|s| s[d]).collect();
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let (mx, my) = (median(0), median(1));
-    let rms = (shifts
-        .iter()
-        .map(|s| s[0] * s[0] + s[1] * s[1])
-        .sum::<f64>()
-        / shifts.len() as f64)
-        .sqrt();
-    Ok(OverlapShift {
-        patches: shifts.len(),
-        median_px: [mx, my],
-        median_m: [mx * gsd, -my * gsd],
-        rms_px: rms,
-        gsd_m: gsd,
-        overlap_px: [(x1 - x0) as usize, (y1 - y0) as usize],
-    })
-}
+pub use crate::overlap::{OverlapShift, overlap_shift};

@@ -12,8 +12,10 @@ pub mod drone;
 pub mod error;
 pub mod evaluate;
 pub mod gcp;
+pub mod georef;
 pub mod lens_compare;
 pub mod motion;
+pub mod overlap;
 pub mod rectify;
 pub mod register;
 pub mod report_html;
@@ -22,6 +24,7 @@ pub mod simulate;
 pub mod undistort;
 
 pub use aerorect_core as core;
+pub use aerorect_geo as geo;
 pub use aerorect_io as io;
 pub use aerorect_raster as raster;
 pub use error::Error;

@@ -5,12 +5,13 @@
 use aerorect::core::{CameraRotation, ImageSize, Intrinsics};
 use aerorect::drone::{
     CameraSource, DroneOptions, camera_from_metadata, parse_dewarp, plan_from_metadata,
-    rectify_photo, utm_from_wgs84,
+    rectify_photo,
 };
 use aerorect::io::PhotoMetadata;
 
 fn dji(yaw: f64, pitch: f64, roll: f64) -> PhotoMetadata {
     let mut m = PhotoMetadata {
+        make: Some("DJI".into()),
         model: Some("FC220".into()),
         focal_length_mm: Some(4.73),
         focal_length_35mm: Some(26.0),
@@ -31,51 +32,41 @@ const SIZE: ImageSize = ImageSize {
     height: 2250,
 };
 
-/// Stored peer results: PROJ 9 through rasterio 1.4.4 (`rasterio.warp.transform`).
-#[test]
-fn utm_matches_proj() {
-    let (en, epsg) = utm_from_wgs84(53.9, 27.55).unwrap();
-    assert_eq!(epsg, 32635);
-    assert!(
-        (en[0] - 536138.4290761272).abs() < 1e-3 && (en[1] - 5972535.8563540345).abs() < 1e-3,
-        "{en:?}"
-    );
-    let (en, epsg) = utm_from_wgs84(-33.4, -70.6).unwrap();
-    assert_eq!(epsg, 32719);
-    assert!(
-        (en[0] - 351205.0646216514).abs() < 1e-3 && (en[1] - 6303223.750659056).abs() < 1e-3,
-        "{en:?}"
-    );
-    assert!(utm_from_wgs84(86.0, 0.0).is_err());
-}
-
 #[test]
 fn camera_sources_in_order_of_trust() {
     let m = dji(0.0, -90.0, 0.0);
     let c = camera_from_metadata(&m, SIZE, "x").unwrap();
-    assert_eq!(c.source, CameraSource::SensorTable("FC220"));
+    assert_eq!(
+        c.source,
+        CameraSource::SensorDatabase("DJI FC220".into(), 6.17)
+    );
     // 4.73 mm over a 6.17 mm wide sensor of 4000 px (the 16:9 mode keeps the width).
-    assert!((c.intrinsics.fx - 4.73 / (6.17 / 4000.0)).abs() < 1e-9);
+    assert!((c.camera.intrinsics.fx - 4.73 / (6.17 / 4000.0)).abs() < 1e-9);
     let mut unknown = m.clone();
     unknown.model = Some("XYZ".into());
     let c = camera_from_metadata(&unknown, SIZE, "x").unwrap();
     assert_eq!(c.source, CameraSource::Equivalent35mm);
-    assert!((c.intrinsics.fx - 26.0 * 4000f64.hypot(2250.0) / 36f64.hypot(24.0)).abs() < 1e-9);
+    let want = 26.0 * 4000f64.hypot(2250.0) / 36f64.hypot(24.0);
+    assert!((c.camera.intrinsics.fx - want).abs() < 1e-9);
     assert_eq!(c.warnings.len(), 1);
-    let mut dewarp = m.clone();
+    let mut cal = m.clone();
+    cal.dji.calibrated_focal_length_px = Some(3050.0);
+    cal.dji.calibrated_optical_center_x_px = Some(2010.0);
+    cal.dji.calibrated_optical_center_y_px = Some(1120.0);
+    let c = camera_from_metadata(&cal, SIZE, "x").unwrap();
+    assert_eq!(c.source, CameraSource::DjiCalibrated);
+    // DJI's optical centre is measured from the outer corner: 2010 there is 2009.5 here.
+    assert_eq!(c.camera.intrinsics.cx, 2009.5);
+    // DewarpData carries the lens too, so it is preferred (as Orthority does).
+    let mut dewarp = cal.clone();
     dewarp.dji.dewarp_data =
         Some("2018-09-04;3678.9,3671.5,10.5,-17.2,-0.26,0.11,0.001,-0.0003,-0.23".into());
     let c = camera_from_metadata(&dewarp, SIZE, "x").unwrap();
     assert_eq!(c.source, CameraSource::DewarpData);
-    assert_eq!((c.intrinsics.fx, c.intrinsics.fy), (3678.9, 3671.5));
-    assert!((c.intrinsics.cx - (1999.5 + 10.5)).abs() < 1e-12);
-    assert!(c.distortion.is_some());
-    let mut cal = dewarp.clone();
-    cal.dji.calibrated_focal_length_px = Some(3050.0);
-    assert_eq!(
-        camera_from_metadata(&cal, SIZE, "x").unwrap().source,
-        CameraSource::DjiCalibrated
-    );
+    let k = c.camera.intrinsics;
+    assert_eq!((k.fx, k.fy), (3678.9, 3671.5));
+    assert!((k.cx - (1999.5 + 10.5)).abs() < 1e-12);
+    assert!(c.camera.distortion.is_some());
     unknown.focal_length_35mm = None;
     let e = camera_from_metadata(&unknown, SIZE, "DJI_9.JPG")
         .unwrap_err()
@@ -84,10 +75,50 @@ fn camera_sources_in_order_of_trust() {
     assert!(parse_dewarp("2018;1,2,3", SIZE).is_err());
 }
 
+/// Pixel-unit tags written for 4000 x 2250 on a 1000 x 562 image: focal lengths divided by 4,
+/// the principal point moved with the pixel-centre convention; another aspect ratio refused.
+#[test]
+fn calibration_tags_are_scaled_to_the_decoded_size() {
+    let mut m = dji(0.0, -90.0, 0.0);
+    m.width = Some(4000);
+    m.height = Some(2250);
+    m.dji.dewarp_data = Some("2018;3000,3000,10,-20,-0.27,0.1,0,0,0".into());
+    let small = ImageSize::new(1000, 562);
+    let c = camera_from_metadata(&m, small, "x").unwrap();
+    let k = c.camera.intrinsics;
+    assert!((k.fx - 750.0).abs() < 1e-9 && (k.fy - 3000.0 * 562.0 / 2250.0).abs() < 1e-9);
+    assert!((k.cx - ((1999.5 + 10.0 + 0.5) / 4.0 - 0.5)).abs() < 1e-9);
+    assert_eq!(c.tagged_size, [4000, 2250]);
+    let e = camera_from_metadata(&m, ImageSize::new(1000, 1000), "IMG_1.JPG")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("IMG_1.JPG") && e.contains("4000x2250") && e.contains("1000x1000"),
+        "{e}"
+    );
+    // Without EXIF dimensions, twice the calibrated optical centre gives the tagged size.
+    let mut c2 = dji(0.0, -90.0, 0.0);
+    c2.dji.calibrated_focal_length_px = Some(3000.0);
+    c2.dji.calibrated_optical_center_x_px = Some(2000.0);
+    c2.dji.calibrated_optical_center_y_px = Some(1125.0);
+    let c = camera_from_metadata(&c2, ImageSize::new(1000, 563), "x").unwrap();
+    // A whole factor of 4 (the odd height rounds: 2250 / 4 = 562.5).
+    assert_eq!(c.tagged_size, [4000, 2252]);
+    assert!((c.camera.intrinsics.fx - 750.0).abs() < 1e-9);
+}
+
+/// PROJ's meridian convergence at (27.55 E, 53.9 N) in UTM 35N (pyproj 3.7.2,
+/// `Proj(proj='utm', zone=35).get_factors(27.55, 53.9).meridian_convergence`).
+const CONVERGENCE_DEG: f64 = 0.4443992080546033;
+
 /// Every output pixel's ground position (from the GeoTIFF's geotransform) equals the ground
-/// point its source pixel's ray hits, intersected independently in ENU.
+/// point its source pixel's ray hits, intersected independently in ENU and turned onto the
+/// grid by PROJ's convergence.
 #[test]
 fn georeferenced_grid_matches_ray_ground_intersection() {
+    let g = -CONVERGENCE_DEG.to_radians();
+    let grid_from_enu =
+        nalgebra::Matrix3::new(g.cos(), g.sin(), 0.0, -g.sin(), g.cos(), 0.0, 0.0, 0.0, 1.0);
     for (yaw, pitch, roll) in [(0.0, -90.0, 0.0), (37.0, -60.0, 0.0), (-117.0, -35.0, 2.0)] {
         let m = dji(yaw, pitch, roll);
         let opts = DroneOptions {
@@ -95,17 +126,19 @@ fn georeferenced_grid_matches_ray_ground_intersection() {
             ..Default::default()
         };
         let (plan, info) = plan_from_metadata(&m, SIZE, &opts, "x").unwrap();
-        let k: Intrinsics = plan.intrinsics;
-        let r = *CameraRotation::dji_gimbal(yaw, pitch, roll)
-            .unwrap()
-            .ground_from_camera();
-        let g = &plan.geometry;
+        assert!((info.convergence_deg - CONVERGENCE_DEG).abs() < 1e-5);
+        let k: Intrinsics = plan.camera.intrinsics;
+        let r = grid_from_enu
+            * *CameraRotation::dji_gimbal(yaw, pitch, roll)
+                .unwrap()
+                .ground_from_camera();
+        let size = plan.grid.size;
         for (c, row) in [
             (10usize, 10usize),
-            (g.output_size.width / 2, g.output_size.height / 2),
-            (g.output_size.width - 5, g.output_size.height / 3),
+            (size.width / 2, size.height / 2),
+            (size.width - 5, size.height / 3),
         ] {
-            let Some(src) = g.oblique_from_output.map(c as f64, row as f64) else {
+            let Some(src) = plan.frame_pixel_of(c as f64, row as f64) else {
                 continue;
             };
             let ray =
@@ -141,7 +174,108 @@ fn flight_angles_are_not_composed_on_the_gimbal() {
     b.dji.flight_yaw_deg = Some(117.6);
     let (pa, _) = plan_from_metadata(&a, SIZE, &DroneOptions::default(), "a").unwrap();
     let (pb, _) = plan_from_metadata(&b, SIZE, &DroneOptions::default(), "b").unwrap();
-    assert_eq!(pa.geometry, pb.geometry);
+    assert_eq!(pa.grid, pb.grid);
+    assert_eq!(
+        pa.frame_pixel_of(100.0, 200.0),
+        pb.frame_pixel_of(100.0, 200.0)
+    );
+}
+
+/// A lever arm moves the ortho by the arm turned into the world; a boresight turns the view.
+#[test]
+fn lever_arm_shifts_the_ground_by_the_arm() {
+    let a = dji(0.0, -90.0, 0.0);
+    let mut b = a.clone();
+    (
+        b.dji.flight_yaw_deg,
+        b.dji.flight_pitch_deg,
+        b.dji.flight_roll_deg,
+    ) = (Some(90.0), Some(0.0), Some(0.0));
+    let opts = DroneOptions {
+        gsd_m: Some(0.5),
+        ..Default::default()
+    };
+    let arm = DroneOptions {
+        mounting: aerorect::geo::Mounting::from_angles([0.0; 3], [1.0, 0.0, 0.0]),
+        ..opts.clone()
+    };
+    let (_, ia) = plan_from_metadata(&b, SIZE, &opts, "a").unwrap();
+    let (_, ib) = plan_from_metadata(&b, SIZE, &arm, "b").unwrap();
+    // Body x forward with the aircraft heading east: one metre true east, which in grid axes
+    // (turned clockwise by the convergence) points a little north of grid east.
+    let d = [
+        ib.pose.centre[0] - ia.pose.centre[0],
+        ib.pose.centre[1] - ia.pose.centre[1],
+    ];
+    let g = CONVERGENCE_DEG.to_radians();
+    assert!(
+        (d[0] - g.cos()).abs() < 1e-6 && (d[1] - g.sin()).abs() < 1e-6,
+        "{d:?}"
+    );
+    let _ = a;
+}
+
+/// A reversed gimbal (roll 180 at nadir, GimbalReverse) sees the same ground upside down: the
+/// same footprint, every ground point at the frame pixel mirrored through the centre.
+#[test]
+fn reversed_gimbal_sees_the_same_ground_turned_half_a_turn() {
+    let (n, r) = (dji(30.0, -90.0, 0.0), dji(30.0, -90.0, 180.0));
+    let opts = DroneOptions {
+        gsd_m: Some(0.5),
+        ..Default::default()
+    };
+    let (pn, _) = plan_from_metadata(&n, SIZE, &opts, "n").unwrap();
+    let (pr, _) = plan_from_metadata(&r, SIZE, &opts, "r").unwrap();
+    assert_eq!(pn.grid, pr.grid);
+    let (w, h) = (SIZE.width as f64 - 1.0, SIZE.height as f64 - 1.0);
+    for (c, row) in [(50.0, 60.0), (200.0, 100.0)] {
+        let (a, b) = (
+            pn.frame_pixel_of(c, row).unwrap(),
+            pr.frame_pixel_of(c, row).unwrap(),
+        );
+        assert!((a[0] - (w - b[0])).abs() < 1e-6 && (a[1] - (h - b[1])).abs() < 1e-6);
+    }
+}
+
+/// Omega-phi-kappa poses (the world CRS's own axes) agree with the DJI adapter: the DJI frame's
+/// pose exported as OPK and read back gives the same ortho.
+#[test]
+fn opk_poses_agree_with_the_dji_adapter() {
+    let m = dji(-64.9, -24.5, 0.0);
+    let opts = DroneOptions {
+        gsd_m: Some(0.25),
+        ground_height_m: Some(230.0),
+        ..Default::default()
+    };
+    let (pd, info) = plan_from_metadata(&m, SIZE, &opts, "d").unwrap();
+    let rot = CameraRotation::from_matrix(info.pose.world_from_camera()).unwrap();
+    let [omega, phi, kappa] = rot.to_omega_phi_kappa();
+    let c = info.pose.centre;
+    let pose = aerorect::io::PoseRecord {
+        filename: "d".into(),
+        x: c[0],
+        y: c[1],
+        z: c[2],
+        omega,
+        phi,
+        kappa,
+    };
+    let crs = aerorect::io::Crs::Epsg(32635);
+    let proj = aerorect::geo::Projection::utm_for(27.55, 53.9).unwrap().0;
+    let posed = DroneOptions {
+        crs: Some((crs, proj)),
+        ..opts
+    };
+    let (pp, _) = aerorect::drone::plan_from_pose(&pose, &m, SIZE, &posed, "d").unwrap();
+    assert_eq!(pd.grid, pp.grid);
+    for (col, row) in [(10.0, 10.0), (400.0, 300.0)] {
+        let (a, b) = (pd.frame_pixel_of(col, row), pp.frame_pixel_of(col, row));
+        let (a, b) = (a.unwrap(), b.unwrap());
+        assert!(
+            (a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6,
+            "{a:?} {b:?}"
+        );
+    }
 }
 
 #[test]
@@ -231,7 +365,10 @@ fn gimbal_angles_predict_the_registered_homography() {
         aerorect::io::read_photo_metadata(&a).unwrap(),
         aerorect::io::read_photo_metadata(&b).unwrap(),
     );
-    let k = camera_from_metadata(&ma, SIZE, "a").unwrap().intrinsics;
+    let k = camera_from_metadata(&ma, SIZE, "a")
+        .unwrap()
+        .camera
+        .intrinsics;
     let (ra, rb) = (
         aerorect::drone::rotation_from_metadata(&ma, "a").unwrap(),
         aerorect::drone::rotation_from_metadata(&mb, "b").unwrap(),

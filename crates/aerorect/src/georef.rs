@@ -1,0 +1,405 @@
+//! Georeferenced orthorectification of one frame: a camera, its pose in a projected CRS and the
+//! ground under it (level, or a DEM) give a north-up grid aligned to the GSD and the map from
+//! its pixels to the frame's.
+//!
+//! Flat ground is a homography (then the lens): its footprint is the undistorted border of the
+//! frame, cut near the horizon as `RectifyGeometry` does. Over a DEM the footprint is that
+//! border's rays marched onto the terrain, and every output pixel is projected through the
+//! camera at its own height.
+
+use crate::{Error, warp_any};
+use aerorect_core::orientation::standard_from_rotation;
+use aerorect_core::{
+    Camera, CameraRotation, Homography, Mat3, RectifyGeometry, RectifyLimits, Vec3,
+};
+use aerorect_geo::{Dem, GroundMap, HeightGrid, OrthoGrid, Pose, Projection, Terrain};
+use aerorect_raster::{AnyRaster, LensDirection, LensMap, Then, WarpOptions};
+use std::sync::Arc;
+
+/// Points sampled on each side of the frame's border for footprints.
+const BORDER_SAMPLES_PER_SIDE: usize = 64;
+
+/// The ground under a frame.
+#[derive(Debug, Clone)]
+pub enum Ground {
+    /// Level ground at this height of the world frame.
+    Flat(f64),
+    /// A DEM; holes and parts it does not cover take `fallback` (with a warning), or are an
+    /// error when `strict`.
+    Dem {
+        dem: Arc<Dem>,
+        fallback: Option<f64>,
+        strict: bool,
+    },
+}
+
+/// Everything one frame's ortho needs.
+#[derive(Debug, Clone)]
+pub struct OrthoRequest<'a> {
+    pub camera: &'a Camera,
+    pub pose: Pose,
+    /// The world CRS the pose is in and the output is written in.
+    pub world: &'a Projection,
+    pub ground: &'a Ground,
+    pub gsd_m: f64,
+    pub limits: RectifyLimits,
+}
+
+#[derive(Debug, Clone)]
+enum OrthoMap {
+    Flat(Homography),
+    Terrain(Box<GroundMap>),
+}
+
+/// A planned ortho: its grid, the map, and what planning found.
+#[derive(Debug, Clone)]
+pub struct OrthoPlan {
+    pub camera: Camera,
+    pub grid: OrthoGrid,
+    map: OrthoMap,
+    /// The ground covered, a polygon of world (x, y).
+    pub footprint: Vec<[f64; 2]>,
+    pub clipped: bool,
+    /// `F` of the rotation (the frame's nadir standard image), for reports.
+    pub standard_from_oblique: Homography,
+    pub warnings: Vec<String>,
+    pub warp: WarpOptions,
+}
+
+impl OrthoPlan {
+    /// Resamples `input` onto the grid.
+    pub fn run(&self, input: &AnyRaster) -> Result<AnyRaster, Error> {
+        let size = self.camera.size;
+        if input.size() != size {
+            return Err(Error::Invalid(format!(
+                "the image is {} x {} but the camera is for {} x {}",
+                input.size().width,
+                input.size().height,
+                size.width,
+                size.height
+            )));
+        }
+        let out = self.grid.size;
+        match (&self.map, &self.camera.distortion) {
+            (OrthoMap::Flat(h), None) => warp_any(input, h, out, &self.warp),
+            (OrthoMap::Flat(h), Some(d)) => {
+                let k = self.camera.intrinsics;
+                let lens = LensMap::within(k, d.clone(), LensDirection::ObservedFromIdeal);
+                warp_any(input, &Then(*h, lens), out, &self.warp)
+            }
+            (OrthoMap::Terrain(m), _) => warp_any(input, m.as_ref(), out, &self.warp),
+        }
+    }
+
+    /// The output pixel -> frame pixel map (for tests and other resamplers).
+    pub fn frame_pixel_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+        use aerorect_raster::PixelMap;
+        match &self.map {
+            OrthoMap::Flat(h) => {
+                let p = h.map(col, row)?;
+                let n = self.camera.intrinsics.normalized_from_pixel(p[0], p[1]);
+                let q = match &self.camera.distortion {
+                    None => n,
+                    Some(d) => d.model().observed_from_ideal(n)?,
+                };
+                Some(self.camera.intrinsics.pixel_from_normalized(q[0], q[1]))
+            }
+            OrthoMap::Terrain(m) => m.source_of(col, row),
+        }
+    }
+}
+
+/// The flat-ground plan: the global GSD grid's index (i, j) has its centre at world
+/// ((i + 0.5) g, -(j + 0.5) g, z), and `oblique_from_grid = K R^T T` with
+/// `T (i, j, 1) = P - C`.
+fn flat_geometry(req: &OrthoRequest<'_>, z: f64) -> Result<(RectifyGeometry, Homography), Error> {
+    let (cam, pose, g) = (req.camera, &req.pose, req.gsd_m);
+    let c = pose.centre;
+    if (c[2] - z).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return Err(Error::Invalid(format!(
+            "the camera at height {} m is not above the ground at {z} m",
+            c[2]
+        )));
+    }
+    let t = Mat3::new(
+        g,
+        0.0,
+        0.5 * g - c[0],
+        0.0,
+        -g,
+        -0.5 * g - c[1],
+        0.0,
+        0.0,
+        z - c[2],
+    );
+    let k = cam.intrinsics.pixel_from_camera();
+    let r = pose.world_from_camera();
+    let oblique_from_grid = Homography::new(k * r.transpose() * t)
+        .map_err(Error::geometry("the ground-to-frame homography"))?;
+    let rotation = CameraRotation::from_matrix(r).map_err(Error::geometry("camera rotation"))?;
+    let f = standard_from_rotation(&cam.intrinsics, &rotation);
+    let border: Vec<[f64; 2]> = cam
+        .border_rays(BORDER_SAMPLES_PER_SIDE)
+        .iter()
+        .map(|ray| {
+            let h = k * ray;
+            [h.x / h.z, h.y / h.z]
+        })
+        .collect();
+    let geometry = RectifyGeometry::from_base_homography_and_border(
+        f,
+        oblique_from_grid.inverse(),
+        cam.size,
+        border,
+        req.limits,
+    )
+    .map_err(Error::geometry("rectify"))?;
+    Ok((geometry, f))
+}
+
+/// Plans the ortho of one frame.
+pub fn plan_ortho(req: &OrthoRequest<'_>, warp: WarpOptions) -> Result<OrthoPlan, Error> {
+    let g = req.gsd_m;
+    if !(g.is_finite() && g > 0.0) {
+        return Err(Error::Invalid(format!(
+            "--gsd-m {g} must be a positive number of metres"
+        )));
+    }
+    match req.ground {
+        Ground::Flat(z) => plan_flat(req, *z, warp),
+        Ground::Dem {
+            dem,
+            fallback,
+            strict,
+        } => plan_terrain(req, dem, *fallback, *strict, warp),
+    }
+}
+
+fn plan_flat(req: &OrthoRequest<'_>, z: f64, warp: WarpOptions) -> Result<OrthoPlan, Error> {
+    let (geometry, f) = flat_geometry(req, z)?;
+    let g = req.gsd_m;
+    let [i0, j0] = geometry.standard_origin;
+    let grid = OrthoGrid {
+        top_left: [i0 * g, -j0 * g],
+        gsd: g,
+        size: geometry.output_size,
+    };
+    let footprint = geometry
+        .footprint
+        .iter()
+        .filter_map(|p| geometry.base_from_oblique.map(p[0], p[1]))
+        .map(|b| [(b[0] + 0.5) * g, -(b[1] + 0.5) * g])
+        .collect();
+    let mut warnings = Vec::new();
+    if geometry.clipped {
+        warnings
+            .push("the far field near the horizon was cut to respect the output size limit".into());
+    }
+    Ok(OrthoPlan {
+        camera: req.camera.clone(),
+        grid,
+        map: OrthoMap::Flat(geometry.oblique_from_output),
+        footprint,
+        clipped: geometry.clipped,
+        standard_from_oblique: f,
+        warnings,
+        warp,
+    })
+}
+
+/// World (x, y) bounds [xmin, ymin, xmax, ymax] of points.
+fn bounds_of(points: impl IntoIterator<Item = [f64; 2]>) -> [f64; 4] {
+    points.into_iter().fold(
+        [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ],
+        |b, p| {
+            [
+                b[0].min(p[0]),
+                b[1].min(p[1]),
+                b[2].max(p[0]),
+                b[3].max(p[1]),
+            ]
+        },
+    )
+}
+
+/// Where rays from the camera meet the level z.
+fn on_plane(pose: &Pose, rays: &[Vec3], z: f64) -> Vec<[f64; 2]> {
+    let c = pose.centre;
+    rays.iter()
+        .filter(|d| d.z < 0.0)
+        .map(|d| {
+            let t = ((z - c[2]) / d.z).max(0.0);
+            [c[0] + t * d.x, c[1] + t * d.y]
+        })
+        .collect()
+}
+
+/// The height grid under a frame: sampled from the DEM over the footprint's reach between the
+/// lowest and highest terrain seen, at the DEM's own spacing (at least the GSD).
+fn terrain_under(
+    req: &OrthoRequest<'_>,
+    dem: &Dem,
+    rays: &[Vec3],
+    fill: f64,
+    range: (f64, f64),
+) -> Result<(HeightGrid, aerorect_geo::Sampling), Error> {
+    let pose = &req.pose;
+    let reach = on_plane(pose, rays, range.0).into_iter().chain(on_plane(
+        pose,
+        rays,
+        range.1.min(pose.centre[2] - 0.5),
+    ));
+    let b = bounds_of(reach);
+    let cell = if dem.projection.is_geographic() {
+        dem.cell_size[1] * 111_320.0
+    } else {
+        dem.cell_size[0].min(dem.cell_size[1])
+    };
+    let spacing = cell.max(req.gsd_m);
+    let nodes = ((b[2] - b[0]) / spacing + 3.0) * ((b[3] - b[1]) / spacing + 3.0);
+    if !(nodes.is_finite() && nodes <= 4.0e7) {
+        return Err(Error::Invalid(format!(
+            "{}: the frame's reach on the DEM ({:.0} x {:.0} m) is too large; is the camera height right?",
+            dem.name,
+            b[2] - b[0],
+            b[3] - b[1]
+        )));
+    }
+    HeightGrid::from_dem(dem, req.world, b, spacing, fill)
+        .map_err(|e| Error::Invalid(e.to_string()))
+}
+
+fn plan_terrain(
+    req: &OrthoRequest<'_>,
+    dem: &Dem,
+    fallback: Option<f64>,
+    strict: bool,
+    warp: WarpOptions,
+) -> Result<OrthoPlan, Error> {
+    let (lo, hi) = dem
+        .range()
+        .ok_or_else(|| Error::Invalid(format!("DEM {} has no valid height", dem.name)))?;
+    let fill = fallback.unwrap_or(0.5 * (lo + hi));
+    // The part of the frame kept (horizon cut) is planned on level ground at the fill height.
+    let (geometry, f) = flat_geometry(req, fill.min(req.pose.centre[2] - 0.5))?;
+    let k_inv = req.camera.intrinsics.camera_from_pixel();
+    let rays: Vec<Vec3> = geometry
+        .footprint
+        .iter()
+        .map(|p| req.pose.world_direction(k_inv * Vec3::new(p[0], p[1], 1.0)))
+        .collect();
+    // Twice: the second pass bounds the reach with the heights actually under the frame.
+    let (first, _) = terrain_under(req, dem, &rays, fill, (lo, hi))?;
+    let (flo, fhi) = first
+        .values
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v as f64), b.max(v as f64))
+        });
+    let (heights, sampling) = terrain_under(req, dem, &rays, fill, (flo, fhi))?;
+    let mut warnings = Vec::new();
+    if geometry.clipped {
+        warnings
+            .push("the far field near the horizon was cut to respect the output size limit".into());
+    }
+    if sampling.filled > 0 {
+        let msg = format!(
+            "DEM {}: {} of {} height nodes under the frame are nodata or outside it; they take {fill:.2} m",
+            dem.name, sampling.filled, sampling.nodes
+        );
+        if strict {
+            return Err(Error::Invalid(format!("{msg} (refused by --strict)")));
+        }
+        warnings.push(msg);
+    }
+    let terrain = Terrain::Grid(heights);
+    let step = 0.5
+        * req
+            .gsd_m
+            .max(1e-3)
+            .max(dem.cell_size[0].min(dem.cell_size[1]).min(5.0));
+    let dense = densify(&rays, 4 * BORDER_SAMPLES_PER_SIDE);
+    let hits: Vec<[f64; 2]> = dense
+        .iter()
+        .filter_map(|d| aerorect_geo::march_to_ground(&req.pose, *d, &terrain, (flo, fhi), step))
+        .map(|p| [p[0], p[1]])
+        .collect();
+    if hits.len() < 3 {
+        return Err(Error::Invalid(format!(
+            "DEM {}: the frame's rays do not meet the terrain",
+            dem.name
+        )));
+    }
+    let grid = OrthoGrid::covering(bounds_of(hits.iter().copied()), req.gsd_m);
+    if grid.size.pixels() as u64 > req.limits.max_output_px {
+        return Err(Error::Invalid(format!(
+            "the ortho over the DEM would be {} x {} px, over the limit of {} px (--max-output-px)",
+            grid.size.width, grid.size.height, req.limits.max_output_px
+        )));
+    }
+    let map = GroundMap {
+        camera: req.camera.clone(),
+        pose: req.pose,
+        grid,
+        terrain,
+    };
+    Ok(OrthoPlan {
+        camera: req.camera.clone(),
+        grid,
+        map: OrthoMap::Terrain(Box::new(map)),
+        footprint: hits,
+        clipped: geometry.clipped,
+        standard_from_oblique: f,
+        warnings,
+        warp,
+    })
+}
+
+/// `n` rays spread along the closed polygon of `rays` (directions interpolated and renormalised).
+fn densify(rays: &[Vec3], n: usize) -> Vec<Vec3> {
+    let m = rays.len();
+    if m == 0 {
+        return vec![];
+    }
+    let per = n.div_ceil(m).max(1);
+    (0..m)
+        .flat_map(|i| {
+            let (a, b) = (rays[i].normalize(), rays[(i + 1) % m].normalize());
+            (0..per).map(move |s| {
+                let t = s as f64 / per as f64;
+                (a * (1.0 - t) + b * t).normalize()
+            })
+        })
+        .collect()
+}
+
+/// Reads a DEM GeoTIFF (any CRS the file states) for the terrain planner.
+pub fn load_dem(path: &std::path::Path) -> Result<Dem, Error> {
+    let name = path.display().to_string();
+    let d = aerorect_io::read_dem(path)?;
+    if d.geo.rotation != [0.0, 0.0] {
+        return Err(Error::Invalid(format!(
+            "DEM {name}: a rotated grid (geotransform terms {:?}) is not supported",
+            d.geo.rotation
+        )));
+    }
+    let proj_text = d.geo.crs.to_proj_string()?;
+    let projection =
+        Projection::new(&proj_text).map_err(|e| Error::Invalid(format!("DEM {name}: {e}")))?;
+    let dem = Dem {
+        name,
+        values: d.heights,
+        width: d.size.width,
+        height: d.size.height,
+        top_left: d.geo.top_left,
+        cell_size: d.geo.pixel_size,
+        projection,
+    };
+    dem.validate().map_err(|e| Error::Invalid(e.to_string()))?;
+    Ok(dem)
+}

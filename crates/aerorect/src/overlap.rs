@@ -1,0 +1,124 @@
+//! The misalignment of two georeferenced frames on one grid, measured on their overlap with
+//! the phase correlator.
+
+use crate::Error;
+use aerorect_io::GeoReference;
+use serde::Serialize;
+
+/// The misalignment of two georeferenced frames on one grid, measured on their overlap.
+#[derive(Debug, Clone, Serialize)]
+pub struct OverlapShift {
+    /// Patches matched (both frames valid and textured, a clear correlation peak).
+    pub patches: usize,
+    /// Median shift of B relative to A, pixels (x east, y south) and metres (east, north).
+    pub median_px: [f64; 2],
+    pub median_m: [f64; 2],
+    /// RMS of the patch shifts' length, pixels.
+    pub rms_px: f64,
+    pub gsd_m: f64,
+    pub overlap_px: [usize; 2],
+}
+
+/// Measures where frame B's content sits relative to frame A's over their common area, with
+/// the phase correlator on `patch` x `patch` tiles. Both must share a CRS and GSD.
+pub fn overlap_shift(
+    a: &std::path::Path,
+    b: &std::path::Path,
+    patch: usize,
+) -> Result<OverlapShift, Error> {
+    use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
+    let geo = |p: &std::path::Path| -> Result<GeoReference, Error> {
+        aerorect_io::read_georeference(p)?
+            .ok_or_else(|| Error::Invalid(format!("{}: not a GeoTIFF", p.display())))
+    };
+    let (ga, gb) = (geo(a)?, geo(b)?);
+    if ga.crs != gb.crs || (ga.pixel_size[0] - gb.pixel_size[0]).abs() > 1e-9 * ga.pixel_size[0] {
+        return Err(Error::Invalid(format!(
+            "{} and {} are not on one grid (CRS {} / {}, GSD {} / {})",
+            a.display(),
+            b.display(),
+            ga.crs,
+            gb.crs,
+            ga.pixel_size[0],
+            gb.pixel_size[0]
+        )));
+    }
+    let gsd = ga.pixel_size[0];
+    let ia = crate::motion::gray(&aerorect_io::read_image(a)?)?;
+    let ib = crate::motion::gray(&aerorect_io::read_image(b)?)?;
+    // Offset of B's pixel grid in A's pixels (integral when both are aligned to the GSD).
+    let off = [
+        ((gb.top_left[0] - ga.top_left[0]) / gsd).round() as i64,
+        ((ga.top_left[1] - gb.top_left[1]) / gsd).round() as i64,
+    ];
+    let (sa, sb) = (ia.size(), ib.size());
+    let x0 = off[0].max(0);
+    let y0 = off[1].max(0);
+    let x1 = (sa.width as i64).min(off[0] + sb.width as i64);
+    let y1 = (sa.height as i64).min(off[1] + sb.height as i64);
+    if x1 - x0 < patch as i64 || y1 - y0 < patch as i64 {
+        return Err(Error::Invalid(
+            "the frames do not overlap by one patch".into(),
+        ));
+    }
+    let mut pc = PhaseCorrelator::new(
+        patch,
+        patch,
+        PhaseOptions {
+            weighting: Weighting::Phase,
+            window: true,
+        },
+    )
+    .map_err(|e| Error::Invalid(e.to_string()))?;
+    let (mut pa, mut pb) = (vec![0f32; patch * patch], vec![0f32; patch * patch]);
+    let mut shifts = Vec::new();
+    let step = patch as i64;
+    let mut y = y0;
+    while y + step <= y1 {
+        let mut x = x0;
+        while x + step <= x1 {
+            for r in 0..patch {
+                let ra = (y as usize + r) * sa.width + x as usize;
+                let rb = (y - off[1]) as usize * sb.width + r * sb.width + (x - off[0]) as usize;
+                pa[r * patch..(r + 1) * patch].copy_from_slice(&ia.plane(0)[ra..ra + patch]);
+                pb[r * patch..(r + 1) * patch].copy_from_slice(&ib.plane(0)[rb..rb + patch]);
+            }
+            // Tiles with nodata (0) in either frame are not compared.
+            let valid = !pa.iter().chain(pb.iter()).any(|&v| v == 0.0);
+            if valid
+                && let Ok(e) = pc.estimate(&pa, &pb)
+                && e.confidence > 0.05
+                && e.dx.abs().max(e.dy.abs()) < patch as f64 / 4.0
+            {
+                shifts.push([e.dx, e.dy]);
+            }
+            x += step;
+        }
+        y += step;
+    }
+    if shifts.is_empty() {
+        return Err(Error::Invalid(
+            "no overlapping patch could be matched".into(),
+        ));
+    }
+    let median = |d: usize| {
+        let mut v: Vec<f64> = shifts.iter().map(|s| s[d]).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (mx, my) = (median(0), median(1));
+    let rms = (shifts
+        .iter()
+        .map(|s| s[0] * s[0] + s[1] * s[1])
+        .sum::<f64>()
+        / shifts.len() as f64)
+        .sqrt();
+    Ok(OverlapShift {
+        patches: shifts.len(),
+        median_px: [mx, my],
+        median_m: [mx * gsd, -my * gsd],
+        rms_px: rms,
+        gsd_m: gsd,
+        overlap_px: [(x1 - x0) as usize, (y1 - y0) as usize],
+    })
+}
