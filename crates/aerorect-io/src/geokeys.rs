@@ -141,11 +141,11 @@ impl GeoKeys {
 
     /// The CRS the keys describe; an error names the key and value that could not be used.
     pub(crate) fn crs(&self) -> Result<Crs, String> {
-        let projected = match self.short(MODEL_TYPE) {
+        let model = self.short(MODEL_TYPE);
+        let projected = match model {
             Some(1) => true,
-            Some(2) => false,
             None => self.keys.contains_key(&PROJECTED_TYPE),
-            Some(v) => return Err(format!("{} = {v} is not supported", key_name(MODEL_TYPE))),
+            _ => false,
         };
         let type_key = if projected {
             PROJECTED_TYPE
@@ -153,13 +153,26 @@ impl GeoKeys {
             GEOGRAPHIC_TYPE
         };
         match self.short(type_key) {
-            Some(code) if code != USER_DEFINED && code != 0 => return Ok(Crs::Epsg(code)),
+            Some(code) if code != USER_DEFINED && code != 0 && model != Some(USER_DEFINED) => {
+                return Ok(Crs::Epsg(code));
+            }
             _ => {}
         }
         for id in [GT_CITATION, PCS_CITATION] {
-            if let Some(w) = self.ascii(id).and_then(|c| c.strip_prefix(ESRI_PE)) {
+            if let Some(w) = self
+                .ascii(id)
+                .and_then(|c| c.find(ESRI_PE).map(|i| &c[i..]))
+            {
+                let w = &w[ESRI_PE.len()..];
                 return Ok(Crs::Wkt(w.trim().to_string()));
             }
+        }
+        if !matches!(model, Some(1) | Some(2) | None) {
+            return Err(format!(
+                "{} = {} is not supported",
+                key_name(MODEL_TYPE),
+                model.unwrap_or_default()
+            ));
         }
         let geog = self.geographic_params()?;
         if !projected {
@@ -272,7 +285,13 @@ impl GeoKeys {
 pub(crate) fn encode(crs: &Crs) -> Result<(Vec<u16>, Vec<f64>, String), IoError> {
     let mut w = Writer::default();
     let geographic = crs.is_geographic()?;
-    w.short(MODEL_TYPE, if geographic { 2 } else { 1 });
+    // GDAL reads the WKT citation of a user-defined model type (its ESRI_PE key flavour).
+    let model = match crs {
+        Crs::Wkt(_) => USER_DEFINED,
+        _ if geographic => 2,
+        _ => 1,
+    };
+    w.short(MODEL_TYPE, model);
     w.short(RASTER_TYPE, 1);
     match crs {
         Crs::Epsg(code) if geographic => w.short(GEOGRAPHIC_TYPE, *code),
@@ -287,7 +306,7 @@ pub(crate) fn encode(crs: &Crs) -> Result<(Vec<u16>, Vec<f64>, String), IoError>
             }
         }
         Crs::Wkt(wkt) => {
-            w.ascii(GT_CITATION, &format!("{ESRI_PE}{wkt}"));
+            w.ascii(PCS_CITATION, &format!("{ESRI_PE}{wkt}"));
             w.short(
                 if geographic {
                     GEOGRAPHIC_TYPE
@@ -404,6 +423,36 @@ mod tests {
         let keys = GeoKeys::parse(&dir, &[0.0, 25.0, 1.0, 0.0, 0.0], ascii).expect("keys");
         let e = keys.crs().unwrap_err();
         assert!(e.contains("ProjCoordTransGeoKey (3075) = 99"), "{e}");
+    }
+
+    #[test]
+    fn gdals_esri_pe_flavour_gives_its_wkt() {
+        // GDAL 3.10 (rasterio), GEOTIFF_KEYS_FLAVOR=ESRI_PE, CRS "+proj=tmerc +lon_0=25
+        // +datum=WGS84": the directory and citations it wrote (tifffile), doubles left out.
+        let dir = [
+            1, 1, 0, 4, 1024, 0, 1, 32767, 1025, 0, 1, 1, 1026, 34737, 8, 0, 3073, 34737, 396, 8,
+        ];
+        let wkt = "PROJCS[\"unknown\",GEOGCS[\"GCS_unknown\",DATUM[\"D_WGS_1984\",\
+            SPHEROID[\"WGS_1984\",6378137.0,298.257223563]],PRIMEM[\"Greenwich\",0.0],\
+            UNIT[\"Degree\",0.0174532925199433]],PROJECTION[\"Transverse_Mercator\"],\
+            PARAMETER[\"False_Easting\",0.0],PARAMETER[\"False_Northing\",0.0],\
+            PARAMETER[\"Central_Meridian\",25.0],PARAMETER[\"Scale_Factor\",1.0],\
+            PARAMETER[\"Latitude_Of_Origin\",0.0],UNIT[\"Meter\",1.0]]";
+        let citation = format!("ESRI PE String = {wkt}");
+        let mut dir = dir.to_vec();
+        dir[18] = citation.len() as u16 + 1;
+        let ascii = format!("unknown|{citation}|");
+        let crs = GeoKeys::parse(&dir, &[], &ascii)
+            .expect("keys")
+            .crs()
+            .expect("crs");
+        assert_eq!(crs, Crs::Wkt(wkt.to_string()));
+        let tm = Crs::Proj("+proj=tmerc +lon_0=25 +datum=WGS84".into());
+        let (a, b) = (
+            crs.project_lon_lat(24.4, -33.7).expect("a"),
+            tm.project_lon_lat(24.4, -33.7).expect("b"),
+        );
+        assert!((a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6);
     }
 
     #[test]

@@ -7,7 +7,7 @@ use aerorect_core::ImageSize;
 use aerorect_raster::{AnyRaster, Raster};
 use image::{DynamicImage, ImageReader};
 use std::io::{BufWriter, Read, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The largest image we decode, in bytes of samples (guards against memory bombs): 4 GiB.
 pub const MAX_DECODED_BYTES: u64 = 4 << 30;
@@ -114,8 +114,10 @@ pub fn write_image(path: &Path, raster: &AnyRaster) -> Result<(), IoError> {
     write_image_geo(path, raster, None)
 }
 
-/// Writes `raster` like [`write_image`]; with `geo`, a .tif becomes a GeoTIFF and a .png gets a
-/// world file beside it (written after the image).
+/// Writes `raster` like [`write_image`]; with `geo`, a .tif becomes a GeoTIFF, and a .png gets
+/// a world file, a `.prj` (OGC WKT) and a `.png.aux.xml` (the SRS, which GDAL reads for PNG)
+/// beside it. The image and its sidecars are written to temporary files first and renamed
+/// together: when one fails, none is left.
 pub fn write_image_geo(
     path: &Path,
     raster: &AnyRaster,
@@ -130,19 +132,57 @@ pub fn write_image_geo(
             tiff_file::write(w, raster, geo).map_err(|e| IoError::encode(path, e))
         }),
         Some("png") => {
-            write_atomically(path, |w| {
+            let sidecars = match geo {
+                Some(g) => png_sidecars(path, g)?,
+                None => Vec::new(),
+            };
+            let mut staged = vec![stage(path, |w| {
                 write_png(w, raster).map_err(|e| IoError::encode(path, e))
-            })?;
-            if let Some(g) = geo {
-                crate::geotiff::write_world_file(path, g)?;
+            })?];
+            for (p, text) in &sidecars {
+                staged.push(stage(p, |w| {
+                    w.write_all(text.as_bytes()).map_err(|e| IoError::io(p, e))
+                })?);
             }
-            Ok(())
+            persist_all(staged)
         }
         _ => Err(IoError::encode(
             path,
             "unknown output format: use a .tif, .tiff or .png file name",
         )),
     }
+}
+
+/// The world file, `.prj` and `.aux.xml` of a georeferenced PNG, with their text.
+fn png_sidecars(
+    path: &Path,
+    geo: &crate::geotiff::GeoReference,
+) -> Result<Vec<(PathBuf, String)>, IoError> {
+    let wkt = geo
+        .crs
+        .to_wkt()
+        .map_err(|e| IoError::encode(path, format!("no WKT for the .prj: {e}")))?;
+    let mut aux = path.as_os_str().to_owned();
+    aux.push(".aux.xml");
+    let xml = format!(
+        "<PAMDataset>\n  <SRS>{}</SRS>\n</PAMDataset>\n",
+        xml_escape(&wkt)
+    );
+    Ok(vec![
+        (
+            crate::geotiff::world_file_path(path),
+            crate::geotiff::world_file_text(geo),
+        ),
+        (path.with_extension("prj"), wkt),
+        (PathBuf::from(aux), xml),
+    ])
+}
+
+fn xml_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 fn write_png<W: Write>(w: W, raster: &AnyRaster) -> Result<(), String> {
@@ -184,6 +224,19 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<(), IoError>,
 ) -> Result<(), IoError> {
+    persist_all(vec![stage(path, write)?])
+}
+
+/// A file written to a temporary file beside its target, not yet renamed.
+struct Staged {
+    tmp: tempfile::NamedTempFile,
+    path: PathBuf,
+}
+
+fn stage(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<(), IoError>,
+) -> Result<Staged, IoError> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -202,7 +255,25 @@ pub fn write_atomically(
         write(&mut w)?;
         w.flush().map_err(|e| IoError::io(path, e))?;
     }
-    tmp.persist(path).map_err(|e| IoError::io(path, e.error))?;
+    Ok(Staged {
+        tmp,
+        path: path.to_path_buf(),
+    })
+}
+
+/// Renames every staged file into place; when one rename fails, the files already renamed
+/// are removed (and the remaining temporary files with them).
+fn persist_all(staged: Vec<Staged>) -> Result<(), IoError> {
+    let mut done: Vec<PathBuf> = Vec::new();
+    for s in staged {
+        if let Err(e) = s.tmp.persist(&s.path) {
+            for p in &done {
+                let _ = std::fs::remove_file(p);
+            }
+            return Err(IoError::io(&s.path, e.error));
+        }
+        done.push(s.path);
+    }
     Ok(())
 }
 
