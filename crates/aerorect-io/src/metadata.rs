@@ -1,5 +1,7 @@
-//! Photo metadata: EXIF (kamadak-exif) and the XMP `drone-dji` tags (roxmltree), with the
-//! quirks found in the wild: numbers written "+37.10", and `GpsLongtitude` misspelt.
+//! Photo metadata: EXIF (kamadak-exif, from JPEG or TIFF), GDAL's `EXIF_*` metadata items in a
+//! TIFF (tag 42112), and the XMP `drone-dji` tags (roxmltree) from a JPEG's APP1 segment, a
+//! TIFF's tag 700 or a GDAL metadata item, with the quirks found in the wild: numbers written
+//! "+37.10", and `GpsLongtitude` misspelt.
 
 use crate::error::IoError;
 use exif::{In, Tag, Value};
@@ -61,7 +63,16 @@ pub fn read_photo_metadata(path: &Path) -> Result<PhotoMetadata, IoError> {
         Err(exif::Error::NotFound(_)) => {}
         Err(e) => return Err(IoError::field(&name, format!("EXIF: {e}"))),
     }
-    if let Some(xmp) = xmp_packet(&bytes) {
+    let gdal = if bytes.starts_with(b"II") || bytes.starts_with(b"MM") {
+        gdal_metadata_items(path)?
+    } else {
+        BTreeMap::new()
+    };
+    fill_gdal_exif(&mut meta, &gdal).map_err(|e| IoError::field(&name, e))?;
+    // The XMP packet: in the bytes (a JPEG's APP1 segment, a TIFF's tag 700), else escaped in a
+    // GDAL metadata item.
+    let xmp = xmp_packet(&bytes).or_else(|| gdal.values().find_map(|v| xmp_packet(v.as_bytes())));
+    if let Some(xmp) = xmp {
         let tags = dji_tags(xmp).map_err(|e| IoError::field(&name, format!("XMP: {e}")))?;
         meta.dji = parse_dji(&tags).map_err(|e| IoError::field(&name, e))?;
     }
@@ -124,6 +135,95 @@ fn fill_exif(m: &mut PhotoMetadata, ex: &exif::Exif) {
         }
     });
     m.time = ascii(ex, Tag::DateTimeOriginal);
+}
+
+/// GDAL's metadata tag (42112) of a TIFF: `<GDALMetadata><Item name="EXIF_Make">DJI</Item>`,
+/// by item name (items of every domain; band items left out). Empty when the tag is absent.
+fn gdal_metadata_items(path: &Path) -> Result<BTreeMap<String, String>, IoError> {
+    let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    let mut dec = tiff::decoder::Decoder::new(std::io::BufReader::new(file))
+        .map_err(|e| IoError::decode(path, e))?;
+    let tag = tiff::tags::Tag::Unknown(GDAL_METADATA);
+    if dec
+        .find_tag(tag)
+        .map_err(|e| IoError::decode(path, e))?
+        .is_none()
+    {
+        return Ok(BTreeMap::new());
+    }
+    let xml = dec
+        .get_tag_ascii_string(tag)
+        .map_err(|e| IoError::decode(path, e))?;
+    let xml = xml.trim_end_matches('\0');
+    let doc = roxmltree::Document::parse(xml)
+        .map_err(|e| IoError::field(path.display(), format!("GDAL metadata (tag 42112): {e}")))?;
+    Ok(doc
+        .descendants()
+        .filter(|n| n.has_tag_name("Item") && n.attribute("sample").is_none())
+        .filter_map(|n| Some((n.attribute("name")?.to_string(), n.text()?.to_string())))
+        .collect())
+}
+
+const GDAL_METADATA: u16 = 42112;
+
+/// The numbers of a GDAL EXIF item: "(53) (54) (1.2)", "(4.73)", "26".
+fn gdal_numbers(item: &str, value: &str) -> Result<Vec<f64>, String> {
+    value
+        .split_whitespace()
+        .map(|t| {
+            let t = t.trim_start_matches('(').trim_end_matches(')');
+            match t.parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(v),
+                _ => Err(format!("GDAL metadata {item} = '{value}' is not a number")),
+            }
+        })
+        .collect()
+}
+
+/// Fills what EXIF did not give from GDAL's `EXIF_*` metadata items.
+fn fill_gdal_exif(m: &mut PhotoMetadata, items: &BTreeMap<String, String>) -> Result<(), String> {
+    let text = |k: &str| items.get(k).map(|v| v.trim().to_string());
+    let first = |k: &str| -> Result<Option<f64>, String> {
+        match items.get(k) {
+            Some(v) => Ok(gdal_numbers(k, v)?.first().copied()),
+            None => Ok(None),
+        }
+    };
+    let dms = |k: &str, reference: &str, negative: &str| -> Result<Option<f64>, String> {
+        let Some(v) = items.get(k) else {
+            return Ok(None);
+        };
+        let n = gdal_numbers(k, v)?;
+        let deg = n
+            .iter()
+            .zip([1.0, 60.0, 3600.0])
+            .map(|(x, s)| x / s)
+            .sum::<f64>();
+        let neg = text(reference).is_some_and(|r| r.eq_ignore_ascii_case(negative));
+        Ok(Some(if neg { -deg } else { deg }))
+    };
+    m.make = m.make.take().or(text("EXIF_Make"));
+    m.model = m.model.take().or(text("EXIF_Model"));
+    m.width = m.width.or(first("EXIF_PixelXDimension")?.map(|v| v as u32));
+    m.height = m
+        .height
+        .or(first("EXIF_PixelYDimension")?.map(|v| v as u32));
+    m.focal_length_mm = m.focal_length_mm.or(first("EXIF_FocalLength")?);
+    m.focal_length_35mm = m.focal_length_35mm.or(first("EXIF_FocalLengthIn35mmFilm")?);
+    m.latitude_deg = m
+        .latitude_deg
+        .or(dms("EXIF_GPSLatitude", "EXIF_GPSLatitudeRef", "S")?);
+    m.longitude_deg = m
+        .longitude_deg
+        .or(dms("EXIF_GPSLongitude", "EXIF_GPSLongitudeRef", "W")?);
+    if m.gps_altitude_m.is_none()
+        && let Some(a) = first("EXIF_GPSAltitude")?
+    {
+        let below = text("EXIF_GPSAltitudeRef").is_some_and(|r| r == "1" || r == "0x01");
+        m.gps_altitude_m = Some(if below { -a } else { a });
+    }
+    m.time = m.time.take().or(text("EXIF_DateTimeOriginal"));
+    Ok(())
 }
 
 /// The XMP packet of a file: the text from `<x:xmpmeta` to `</x:xmpmeta>`.
