@@ -164,6 +164,12 @@ impl LensMap {
         }
     }
 
+    /// The lens of `camera`, within it; `None` for an ideal pinhole.
+    pub fn of_camera(camera: &aerorect_core::Camera, direction: LensDirection) -> Option<Self> {
+        let model = camera.distortion.clone()?;
+        Some(Self::within(camera.intrinsics, model, direction))
+    }
+
     /// One point through a concrete model (statically dispatched in row loops).
     #[inline(always)]
     fn through<M: aerorect_core::distortion::DistortionModel>(

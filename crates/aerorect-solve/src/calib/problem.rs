@@ -4,8 +4,8 @@
 use super::CalibrationError;
 use super::init::{PlaneView, Pose, dlt, zhang};
 use super::lm::{Problem, StopReason, minimise};
-use aerorect_core::ImageSize;
 use aerorect_core::distortion::{Direction, Distortion};
+use aerorect_core::{Camera, GeometryError, ImageSize, Intrinsics};
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use serde::Serialize;
 
@@ -90,6 +90,14 @@ pub struct CalibrationReport {
 }
 
 impl CalibrationReport {
+    /// The calibrated camera for images of `size` (the size the control points were measured
+    /// in).
+    pub fn camera(&self, size: ImageSize) -> Result<Camera, GeometryError> {
+        let mut k = Intrinsics::new(self.fx, self.fy, self.cx, self.cy)?;
+        k.skew = aerorect_core::error::require_finite("skew", self.skew)?;
+        Ok(Camera::new(k, Some(self.distortion.clone()), size))
+    }
+
     /// The observed pixel of world point `w` in view `view` under the calibrated camera; `None`
     /// behind the camera or where the lens model's inverse does not converge.
     pub fn project(&self, view: usize, w: [f64; 3]) -> Option<[f64; 2]> {
