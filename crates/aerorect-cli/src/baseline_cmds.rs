@@ -288,15 +288,14 @@ pub fn compare(a: CompareArgs) -> Result<()> {
         Some(p) => CameraFile::read(p)?,
         None => CameraFile::parse(aerorect::compare::CAMERA_TOML, "default camera")?,
     };
-    let frame_size = cam.frame_size(None)?;
+    let camera = cam.camera(None)?;
     let attitude = match &a.attitude {
         Some(s) => read_attitude(s)?,
         None => SixAngleAttitude::from_degrees(&aerorect::compare::ATTITUDE)?,
     };
     let reference = read_image(&a.reference)?;
     let cfg = CompareConfig {
-        intrinsics: cam.intrinsics(frame_size)?,
-        frame_size,
+        camera,
         attitude,
         attitude_noise_arcmin: a.attitude_noise_arcmin,
         gcps: a.gcps,

@@ -2,7 +2,7 @@
 
 use aerorect::core::ImageSize;
 use aerorect::core::distortion::Distortion;
-use aerorect::io::{CameraFile, read_image, write_image};
+use aerorect::io::{CameraFile, camera_toml, read_image, write_image};
 use aerorect::raster::Interp;
 use aerorect::undistort::UndistortPlan;
 use aerorect_solve::calib::{CalibrationOptions, CalibrationReport, calibrate};
@@ -86,7 +86,9 @@ pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
         aerorect::demo::write_text(j, &serde_json::to_string_pretty(&report_json(&r)?)?)?;
     }
     if let Some(c) = &a.camera_out {
-        aerorect::demo::write_text(c, &camera_toml(&r, size)?)?;
+        let text = camera_toml(&r.camera(size)?)?;
+        let header = format!("# written by aerorect calibrate (RMS {:.4} px)\n", r.rms_px);
+        aerorect::demo::write_text(c, &(header + &text))?;
     }
     Ok(())
 }
@@ -145,15 +147,6 @@ fn report_json(r: &CalibrationReport) -> Result<serde_json::Value> {
     Ok(v)
 }
 
-fn camera_toml(r: &CalibrationReport, size: ImageSize) -> Result<String> {
-    let mut s = format!(
-        "# written by aerorect calibrate (RMS {:.4} px)\nfx_px = {:?}\nfy_px = {:?}\ncx_px = {:?}\ncy_px = {:?}\nskew_px = {:?}\nimage_size_px = [{}, {}]\n\n[distortion]\n",
-        r.rms_px, r.fx, r.fy, r.cx, r.cy, r.skew, size.width, size.height
-    );
-    s += &toml::to_string(&r.distortion)?;
-    Ok(s)
-}
-
 #[derive(Args)]
 pub struct UndistortArgs {
     input: PathBuf,
@@ -175,29 +168,28 @@ pub struct UndistortArgs {
 pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
     crate::commands::refuse_overwrite(&a.input, &[a.output.as_path()])?;
     let cam = CameraFile::read(&a.camera)?;
-    let Some(model) = cam.distortion.clone() else {
+    if cam.distortion.is_none() {
         bail!(
             "{}: no [distortion] table: nothing to undistort",
             a.camera.display()
         );
-    };
+    }
     let img = read_image(&a.input)?;
-    let size = cam.frame_size(Some(img.size()))?;
-    let k = cam.intrinsics(size)?;
+    let camera = cam.camera(Some(img.size()))?;
     let warp = crate::commands::warp_options(a.interp, a.nodata, a.alpha, &img)?;
-    let plan = UndistortPlan::new(k, size, model, a.fit)
-        .with_context(|| a.camera.display().to_string())?;
+    let plan =
+        UndistortPlan::new(&camera, a.fit).with_context(|| a.camera.display().to_string())?;
     let t = std::time::Instant::now();
     let out = plan.run(&img, &warp)?;
     let secs = t.elapsed().as_secs_f64();
     write_image(&a.output, &out)?;
-    let o = plan.output_intrinsics;
+    let (o, size) = (plan.output.intrinsics, plan.output.size);
     println!(
         "{} -> {}: {} x {}, principal point ({:.2}, {:.2}), {} in {:.1} ms",
         a.input.display(),
         a.output.display(),
-        plan.output_size.width,
-        plan.output_size.height,
+        size.width,
+        size.height,
         o.cx,
         o.cy,
         a.interp.name(),

@@ -132,20 +132,17 @@ pub fn rectify(a: RectifyArgs) -> Result<()> {
     let attitude = read_attitude(attitude)?;
     let alt = altitude(a.altitude_m, a.base_altitude_m)?;
     let image = read_image(&a.input)?;
-    let size = cam.frame_size(Some(image.size()))?;
-    let intr = cam.intrinsics(size)?;
+    let camera = cam.camera(Some(image.size()))?;
     let warp = warp_options(a.interp, a.nodata, a.alpha, &image)?;
     let limits = RectifyLimits {
         max_output_px: a.max_output_px,
     };
-    let plan = RectifyPlan::new(intr, size, attitude, alt, limits, warp)
-        .with_context(|| {
-            format!(
-                "{}: cannot rectify with this camera and attitude",
-                a.input.display()
-            )
-        })?
-        .with_distortion(cam.distortion.clone());
+    let plan = RectifyPlan::new(camera, attitude, alt, limits, warp).with_context(|| {
+        format!(
+            "{}: cannot rectify with this camera and attitude",
+            a.input.display()
+        )
+    })?;
     let (out, seconds) = plan.run(&image)?;
     let report = plan.report(
         &a.input.display().to_string(),
@@ -200,13 +197,11 @@ pub fn simulate(a: SimulateArgs) -> Result<()> {
     let mut outs = vec![a.output.as_path()];
     outs.extend(a.checkpoints_out.as_deref());
     refuse_overwrite(&a.ortho, &outs)?;
-    let cam = CameraFile::read(&a.camera)?;
-    let frame = cam.frame_size(None)?;
-    let intr = cam.intrinsics(frame)?;
+    let camera = CameraFile::read(&a.camera)?.camera(None)?;
+    let frame = camera.size;
     let attitude = read_attitude(&a.attitude)?;
     let ortho = read_image(&a.ortho)?;
-    let plan = SimulatePlan::new(intr, frame, &attitude, ortho.size())
-        .with_distortion(cam.distortion.clone());
+    let plan = SimulatePlan::new(camera, &attitude, ortho.size());
     let warp = WarpOptions {
         interp: a.interp,
         nodata: a.nodata,
@@ -255,11 +250,10 @@ pub struct EvaluateArgs {
 }
 
 pub fn evaluate(a: EvaluateArgs) -> Result<()> {
-    let cam = CameraFile::read(&a.camera)?;
-    let intr = cam.intrinsics_for_unknown_frame()?;
+    let camera = CameraFile::read(&a.camera)?.camera(None)?;
     let attitude = read_attitude(&a.attitude)?;
     let points = read_checkpoints(&a.checkpoints)?;
-    let s = aerorect::evaluate::evaluate(&intr, &attitude, &points, cam.distortion.as_ref())
+    let s = aerorect::evaluate::evaluate(&camera, &attitude, &points)
         .with_context(|| a.checkpoints.display().to_string())?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&s)?);
@@ -302,15 +296,14 @@ pub fn sensitivity(a: SensitivityArgs) -> Result<()> {
         Some(p) => CameraFile::read(p)?,
         None => CameraFile::parse(SENSITIVITY_CAMERA, "default camera")?,
     };
-    let frame = cam.frame_size(None)?;
-    let intrinsics = cam.intrinsics(frame)?;
+    let camera = cam.camera(None)?;
+    let frame = camera.size;
     let attitude = match &a.attitude {
         Some(s) => read_attitude(s)?,
         None => SixAngleAttitude::from_degrees(&aerorect::demo::ATTITUDE)?,
     };
     let cfg = SensitivityConfig {
-        intrinsics,
-        frame_size: frame,
+        camera,
         attitude,
         sigma_arcmin: a.sigma_arcmin,
         draws: a.draws,

@@ -366,8 +366,9 @@ fn bad_images_and_outputs_are_refused_and_nothing_is_written() {
         ),
         &["exceeds the limit of 1000 px"],
     );
+    // A camera of another aspect ratio is refused (a resized frame is scaled, see below).
     let other =
-        "focal_length_mm = 6.0\npixel_pitch_um = [15.0, 15.0]\nimage_size_px = [640, 480]\n";
+        "focal_length_mm = 6.0\npixel_pitch_um = [15.0, 15.0]\nimage_size_px = [640, 640]\n";
     std::fs::write(d.join("cam640.toml"), other).unwrap();
     fails(
         &aerorect(
@@ -382,7 +383,10 @@ fn bad_images_and_outputs_are_refused_and_nothing_is_written() {
             ],
             &d,
         ),
-        &["image_size_px = [640, 480] but the image is 320 x 240"],
+        &[
+            "cam640.toml",
+            "image_size_px = [640, 640] but the image is 320 x 240",
+        ],
     );
     fails(
         &aerorect(
@@ -405,6 +409,43 @@ fn bad_images_and_outputs_are_refused_and_nothing_is_written() {
         .filter(|n| n.starts_with("o.") || n.ends_with(".tmp"))
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+/// A camera file written for twice the frame's size (half the pixel pitch) rectifies the frame
+/// exactly like the camera file of its own size: fx = 6 mm / 7.5 um / 2 = 6 mm / 15 um and
+/// cx = (319.5 + 0.5) / 2 - 0.5 = 159.5.
+#[test]
+fn a_camera_for_a_larger_image_of_the_same_aspect_is_scaled() {
+    let (_t, d) = fixture();
+    let big = "focal_length_mm = 6.0\npixel_pitch_um = [7.5, 7.5]\nimage_size_px = [640, 480]\n";
+    std::fs::write(d.join("cam640.toml"), big).unwrap();
+    let report = |cam: &str, out: &str| -> serde_json::Value {
+        let json = format!("{out}.json");
+        ok(&aerorect(
+            &[
+                "rectify",
+                "frame.png",
+                out,
+                "--camera",
+                cam,
+                "--attitude",
+                ATT,
+                "--report",
+                &json,
+            ],
+            &d,
+        ));
+        serde_json::from_str(&std::fs::read_to_string(d.join(&json)).unwrap()).unwrap()
+    };
+    let (own, scaled) = (
+        report("cam.toml", "own.tif"),
+        report("cam640.toml", "big.tif"),
+    );
+    for key in ["intrinsics_px", "output_size", "homography_output_to_input"] {
+        assert_eq!(own[key], scaled[key], "{key}");
+    }
+    assert_eq!(scaled["intrinsics_px"]["fx"], 400.0);
+    assert_eq!(scaled["intrinsics_px"]["cx"], 159.5);
 }
 
 #[test]

@@ -3,12 +3,13 @@
 //! Either the paper's physical parameters:
 //! `focal_length_mm`, `pixel_pitch_um = [dx, dy]`, optional `principal_point_px = [u0, v0]`;
 //! or intrinsics in pixels: `fx_px`, `fy_px`, optional `cx_px`, `cy_px`, `skew_px`.
-//! Optional `image_size_px = [W, H]`. The principal point defaults to the image centre
-//! ((W-1)/2, (H-1)/2). Optional `[distortion]` table: `model` (tsai, brown, improved, opencv)
+//! Optional `image_size_px = [W, H]`: the size the pixel values are for; an image resampled to
+//! another size of the same aspect ratio gets the camera scaled to it. The principal point
+//! defaults to the image centre ((W-1)/2, (H-1)/2). Optional `[distortion]` table: `model` (tsai, brown, improved, opencv)
 //! and the coefficients by name (missing ones are zero). Unknown keys are an error.
 
 use crate::error::IoError;
-use aerorect_core::{GeometryError, ImageSize, Intrinsics};
+use aerorect_core::{Camera, GeometryError, ImageSize, Intrinsics};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -48,8 +49,29 @@ impl CameraFile {
         IoError::field(&self.source_name, message)
     }
 
+    /// The camera for an image of `image` pixels (or, without one, of the file's
+    /// `image_size_px`). A file that states `image_size_px` is carried to an image of another
+    /// size with the same aspect ratio by [`Camera::resized`]; another aspect ratio is refused.
+    pub fn camera(&self, image: Option<ImageSize>) -> Result<Camera, IoError> {
+        let stated = self.image_size()?;
+        let size = stated
+            .or(image)
+            .ok_or_else(|| self.err("missing key image_size_px (needed to know the frame size)"))?;
+        let camera = Camera::new(self.intrinsics(size)?, self.distortion.clone(), size);
+        match image {
+            Some(image) if image != size => camera.resized(image).map_err(|e| match e {
+                GeometryError::AspectMismatch { .. } => self.err(format!(
+                    "image_size_px = [{}, {}] but the image is {} x {}: not the same aspect ratio",
+                    size.width, size.height, image.width, image.height
+                )),
+                other => self.err(other),
+            }),
+            _ => Ok(camera),
+        }
+    }
+
     /// `image_size_px`, if given (both values must be positive).
-    pub fn image_size(&self) -> Result<Option<ImageSize>, IoError> {
+    fn image_size(&self) -> Result<Option<ImageSize>, IoError> {
         match self.image_size_px {
             None => Ok(None),
             Some([w, h]) if w > 0 && h > 0 => Ok(Some(ImageSize::new(w as usize, h as usize))),
@@ -57,39 +79,8 @@ impl CameraFile {
         }
     }
 
-    /// The frame size: the file's `image_size_px`, which must agree with `image` when both exist.
-    pub fn frame_size(&self, image: Option<ImageSize>) -> Result<ImageSize, IoError> {
-        match (self.image_size()?, image) {
-            (Some(a), Some(b)) if a != b => Err(self.err(format!(
-                "image_size_px = [{}, {}] but the image is {} x {}",
-                a.width, a.height, b.width, b.height
-            ))),
-            (Some(a), _) => Ok(a),
-            (None, Some(b)) => Ok(b),
-            (None, None) => {
-                Err(self.err("missing key image_size_px (needed to know the frame size)"))
-            }
-        }
-    }
-
-    /// The intrinsics when the frame size is not known: the principal point must then be given
-    /// (or `image_size_px`, whose centre is the default).
-    pub fn intrinsics_for_unknown_frame(&self) -> Result<Intrinsics, IoError> {
-        if let Some(size) = self.image_size()? {
-            return self.intrinsics(size);
-        }
-        let pp_given =
-            self.principal_point_px.is_some() || (self.cx_px.is_some() && self.cy_px.is_some());
-        if !pp_given {
-            return Err(self.err(
-                "missing key image_size_px or principal_point_px (needed for the principal point)",
-            ));
-        }
-        self.intrinsics(ImageSize::new(1, 1))
-    }
-
     /// The intrinsics for a frame of `size`.
-    pub fn intrinsics(&self, size: ImageSize) -> Result<Intrinsics, IoError> {
+    fn intrinsics(&self, size: ImageSize) -> Result<Intrinsics, IoError> {
         let geo = |e: GeometryError| self.err(e);
         let pixels = self.fx_px.is_some() || self.fy_px.is_some();
         let physical = self.focal_length_mm.is_some() || self.pixel_pitch_um.is_some();
@@ -131,6 +122,22 @@ impl CameraFile {
     }
 }
 
+/// The camera file of `camera`: intrinsics in pixels, `image_size_px` and the `[distortion]`
+/// table; [`CameraFile::camera`] reads it back to the same camera.
+pub fn camera_toml(camera: &Camera) -> Result<String, IoError> {
+    let k = &camera.intrinsics;
+    let mut s = format!(
+        "fx_px = {:?}\nfy_px = {:?}\ncx_px = {:?}\ncy_px = {:?}\nskew_px = {:?}\nimage_size_px = [{}, {}]\n",
+        k.fx, k.fy, k.cx, k.cy, k.skew, camera.size.width, camera.size.height
+    );
+    if let Some(d) = &camera.distortion {
+        let table = toml::to_string(d).map_err(|e| IoError::field("[distortion]", e))?;
+        s += "\n[distortion]\n";
+        s += &table;
+    }
+    Ok(s)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -145,8 +152,9 @@ mod tests {
             "focal_length_mm = 50.0\npixel_pitch_um = [10.0, 12.5]\nimage_size_px = [640, 480]",
         )
         .expect("ok");
-        let size = c.frame_size(None).expect("size");
-        let k = c.intrinsics(size).expect("intrinsics");
+        let cam = c.camera(None).expect("camera");
+        assert_eq!(cam.size, ImageSize::new(640, 480));
+        let k = cam.intrinsics;
         assert_eq!((k.fx, k.fy), (5000.0, 4000.0));
         assert_eq!((k.cx, k.cy), (319.5, 239.5));
     }
@@ -209,12 +217,73 @@ mod tests {
         assert!(e.contains("pixel_pitch_um[0] = 0"), "{e}");
         let c = parse("fx_px = 1.0\nfy_px = 1.0\nimage_size_px = [10, 10]").expect("parses");
         let e = c
-            .frame_size(Some(ImageSize::new(10, 11)))
+            .camera(Some(ImageSize::new(10, 20)))
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("image_size_px = [10, 10] but the image is 10 x 11"),
+            e.contains("cam.toml")
+                && e.contains("image_size_px = [10, 10] but the image is 10 x 20"),
             "{e}"
+        );
+        let e = parse("fx_px = 1.0\nfy_px = 1.0")
+            .expect("parses")
+            .camera(None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("cam.toml: missing key image_size_px"), "{e}");
+    }
+
+    #[test]
+    fn a_smaller_image_of_the_same_aspect_gets_the_scaled_camera() {
+        let text = "fx_px = 3000.0\nfy_px = 3010.0\ncx_px = 2010.0\ncy_px = 1490.0\n\
+                    image_size_px = [4000, 3000]\n[distortion]\nmodel = \"opencv\"\nk1 = -0.2\n";
+        let c = parse(text).expect("parses");
+        let cam = c.camera(Some(ImageSize::new(1000, 750))).expect("resized");
+        assert_eq!(cam.size, ImageSize::new(1000, 750));
+        let k = cam.intrinsics;
+        // A 4x downsample: the outer pixel edges stay the outer edges, so pixel centre u of the
+        // large image is at (u + 0.5) / 4 - 0.5 in the small one; focal lengths scale by 1/4.
+        assert_eq!((k.fx, k.fy), (3000.0 / 4.0, 3010.0 / 4.0));
+        assert_eq!(
+            (k.cx, k.cy),
+            ((2010.0 + 0.5) / 4.0 - 0.5, (1490.0 + 0.5) / 4.0 - 0.5)
+        );
+        assert_eq!(cam.distortion, c.distortion);
+        // The size the file states needs no resizing.
+        let same = c
+            .camera(Some(ImageSize::new(4000, 3000)))
+            .expect("same size");
+        assert_eq!((same.intrinsics.fx, same.intrinsics.cx), (3000.0, 2010.0));
+        let e = c
+            .camera(Some(ImageSize::new(1000, 1000)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("cam.toml")
+                && e.contains("[4000, 3000]")
+                && e.contains("1000 x 1000")
+                && e.contains("aspect"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_written_camera_reads_back_the_same() {
+        let text = "fx_px = 812.25\nfy_px = 809.5\ncx_px = 321.125\ncy_px = 238.75\nskew_px = 0.5\n\
+                    image_size_px = [640, 480]\n[distortion]\nmodel = \"brown\"\nk1 = -0.21\np2 = 0.003\n";
+        let cam = parse(text).expect("parses").camera(None).expect("camera");
+        assert_eq!(cam.intrinsics.skew, 0.5);
+        let back = parse(&camera_toml(&cam).expect("written"))
+            .expect("parses back")
+            .camera(None)
+            .expect("camera back");
+        assert_eq!(back, cam);
+        let pinhole = Camera::new(cam.intrinsics, None, cam.size);
+        let text = camera_toml(&pinhole).expect("written");
+        assert!(!text.contains("distortion"), "{text}");
+        assert_eq!(
+            parse(&text).expect("parses").camera(None).expect("camera"),
+            pinhole
         );
     }
 }

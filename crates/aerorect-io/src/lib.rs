@@ -18,7 +18,7 @@ pub mod sensors;
 mod tiff_file;
 
 pub use attitude::read_attitude;
-pub use camera::CameraFile;
+pub use camera::{CameraFile, camera_toml};
 pub use checkpoints::{
     ControlPoint, Gcp, PoseRecord, read_checkpoints, read_control_points, read_gcps, read_poses,
     write_checkpoints, write_csv,

@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used)]
 
 use aerorect::core::distortion::Distortion;
-use aerorect::core::{ImageSize, Intrinsics};
+use aerorect::core::{Camera, ImageSize, Intrinsics};
 use aerorect::raster::{AnyRaster, WarpOptions};
 use aerorect::undistort::UndistortPlan;
 use aerorect_solve::calib::{CalibrationOptions, Observation, calibrate};
@@ -36,10 +36,11 @@ fn lens(c: &mut Criterion) {
     let mut d = Distortion::zero("opencv").unwrap();
     d.model_mut()
         .set_params(&[-0.265, -0.0467, 0.0018, -0.0003, 0.252]);
+    let camera = Camera::new(k, Some(d), size);
     let warp = WarpOptions::default();
     g.bench_function("undistort_4000x3000_gray8_bilinear", |b| {
         b.iter(|| {
-            UndistortPlan::new(k, size, d.clone(), false)
+            UndistortPlan::new(&camera, false)
                 .unwrap()
                 .run(&img, &warp)
                 .unwrap()

@@ -19,8 +19,8 @@ use crate::{Error, warp_any};
 use aerorect_core::attitude::SixAngleDegrees;
 use aerorect_core::evaluate::stats;
 use aerorect_core::{
-    CheckPointStats, Homography, ImageSize, Intrinsics, PlaneTransform, PolyKind, RectifyGeometry,
-    RectifyLimits, SixAngleAttitude,
+    Camera, CheckPointStats, Homography, PlaneTransform, PolyKind, RectifyGeometry, RectifyLimits,
+    SixAngleAttitude,
 };
 use aerorect_io::Gcp;
 use aerorect_raster::{AnyRaster, WarpOptions};
@@ -34,8 +34,8 @@ use std::time::Instant;
 /// The experiment's set-up.
 #[derive(Debug, Clone)]
 pub struct CompareConfig {
-    pub intrinsics: Intrinsics,
-    pub frame_size: ImageSize,
+    /// The frame's camera; its lens model is not used (the table is of an ideal pinhole).
+    pub camera: Camera,
     pub attitude: SixAngleAttitude,
     pub attitude_noise_arcmin: f64,
     pub gcps: usize,
@@ -114,10 +114,8 @@ fn random_pairs(
     rng: &mut ChaCha8Rng,
 ) -> Result<Vec<Pair>, Error> {
     let noise = Normal::new(0.0, sigma.max(0.0)).map_err(|e| Error::Invalid(e.to_string()))?;
-    let (w, h) = (
-        plan.frame_size.width as f64 - 1.0,
-        plan.frame_size.height as f64 - 1.0,
-    );
+    let frame = plan.frame_size();
+    let (w, h) = (frame.width as f64 - 1.0, frame.height as f64 - 1.0);
     let mut out = Vec::with_capacity(n);
     for _ in 0..n * 1000 {
         if out.len() == n {
@@ -175,7 +173,12 @@ fn paper(method: &str) -> [f64; 6] {
 /// Runs the four methods on a frame simulated from `reference`.
 pub fn compare(reference: &AnyRaster, cfg: &CompareConfig) -> Result<CompareResult, Error> {
     let ref_size = reference.size();
-    let plan = SimulatePlan::new(cfg.intrinsics, cfg.frame_size, &cfg.attitude, ref_size);
+    let camera = Camera {
+        distortion: None,
+        ..cfg.camera.clone()
+    };
+    let (k, frame_size) = (camera.intrinsics, camera.size);
+    let plan = SimulatePlan::new(camera.clone(), &cfg.attitude, ref_size);
     let warp = WarpOptions::default();
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let frame = noisy(plan.render(reference, &warp)?, cfg.image_noise, &mut rng)?;
@@ -184,15 +187,15 @@ pub fn compare(reference: &AnyRaster, cfg: &CompareConfig) -> Result<CompareResu
 
     // The common output grid: the true six-angle footprint, in reference pixels.
     let geometry = RectifyGeometry::new(
-        &cfg.intrinsics,
-        cfg.frame_size,
+        &k,
+        frame_size,
         &cfg.attitude,
         None,
         RectifyLimits::default(),
     )
     .map_err(Error::geometry("compare: output grid"))?;
     let [ocx, ocy] = ref_size.centre();
-    let ref_from_standard = [ocx - cfg.intrinsics.cx, ocy - cfg.intrinsics.cy];
+    let ref_from_standard = [ocx - k.cx, ocy - k.cy];
     let origin = [
         (geometry.standard_origin[0] + ref_from_standard[0]).round() as i64,
         (geometry.standard_origin[1] + ref_from_standard[1]).round() as i64,
@@ -227,7 +230,7 @@ pub fn compare(reference: &AnyRaster, cfg: &CompareConfig) -> Result<CompareResu
         let fit = GcpPlan::fit(
             &table,
             GcpModel::Polynomial(kind),
-            cfg.frame_size,
+            frame_size,
             Some(grid),
             RectifyLimits::default(),
         )?;
@@ -247,14 +250,7 @@ pub fn compare(reference: &AnyRaster, cfg: &CompareConfig) -> Result<CompareResu
         &cfg.attitude,
         std::array::from_fn(|_| normal.sample(&mut rng)),
     );
-    let six = RectifyPlan::new(
-        cfg.intrinsics,
-        cfg.frame_size,
-        measured,
-        None,
-        RectifyLimits::default(),
-        warp,
-    )?;
+    let six = RectifyPlan::new(camera, measured, None, RectifyLimits::default(), warp)?;
     six.run(&frame)?;
     let g = six.geometry.oblique_from_output;
     // reference -> standard -> output grid of the plan -> oblique.
@@ -278,7 +274,7 @@ pub fn compare(reference: &AnyRaster, cfg: &CompareConfig) -> Result<CompareResu
         checkpoints: checks.len(),
         tie_points: reg.ties.len(),
         tie_inliers: reg.inliers(),
-        frame_size: [cfg.frame_size.width, cfg.frame_size.height],
+        frame_size: [frame_size.width, frame_size.height],
         reference_size: [ref_size.width, ref_size.height],
         frame,
     })

@@ -53,13 +53,11 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
     std::fs::create_dir_all(out_dir)
         .map_err(|e| Error::Invalid(format!("{}: {e}", out_dir.display())))?;
     let scene = decode_image_bytes(SCENE_JPEG, "embedded aero1.jpg")?;
-    let cam = CameraFile::parse(CAMERA_TOML, "demo camera")?;
-    let frame = cam.frame_size(None)?;
-    let intr = cam.intrinsics(frame)?;
+    let camera = CameraFile::parse(CAMERA_TOML, "demo camera")?.camera(None)?;
     let attitude =
         SixAngleAttitude::from_degrees(&ATTITUDE).map_err(Error::geometry("demo attitude"))?;
 
-    let sim = SimulatePlan::new(intr, frame, &attitude, scene.size());
+    let sim = SimulatePlan::new(camera.clone(), &attitude, scene.size());
     let oblique = sim.render(
         &scene,
         &WarpOptions {
@@ -88,17 +86,11 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
             nodata: 0.0,
             alpha: true,
         };
-        let plan = RectifyPlan::new(intr, frame, attitude, None, RectifyLimits::default(), warp)?;
+        let limits = RectifyLimits::default();
+        let plan = RectifyPlan::new(camera.clone(), attitude, None, limits, warp)?;
         let (rectified, seconds) = plan.run(&oblique)?;
-        psnr[1 - k] = rectified_psnr(
-            &rectified,
-            &plan.geometry,
-            frame,
-            &scene,
-            intr.principal_point(),
-            2.0,
-        )
-        .ok_or_else(|| Error::Invalid("no pixel to compare".into()))?;
+        psnr[1 - k] = rectified_psnr(&rectified, &plan.geometry, &camera, &scene, 2.0)
+            .ok_or_else(|| Error::Invalid("no pixel to compare".into()))?;
         let name = format!("rectified_{}.png", interp.name());
         let report = plan.report("oblique.png", &name, seconds);
         write_image(&put(&name), &rectified)?;
@@ -110,7 +102,7 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
     }
     let (plan, warp_seconds) = last.ok_or_else(|| Error::Invalid("no rectification".into()))?;
 
-    let exact = evaluate(&intr, &attitude, &points, None)?;
+    let exact = evaluate(&camera, &attitude, &points)?;
     let off = SixAngleAttitude::from_degrees(&SixAngleDegrees {
         azimuth: ATTITUDE.azimuth + 0.05,
         elevation: ATTITUDE.elevation + 0.05,
@@ -120,10 +112,9 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
         yaw: ATTITUDE.yaw + 0.05,
     })
     .map_err(Error::geometry("perturbed attitude"))?;
-    let off_by_3_arcmin = evaluate(&intr, &off, &points, None)?;
+    let off_by_3_arcmin = evaluate(&camera, &off, &points)?;
     let sensitivity = crate::sensitivity::run(&SensitivityConfig {
-        intrinsics: intr,
-        frame_size: frame,
+        camera,
         attitude,
         sigma_arcmin: 3.0,
         draws: 2000,

@@ -403,9 +403,12 @@ fn photo_camera(
 ) -> Result<PhotoCamera, Error> {
     match &opts.camera {
         Some(cam) => {
-            let s = cam.frame_size(Some(size))?;
+            let camera = cam.camera(Some(size))?;
+            let s = cam
+                .image_size_px
+                .map_or(camera.size, |[w, h]| ImageSize::new(w as usize, h as usize));
             Ok(PhotoCamera {
-                camera: Camera::new(cam.intrinsics(s)?, cam.distortion.clone(), s),
+                camera,
                 source: CameraSource::CameraFile,
                 tagged_size: [s.width, s.height],
                 warnings: vec![],

@@ -3,21 +3,19 @@
 use crate::Error;
 use aerorect_core::evaluate::{residuals, stats};
 use aerorect_core::rectify::standard_from_oblique;
-use aerorect_core::{CheckPoint, CheckPointStats, Intrinsics, SixAngleAttitude};
+use aerorect_core::{Camera, CheckPoint, CheckPointStats, SixAngleAttitude};
 use aerorect_raster::{LensDirection, LensMap, PixelMap};
 
-/// du_max, dv_max, URMS, VRMS and RMSE of `points` under `attitude`. With a `distortion`, the
-/// recorded oblique points are undistorted first (residuals in ideal pixels).
+/// du_max, dv_max, URMS, VRMS and RMSE of `points` under `attitude`. With a lens model in the
+/// camera, the recorded oblique points are undistorted first (residuals in ideal pixels).
 pub fn evaluate(
-    intrinsics: &Intrinsics,
+    camera: &Camera,
     attitude: &SixAngleAttitude,
     points: &[CheckPoint],
-    distortion: Option<&aerorect_core::distortion::Distortion>,
 ) -> Result<CheckPointStats, Error> {
-    let g = standard_from_oblique(intrinsics, attitude).inverse();
+    let g = standard_from_oblique(&camera.intrinsics, attitude).inverse();
     let mut ideal = points.to_vec();
-    if let Some(d) = distortion {
-        let lens = LensMap::within(*intrinsics, d.clone(), LensDirection::IdealFromObserved);
+    if let Some(lens) = LensMap::of_camera(camera, LensDirection::IdealFromObserved) {
         for (i, p) in ideal.iter_mut().enumerate() {
             [p.u_oblique, p.v_oblique] =
                 lens.source_of(p.u_oblique, p.v_oblique).ok_or_else(|| {
@@ -44,17 +42,17 @@ pub fn evaluate(
 
 /// PSNR (dB) of a rectified image against the standard scene it was simulated from, and the
 /// number of pixels compared: those whose source lies at least `margin` px inside the oblique
-/// frame and inside ORTHO. The rectification must be without altitude scaling, and the grid
+/// frame of `camera` and inside ORTHO. The rectification must be without altitude scaling, and the grid
 /// offset to ORTHO integral (ORTHO's centre and the principal point both on the pixel grid or
 /// both half-way). `None` when nothing is compared.
 pub fn rectified_psnr(
     rectified: &aerorect_raster::AnyRaster,
     geometry: &aerorect_core::RectifyGeometry,
-    frame_size: aerorect_core::ImageSize,
+    camera: &Camera,
     ortho: &aerorect_raster::AnyRaster,
-    principal_point: [f64; 2],
     margin: f64,
 ) -> Option<(f64, usize)> {
+    let (frame_size, principal_point) = (camera.size, camera.intrinsics.principal_point());
     let [ocx, ocy] = ortho.size().centre();
     let off = [
         geometry.standard_origin[0] + ocx - principal_point[0],

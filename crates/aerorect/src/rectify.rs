@@ -2,89 +2,78 @@
 
 use crate::{Error, warp_any};
 use aerorect_core::attitude::SixAngleDegrees;
-use aerorect_core::distortion::Distortion;
 use aerorect_core::{
-    AltitudeScale, ImageSize, Intrinsics, RectifyGeometry, RectifyLimits, SixAngleAttitude,
+    AltitudeScale, Camera, Intrinsics, RectifyGeometry, RectifyLimits, SixAngleAttitude,
 };
 use aerorect_raster::{AnyRaster, LensDirection, LensMap, Then, WarpOptions};
 use serde::Serialize;
 use std::time::Instant;
 
 /// Everything that fixes one frame's rectification, planned once, run on any number of images
-/// of that size.
+/// of the camera's size.
 #[derive(Debug, Clone)]
 pub struct RectifyPlan {
-    pub intrinsics: Intrinsics,
-    pub input_size: ImageSize,
+    /// The camera of the input frames; with a lens model the frame is undistorted on the fly
+    /// (G, then ideal -> observed).
+    pub camera: Camera,
     /// The six angles, when the plan was made from them.
     pub attitude: Option<SixAngleAttitude>,
     pub altitude: Option<AltitudeScale>,
     pub limits: RectifyLimits,
     pub warp: WarpOptions,
     pub geometry: RectifyGeometry,
-    /// The lens's distortion: the frame is undistorted on the fly (G, then ideal -> observed).
-    pub distortion: Option<Distortion>,
 }
 
 impl RectifyPlan {
+    /// The output grid comes from the frame's corner pixels as recorded (not their undistorted
+    /// positions).
     pub fn new(
-        intrinsics: Intrinsics,
-        input_size: ImageSize,
+        camera: Camera,
         attitude: SixAngleAttitude,
         altitude: Option<AltitudeScale>,
         limits: RectifyLimits,
         warp: WarpOptions,
     ) -> Result<Self, Error> {
-        let geometry = RectifyGeometry::new(&intrinsics, input_size, &attitude, altitude, limits)
-            .map_err(Error::geometry("rectify"))?;
+        let geometry =
+            RectifyGeometry::new(&camera.intrinsics, camera.size, &attitude, altitude, limits)
+                .map_err(Error::geometry("rectify"))?;
         Ok(Self {
-            intrinsics,
-            input_size,
+            camera,
             attitude: Some(attitude),
             altitude,
             limits,
             warp,
             geometry,
-            distortion: None,
         })
     }
 
     /// A plan for a grid planned elsewhere (for example georeferenced from photo metadata).
     pub fn from_geometry(
-        intrinsics: Intrinsics,
-        input_size: ImageSize,
+        camera: Camera,
         geometry: RectifyGeometry,
         limits: RectifyLimits,
         warp: WarpOptions,
     ) -> Self {
         Self {
-            intrinsics,
-            input_size,
+            camera,
             attitude: None,
             altitude: None,
             limits,
             warp,
             geometry,
-            distortion: None,
         }
-    }
-
-    /// Undistorts the frame while rectifying. The output grid still comes from the frame's
-    /// corner pixels as recorded (not their undistorted positions).
-    pub fn with_distortion(mut self, distortion: Option<Distortion>) -> Self {
-        self.distortion = distortion;
-        self
     }
 
     /// Resamples `input` onto the output grid; returns the image and the seconds the warp took.
     pub fn run(&self, input: &AnyRaster) -> Result<(AnyRaster, f64), Error> {
-        if input.size() != self.input_size {
+        let planned = self.camera.size;
+        if input.size() != planned {
             return Err(Error::Invalid(format!(
                 "the image is {} x {} but the plan is for {} x {}",
                 input.size().width,
                 input.size().height,
-                self.input_size.width,
-                self.input_size.height
+                planned.width,
+                planned.height
             )));
         }
         let t = Instant::now();
@@ -92,13 +81,9 @@ impl RectifyPlan {
             &self.geometry.oblique_from_output,
             self.geometry.output_size,
         );
-        let out = match &self.distortion {
+        let out = match LensMap::of_camera(&self.camera, LensDirection::ObservedFromIdeal) {
             None => warp_any(input, g, size, &self.warp)?,
-            Some(d) => {
-                let lens =
-                    LensMap::within(self.intrinsics, d.clone(), LensDirection::ObservedFromIdeal);
-                warp_any(input, &Then(*g, lens), size, &self.warp)?
-            }
+            Some(lens) => warp_any(input, &Then(*g, lens), size, &self.warp)?,
         };
         Ok((out, t.elapsed().as_secs_f64()))
     }
@@ -118,8 +103,8 @@ impl RectifyPlan {
             nodata: self.warp.nodata,
             alpha: self.warp.alpha,
             warp_seconds,
-            input_size: [self.input_size.width, self.input_size.height],
-            intrinsics_px: self.intrinsics,
+            input_size: [self.camera.size.width, self.camera.size.height],
+            intrinsics_px: self.camera.intrinsics,
             attitude_deg: self.attitude.map(|a| a.to_degrees()),
             altitude_m: self.altitude.map(|a| a.altitude_m),
             base_altitude_m: self.altitude.map(|a| a.base_altitude_m),

@@ -9,7 +9,7 @@ use crate::Error;
 use crate::simulate::spread_grid;
 use aerorect_core::evaluate::{residuals, stats};
 use aerorect_core::rectify::standard_from_oblique;
-use aerorect_core::{CheckPoint, ImageSize, Intrinsics, SixAngleAttitude};
+use aerorect_core::{Camera, CheckPoint, SixAngleAttitude};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -18,8 +18,8 @@ use serde::Serialize;
 /// The experiment's set-up.
 #[derive(Debug, Clone)]
 pub struct SensitivityConfig {
-    pub intrinsics: Intrinsics,
-    pub frame_size: ImageSize,
+    /// The camera (its intrinsics and frame size; angle errors are studied without the lens).
+    pub camera: Camera,
     pub attitude: SixAngleAttitude,
     /// One-sigma error of every angle, in arc-minutes.
     pub sigma_arcmin: f64,
@@ -65,7 +65,7 @@ fn residuals_under(
     attitude: &SixAngleAttitude,
     points: &[CheckPoint],
 ) -> Result<Vec<[f64; 2]>, Error> {
-    let g = standard_from_oblique(&cfg.intrinsics, attitude).inverse();
+    let g = standard_from_oblique(&cfg.camera.intrinsics, attitude).inverse();
     residuals(points, &g)
         .into_iter()
         .collect::<Option<Vec<_>>>()
@@ -82,8 +82,8 @@ pub fn run(cfg: &SensitivityConfig) -> Result<SensitivityRow, Error> {
             cfg.draws, cfg.sigma_arcmin
         )));
     }
-    let f = standard_from_oblique(&cfg.intrinsics, &cfg.attitude);
-    let points: Vec<CheckPoint> = spread_grid(cfg.frame_size, cfg.grid)
+    let f = standard_from_oblique(&cfg.camera.intrinsics, &cfg.attitude);
+    let points: Vec<CheckPoint> = spread_grid(cfg.camera.size, cfg.grid)
         .into_iter()
         .filter_map(|p| {
             let s = f.map(p[0], p[1])?;
@@ -127,7 +127,7 @@ pub fn run(cfg: &SensitivityConfig) -> Result<SensitivityRow, Error> {
         draws: cfg.draws,
         checkpoints: points.len(),
         sigma_arcmin: cfg.sigma_arcmin,
-        fov_deg: cfg.intrinsics.field_of_view_deg(cfg.frame_size),
+        fov_deg: cfg.camera.intrinsics.field_of_view_deg(cfg.camera.size),
     })
 }
 

@@ -2,59 +2,51 @@
 //! image is ORTHO, with ORTHO's centre ((W-1)/2, (H-1)/2) at the standard frame's principal point.
 
 use crate::{Error, warp_any};
-use aerorect_core::distortion::Distortion;
 use aerorect_core::rectify::standard_from_oblique;
-use aerorect_core::{CheckPoint, Homography, ImageSize, Intrinsics, SixAngleAttitude};
+use aerorect_core::{Camera, CheckPoint, Homography, ImageSize, SixAngleAttitude};
 use aerorect_raster::{AnyRaster, LensDirection, LensMap, PixelMap, Then, WarpOptions};
 
 /// One simulated frame's geometry.
 #[derive(Debug, Clone)]
 pub struct SimulatePlan {
-    pub intrinsics: Intrinsics,
-    pub frame_size: ImageSize,
+    /// The camera that records the frame (of its size); with a lens model the recorded
+    /// (observed) pixels are undistorted before F.
+    pub camera: Camera,
     pub ortho_size: ImageSize,
     /// F: oblique pixel -> standard pixel.
     pub standard_from_oblique: Homography,
     /// Oblique pixel -> ORTHO pixel: F then the shift that puts ORTHO's centre at (cx, cy).
     pub ortho_from_oblique: Homography,
-    /// The lens's distortion: recorded (observed) pixels are undistorted before F.
-    pub distortion: Option<Distortion>,
+    /// The lens, ideal from observed pixels; `None` for an ideal pinhole.
+    lens: Option<LensMap>,
 }
 
 impl SimulatePlan {
-    pub fn new(
-        intrinsics: Intrinsics,
-        frame_size: ImageSize,
-        attitude: &SixAngleAttitude,
-        ortho_size: ImageSize,
-    ) -> Self {
-        let f = standard_from_oblique(&intrinsics, attitude);
+    pub fn new(camera: Camera, attitude: &SixAngleAttitude, ortho_size: ImageSize) -> Self {
+        let k = &camera.intrinsics;
+        let f = standard_from_oblique(k, attitude);
         let [ocx, ocy] = ortho_size.centre();
-        let shift = Homography::translation(ocx - intrinsics.cx, ocy - intrinsics.cy);
+        let shift = Homography::translation(ocx - k.cx, ocy - k.cy);
+        let lens = LensMap::of_camera(&camera, LensDirection::IdealFromObserved);
         Self {
-            intrinsics,
-            frame_size,
+            camera,
             ortho_size,
             standard_from_oblique: f,
             ortho_from_oblique: shift.after(&f),
-            distortion: None,
+            lens,
         }
     }
 
-    /// Renders through a distorting lens: the recorded frame is distorted.
-    pub fn with_distortion(mut self, distortion: Option<Distortion>) -> Self {
-        self.distortion = distortion;
-        self
+    /// The recorded frame's size.
+    pub fn frame_size(&self) -> ImageSize {
+        self.camera.size
     }
 
     /// The ideal pixel of a recorded one (identity without distortion).
     fn ideal(&self, u: f64, v: f64) -> Option<[f64; 2]> {
-        match &self.distortion {
+        match &self.lens {
             None => Some([u, v]),
-            Some(d) => {
-                LensMap::within(self.intrinsics, d.clone(), LensDirection::IdealFromObserved)
-                    .source_of(u, v)
-            }
+            Some(lens) => lens.source_of(u, v),
         }
     }
 
@@ -65,18 +57,15 @@ impl SimulatePlan {
                 "ORTHO does not have the planned size".into(),
             ));
         }
-        match &self.distortion {
-            None => warp_any(ortho, &self.ortho_from_oblique, self.frame_size, warp),
-            Some(d) => {
-                let lens =
-                    LensMap::within(self.intrinsics, d.clone(), LensDirection::IdealFromObserved);
-                warp_any(
-                    ortho,
-                    &Then(lens, self.ortho_from_oblique),
-                    self.frame_size,
-                    warp,
-                )
-            }
+        let size = self.frame_size();
+        match &self.lens {
+            None => warp_any(ortho, &self.ortho_from_oblique, size, warp),
+            Some(lens) => warp_any(
+                ortho,
+                &Then(lens.clone(), self.ortho_from_oblique),
+                size,
+                warp,
+            ),
         }
     }
 
@@ -99,7 +88,7 @@ impl SimulatePlan {
     pub fn checkpoints(&self, n: usize) -> Vec<CheckPoint> {
         let mut k = (n as f64).sqrt().ceil().max(1.0) as usize;
         loop {
-            let grid: Vec<[f64; 2]> = spread_grid(self.frame_size, k)
+            let grid: Vec<[f64; 2]> = spread_grid(self.frame_size(), k)
                 .into_iter()
                 .filter(|p| self.sees_ortho(p[0], p[1], 2.0))
                 .collect();

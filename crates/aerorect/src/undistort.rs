@@ -3,33 +3,35 @@
 
 use crate::{Error, warp_any};
 use aerorect_core::distortion::Distortion;
-use aerorect_core::{ImageSize, Intrinsics};
+use aerorect_core::{Camera, ImageSize, Intrinsics};
 use aerorect_raster::{AnyRaster, LensDirection, LensMap, PixelMap, WarpOptions};
 
 /// Largest output of `--fit`, relative to the input's pixel count.
 const MAX_FIT_GROWTH: f64 = 16.0;
 
-/// One camera's undistortion, planned once for frames of `input_size`.
+/// One camera's undistortion, planned once for frames of the camera's size.
 #[derive(Debug, Clone)]
 pub struct UndistortPlan {
     pub map: LensMap,
-    pub output_size: ImageSize,
-    /// The output's intrinsics (same focal lengths; principal point moved when fitting).
-    pub output_intrinsics: Intrinsics,
+    /// The ideal pinhole of the output: the same focal lengths; the principal point and size
+    /// changed when fitting.
+    pub output: Camera,
 }
 
 impl UndistortPlan {
     /// Keeps the input's size and intrinsics, or with `fit` grows the output to hold every
     /// valid input pixel (the undistorted image of the input's border) at the same focal lengths.
-    pub fn new(
-        k: Intrinsics,
-        input_size: ImageSize,
-        model: Distortion,
-        fit: bool,
-    ) -> Result<Self, Error> {
-        let (mut out_k, mut size) = (k, input_size);
+    /// A camera without a lens model is refused (there is nothing to undistort).
+    pub fn new(camera: &Camera, fit: bool) -> Result<Self, Error> {
+        let Some(model) = camera.distortion.clone() else {
+            return Err(Error::Invalid(
+                "the camera has no lens model: nothing to undistort".into(),
+            ));
+        };
+        let k = camera.intrinsics;
+        let (mut out_k, mut size) = (k, camera.size);
         if fit {
-            (out_k, size) = fitted(&k, input_size, &model)?;
+            (out_k, size) = fitted(&k, camera.size, &model)?;
         }
         let map = LensMap {
             from: out_k,
@@ -39,13 +41,12 @@ impl UndistortPlan {
         };
         Ok(Self {
             map,
-            output_size: size,
-            output_intrinsics: out_k,
+            output: Camera::new(out_k, None, size),
         })
     }
 
     pub fn run(&self, input: &AnyRaster, warp: &WarpOptions) -> Result<AnyRaster, Error> {
-        warp_any(input, &self.map, self.output_size, warp)
+        warp_any(input, &self.map, self.output.size, warp)
     }
 }
 

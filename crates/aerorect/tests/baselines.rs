@@ -4,7 +4,7 @@
 use aerorect::compare::{CompareConfig, compare};
 use aerorect::core::attitude::SixAngleDegrees;
 use aerorect::core::{
-    Homography, ImageSize, Intrinsics, PlaneTransform, RectifyLimits, SixAngleAttitude,
+    Camera, Homography, ImageSize, Intrinsics, PlaneTransform, RectifyLimits, SixAngleAttitude,
 };
 use aerorect::gcp::GcpPlan;
 use aerorect::io::{Gcp, decode_image_bytes};
@@ -30,11 +30,9 @@ const ATT: SixAngleDegrees = SixAngleDegrees {
 
 /// A 320 x 240 frame of the bundled scene with a known attitude.
 fn simulated() -> (SimulatePlan, AnyRaster) {
-    let intr = Intrinsics::new(300.0, 300.0, 159.5, 119.5).unwrap();
-    let frame = ImageSize::new(320, 240);
     let att = SixAngleAttitude::from_degrees(&ATT).unwrap();
     let scene = scene();
-    let plan = SimulatePlan::new(intr, frame, &att, scene.size());
+    let plan = SimulatePlan::new(camera(), &att, scene.size());
     let img = plan.render(&scene, &WarpOptions::default()).unwrap();
     (plan, img)
 }
@@ -157,11 +155,16 @@ fn registration_recovers_the_simulated_transform() {
     }
 }
 
+/// A 320 x 240 pinhole, fx = fy = 300 px, principal point at the centre.
+fn camera() -> Camera {
+    let k = Intrinsics::new(300.0, 300.0, 159.5, 119.5).unwrap();
+    Camera::new(k, None, ImageSize::new(320, 240))
+}
+
 fn table_config(noise: bool) -> CompareConfig {
     let k = |on: f64| if noise { on } else { 0.0 };
     CompareConfig {
-        intrinsics: Intrinsics::new(300.0, 300.0, 159.5, 119.5).unwrap(),
-        frame_size: ImageSize::new(320, 240),
+        camera: camera(),
         attitude: SixAngleAttitude::from_degrees(&ATT).unwrap(),
         attitude_noise_arcmin: k(3.0),
         gcps: 30,
@@ -203,11 +206,9 @@ fn table_one_on_the_airport_keeps_the_papers_ranking() {
     };
     let reference = aerorect::io::read_image(&path).unwrap();
     let cam = aerorect::io::CameraFile::parse(aerorect::compare::CAMERA_TOML, "t").unwrap();
-    let frame = cam.frame_size(None).unwrap();
     for seed in [1, 2] {
         let cfg = CompareConfig {
-            intrinsics: cam.intrinsics(frame).unwrap(),
-            frame_size: frame,
+            camera: cam.camera(None).unwrap(),
             attitude: SixAngleAttitude::from_degrees(&aerorect::compare::ATTITUDE).unwrap(),
             seed,
             ..table_config(true)

@@ -2,7 +2,9 @@
 #![allow(clippy::unwrap_used)]
 
 use aerorect::core::attitude::SixAngleDegrees;
-use aerorect::core::{AltitudeScale, ImageSize, Intrinsics, RectifyLimits, SixAngleAttitude};
+use aerorect::core::{
+    AltitudeScale, Camera, ImageSize, Intrinsics, RectifyLimits, SixAngleAttitude,
+};
 use aerorect::evaluate::{evaluate, rectified_psnr};
 use aerorect::io::decode_image_bytes;
 use aerorect::raster::{AnyRaster, Interp, WarpOptions};
@@ -15,11 +17,11 @@ fn scene() -> AnyRaster {
     decode_image_bytes(aerorect::demo::SCENE_JPEG, "aero1.jpg").unwrap()
 }
 
-fn setup(att: SixAngleDegrees) -> (Intrinsics, ImageSize, SixAngleAttitude) {
-    let frame = ImageSize::new(320, 240);
+/// A 320 x 240 pinhole, fx = fy = 400 px, principal point at the centre.
+fn setup(att: SixAngleDegrees) -> (Camera, SixAngleAttitude) {
+    let k = Intrinsics::new(400.0, 400.0, 159.5, 119.5).unwrap();
     (
-        Intrinsics::new(400.0, 400.0, 159.5, 119.5).unwrap(),
-        frame,
+        Camera::new(k, None, ImageSize::new(320, 240)),
         SixAngleAttitude::from_degrees(&att).unwrap(),
     )
 }
@@ -34,26 +36,18 @@ const ATT: SixAngleDegrees = SixAngleDegrees {
 };
 
 fn round_trip_psnr(true_att: SixAngleDegrees, used_att: SixAngleDegrees, interp: Interp) -> f64 {
-    let (intr, frame, truth) = setup(true_att);
+    let (cam, truth) = setup(true_att);
     let used = SixAngleAttitude::from_degrees(&used_att).unwrap();
     let scene = scene();
-    let sim = SimulatePlan::new(intr, frame, &truth, scene.size());
+    let sim = SimulatePlan::new(cam.clone(), &truth, scene.size());
     let opts = WarpOptions {
         interp,
         ..Default::default()
     };
     let oblique = sim.render(&scene, &opts).unwrap();
-    let plan = RectifyPlan::new(intr, frame, used, None, RectifyLimits::default(), opts).unwrap();
+    let plan = RectifyPlan::new(cam.clone(), used, None, RectifyLimits::default(), opts).unwrap();
     let (out, _) = plan.run(&oblique).unwrap();
-    let (psnr, n) = rectified_psnr(
-        &out,
-        &plan.geometry,
-        frame,
-        &scene,
-        intr.principal_point(),
-        2.0,
-    )
-    .unwrap();
+    let (psnr, n) = rectified_psnr(&out, &plan.geometry, &cam, &scene, 2.0).unwrap();
     assert!(n > 100_000, "compared {n} samples");
     psnr
 }
@@ -85,11 +79,12 @@ fn simulate_then_rectify_reproduces_the_scene() {
 
 #[test]
 fn check_points_evaluate_to_zero_and_fit_the_paper_homography() {
-    let (intr, frame, att) = setup(ATT);
-    let sim = SimulatePlan::new(intr, frame, &att, scene().size());
+    let (cam, att) = setup(ATT);
+    let frame = cam.size;
+    let sim = SimulatePlan::new(cam.clone(), &att, scene().size());
     let pts = sim.checkpoints(25);
     assert_eq!(pts.len(), 25);
-    let s = evaluate(&intr, &att, &pts, None).unwrap();
+    let s = evaluate(&cam, &att, &pts).unwrap();
     assert!(s.rmse < 1e-9, "RMSE {} (the issue asks for < 0.01)", s.rmse);
     // Spread over the frame: they span most of it in both directions.
     let span = |f: fn(&aerorect::core::CheckPoint) -> f64| {
@@ -117,17 +112,18 @@ fn check_points_evaluate_to_zero_and_fit_the_paper_homography() {
         ..ATT
     })
     .unwrap();
-    assert!(evaluate(&intr, &off, &pts, None).unwrap().rmse > 0.1);
+    assert!(evaluate(&cam, &off, &pts).unwrap().rmse > 0.1);
 }
 
 #[test]
 fn altitude_normalisation_scales_the_rectified_image_about_the_principal_point() {
-    let (intr, frame, att) = setup(ATT);
+    let (cam, att) = setup(ATT);
+    let intr = cam.intrinsics;
     let opts = WarpOptions::default();
-    let plain = RectifyPlan::new(intr, frame, att, None, RectifyLimits::default(), opts).unwrap();
+    let limits = RectifyLimits::default();
+    let plain = RectifyPlan::new(cam.clone(), att, None, limits, opts).unwrap();
     let alt = AltitudeScale::new(1500.0, 1000.0).unwrap();
-    let scaled =
-        RectifyPlan::new(intr, frame, att, Some(alt), RectifyLimits::default(), opts).unwrap();
+    let scaled = RectifyPlan::new(cam, att, Some(alt), limits, opts).unwrap();
     // The same oblique pixel lands 1.5 times as far from the principal point.
     for p in [[10.0, 20.0], [300.0, 200.0]] {
         let a = plain.geometry.base_from_oblique.map(p[0], p[1]).unwrap();
@@ -141,10 +137,10 @@ fn altitude_normalisation_scales_the_rectified_image_about_the_principal_point()
 
 #[test]
 fn monte_carlo_agrees_with_first_order_error_propagation() {
-    let (_, _, att) = setup(ATT);
+    let (_, att) = setup(ATT);
+    let k = Intrinsics::new(1000.0, 1000.0, 255.5, 255.5).unwrap();
     let cfg = SensitivityConfig {
-        intrinsics: Intrinsics::new(1000.0, 1000.0, 255.5, 255.5).unwrap(),
-        frame_size: ImageSize::new(512, 512),
+        camera: Camera::new(k, None, ImageSize::new(512, 512)),
         attitude: att,
         sigma_arcmin: 3.0,
         draws: 4000,
@@ -168,7 +164,7 @@ fn monte_carlo_agrees_with_first_order_error_propagation() {
     // Errors scale linearly with sigma.
     let half = run(&SensitivityConfig {
         sigma_arcmin: 1.5,
-        ..cfg
+        ..cfg.clone()
     })
     .unwrap();
     assert!(
@@ -204,7 +200,7 @@ fn undistortion_inverts_a_rendered_distortion() {
             ..Default::default()
         };
         let recorded = warp(&scene, &record, scene.size(), &opts).unwrap();
-        let plan = UndistortPlan::new(k, scene.size(), d, false).unwrap();
+        let plan = UndistortPlan::new(&Camera::new(k, Some(d), scene.size()), false).unwrap();
         let AnyRaster::U8(back) = plan.run(&AnyRaster::U8(recorded), &opts).unwrap() else {
             panic!("u8")
         };
