@@ -32,6 +32,10 @@ pub struct GeoArgs {
     /// level fallback).
     #[arg(long)]
     pub strict: bool,
+    /// With --dem: leave ground hidden behind nearer terrain empty (nodata) instead of filling
+    /// it with the terrain in front.
+    #[arg(long, requires = "dem")]
+    pub occlusion: bool,
     /// Output CRS: EPSG:code, a PROJ string or WKT (default: the position's UTM zone; required
     /// with poses, or read from the pose table's .prj).
     #[arg(long, allow_hyphen_values = true)]
@@ -123,6 +127,7 @@ pub(crate) fn ortho_options(
         dem: geo.dem.as_deref().map(load_dem).transpose()?.map(Arc::new),
         vertical_offset_m: geo.vertical_offset_m,
         strict: geo.strict,
+        occlusion: geo.occlusion,
         crs,
         camera: camera.map(CameraFile::read).transpose()?,
         poses,

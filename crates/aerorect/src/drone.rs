@@ -312,6 +312,8 @@ pub struct DroneOptions {
     pub vertical_offset_m: f64,
     /// DEM holes or gaps are errors instead of a warning and the level fallback.
     pub strict: bool,
+    /// Over a DEM, leave ground hidden behind nearer terrain empty.
+    pub occlusion: bool,
     /// Output CRS (default: the UTM zone of the position).
     pub crs: Option<(Crs, Projection)>,
     /// Overrides the camera from metadata (sized for each photo as it is read).
@@ -452,6 +454,7 @@ fn finish_plan(
         ground: &frame.ground,
         gsd_m: gsd,
         limits: opts.limits,
+        occlusion: opts.occlusion,
     };
     let plan = plan_ortho(&req, opts.warp).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
     let mut warnings = frame.camera.warnings.clone();

@@ -12,7 +12,9 @@ use aerorect_core::orientation::standard_from_rotation;
 use aerorect_core::{
     Camera, CameraRotation, Homography, Mat3, RectifyGeometry, RectifyLimits, Vec3,
 };
-use aerorect_geo::{Dem, GroundMap, HeightGrid, OrthoGrid, Pose, Projection, Terrain};
+use aerorect_geo::{
+    Dem, GroundMap, HeightGrid, OrthoGrid, Pose, Projection, Terrain, Visible, occlusion_mask,
+};
 use aerorect_raster::{AnyRaster, LensDirection, LensMap, Then, WarpOptions};
 use std::sync::Arc;
 
@@ -43,12 +45,15 @@ pub struct OrthoRequest<'a> {
     pub ground: &'a Ground,
     pub gsd_m: f64,
     pub limits: RectifyLimits,
+    /// Over a DEM, leave the ground hidden behind nearer terrain empty (nodata).
+    pub occlusion: bool,
 }
 
 #[derive(Debug, Clone)]
 enum OrthoMap {
     Flat(Homography),
     Terrain(Box<GroundMap>),
+    Visible(Box<Visible>),
 }
 
 /// A planned ortho: its grid, the map, and what planning found.
@@ -80,18 +85,26 @@ impl OrthoPlan {
             )));
         }
         let out = self.grid.size;
-        match (&self.map, &self.camera.distortion) {
+        let lens = LensMap::of_camera(&self.camera, LensDirection::ObservedFromIdeal);
+        match (&self.map, lens) {
             (OrthoMap::Flat(h), None) => warp_any(input, h, out, &self.warp),
-            (OrthoMap::Flat(h), Some(d)) => {
-                let k = self.camera.intrinsics;
-                let lens = LensMap::within(k, d.clone(), LensDirection::ObservedFromIdeal);
-                warp_any(input, &Then(*h, lens), out, &self.warp)
-            }
+            (OrthoMap::Flat(h), Some(lens)) => warp_any(input, &Then(*h, lens), out, &self.warp),
             (OrthoMap::Terrain(m), _) => warp_any(input, m.as_ref(), out, &self.warp),
+            (OrthoMap::Visible(m), _) => warp_any(input, m.as_ref(), out, &self.warp),
         }
     }
 
-    /// The output pixel -> frame pixel map (for tests and other resamplers).
+    /// The frame pixel of an output pixel, hidden ground included.
+    pub fn frame_pixel_of_unmasked(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+        use aerorect_raster::PixelMap;
+        match &self.map {
+            OrthoMap::Visible(m) => m.map.source_of(col, row),
+            _ => self.frame_pixel_of(col, row),
+        }
+    }
+
+    /// The output pixel -> frame pixel map (for tests and other resamplers); `None` where the
+    /// output pixel has no source (beyond the horizon, hidden).
     pub fn frame_pixel_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
         use aerorect_raster::PixelMap;
         match &self.map {
@@ -105,6 +118,7 @@ impl OrthoPlan {
                 Some(self.camera.intrinsics.pixel_from_normalized(q[0], q[1]))
             }
             OrthoMap::Terrain(m) => m.source_of(col, row),
+            OrthoMap::Visible(m) => m.source_of(col, row),
         }
     }
 }
@@ -348,10 +362,22 @@ fn plan_terrain(
         grid,
         terrain,
     };
+    let map = if req.occlusion {
+        let hidden = occlusion_mask(&map, step, fhi);
+        let count = hidden.iter().filter(|&&h| h).count();
+        if count > 0 {
+            warnings.push(format!(
+                "{count} output pixels are hidden behind nearer terrain (--occlusion): left empty"
+            ));
+        }
+        OrthoMap::Visible(Box::new(Visible { map, hidden }))
+    } else {
+        OrthoMap::Terrain(Box::new(map))
+    };
     Ok(OrthoPlan {
         camera: req.camera.clone(),
         grid,
-        map: OrthoMap::Terrain(Box::new(map)),
+        map,
         footprint: hits,
         clipped: geometry.clipped,
         standard_from_oblique: f,
