@@ -42,7 +42,28 @@ impl CameraFile {
         let mut cam: CameraFile =
             toml::from_str(text).map_err(|e| IoError::field(source_name, e.message()))?;
         cam.source_name = source_name.to_string();
+        cam.check_distortion()?;
         Ok(cam)
+    }
+
+    /// Every `[distortion]` coefficient must be finite (a NaN or infinite one maps every pixel
+    /// to nowhere).
+    fn check_distortion(&self) -> Result<(), IoError> {
+        let Some(d) = &self.distortion else {
+            return Ok(());
+        };
+        let model = d.model();
+        let bad = model
+            .names()
+            .iter()
+            .zip(model.params())
+            .find(|(_, v)| !v.is_finite());
+        match bad {
+            Some((name, v)) => Err(self.err(format!(
+                "[distortion] {name} = {v} is invalid: not a finite number"
+            ))),
+            None => Ok(()),
+        }
     }
 
     fn err(&self, message: impl ToString) -> IoError {
@@ -183,6 +204,13 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("fisheye"), "{e}");
+        for (value, shown) in [("nan", "k2 = NaN"), ("-inf", "k2 = -inf")] {
+            let text = format!(
+                "fx_px = 1.0\nfy_px = 1.0\n[distortion]\nmodel = \"brown\"\nk2 = {value}\n"
+            );
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(e.contains("cam.toml") && e.contains(shown), "{e}");
+        }
     }
 
     #[test]
