@@ -15,20 +15,7 @@ fn xmp(yaw: f64, pitch: f64) -> String {
 
 /// The bundled JPEG with an APP1 XMP segment after SOI.
 fn photo(dir: &Path, name: &str, xmp: Option<String>) -> PathBuf {
-    let jpeg =
-        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/aero1.jpg")).unwrap();
-    let mut out = jpeg[..2].to_vec();
-    if let Some(x) = xmp {
-        let mut payload = b"http://ns.adobe.com/xap/1.0/\0".to_vec();
-        payload.extend_from_slice(x.as_bytes());
-        out.extend_from_slice(&[0xff, 0xe1]);
-        out.extend_from_slice(&((payload.len() + 2) as u16).to_be_bytes());
-        out.extend_from_slice(&payload);
-    }
-    out.extend_from_slice(&jpeg[2..]);
-    let p = dir.join(name);
-    std::fs::write(&p, out).unwrap();
-    p
+    common::jpeg_with_xmp(dir, name, xmp.as_deref())
 }
 
 fn setup() -> (tempfile::TempDir, PathBuf) {

@@ -15,18 +15,7 @@ fn photo(dir: &Path, name: &str, extra: &str) -> PathBuf {
     let x = format!(
         r#"<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#"><rdf:Description rdf:about="DJI Meta Data" xmlns:drone-dji="http://www.dji.com/drone-dji/1.0/" drone-dji:GpsLatitude="+53.900000" drone-dji:GpsLongtitude="+27.550000" drone-dji:AbsoluteAltitude="+310.00" drone-dji:RelativeAltitude="+80.00" drone-dji:GimbalRollDegree="+0.00" drone-dji:GimbalYawDegree="+30.00" drone-dji:GimbalPitchDegree="-70.00" {extra}/></rdf:RDF></x:xmpmeta>"#
     );
-    let jpeg =
-        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/aero1.jpg")).unwrap();
-    let mut payload = b"http://ns.adobe.com/xap/1.0/\0".to_vec();
-    payload.extend_from_slice(x.as_bytes());
-    let mut out = jpeg[..2].to_vec();
-    out.extend_from_slice(&[0xff, 0xe1]);
-    out.extend_from_slice(&((payload.len() + 2) as u16).to_be_bytes());
-    out.extend_from_slice(&payload);
-    out.extend_from_slice(&jpeg[2..]);
-    let p = dir.join(name);
-    std::fs::write(&p, out).unwrap();
-    p
+    common::jpeg_with_xmp(dir, name, Some(&x))
 }
 
 /// A float DEM GeoTIFF of `n` x `n` cells of `cell` m in UTM 35N around the photo's position.

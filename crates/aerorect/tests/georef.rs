@@ -50,6 +50,17 @@ fn dem() -> Dem {
     }
 }
 
+/// The DEM's own heights as a terrain (node = cell centre): the truth frames are rendered over.
+fn truth_of(dem: &Dem) -> Terrain {
+    Terrain::Grid(HeightGrid {
+        origin: [dem.top_left[0] + 1.0, dem.top_left[1] - 1.0],
+        spacing: 2.0,
+        width: 600,
+        height: 600,
+        values: dem.values.clone(),
+    })
+}
+
 fn setup() -> (Camera, Pose) {
     let cam = Camera::new(
         Intrinsics::new(500.0, 500.0, 319.5, 239.5).unwrap(),
@@ -140,13 +151,7 @@ fn intensity_error(p: &OrthoPlan, ortho: &AnyRaster) -> f64 {
 fn dem_ortho_of_a_frame_over_hills_matches_the_truth_and_flat_does_not() {
     let dem = Arc::new(dem());
     let (cam, pose) = setup();
-    let truth = Terrain::Grid(HeightGrid {
-        origin: [dem.top_left[0] + 1.0, dem.top_left[1] - 1.0],
-        spacing: 2.0,
-        width: 600,
-        height: 600,
-        values: dem.values.clone(),
-    });
+    let truth = truth_of(&dem);
     let frame = simulate(&cam, &pose, &truth);
     let on_dem = Ground::Dem {
         dem: Arc::clone(&dem),
@@ -343,13 +348,7 @@ fn occlusion_hides_the_ground_behind_the_hills() {
     // Low and oblique so the hills hide each other.
     let r = CameraRotation::dji_gimbal(20.0, -30.0, 0.0).unwrap();
     let pose = Pose::new([ORIGIN[0], ORIGIN[1], 60.0], r.ground_from_camera());
-    let truth = Terrain::Grid(HeightGrid {
-        origin: [dem.top_left[0] + 1.0, dem.top_left[1] - 1.0],
-        spacing: 2.0,
-        width: 600,
-        height: 600,
-        values: dem.values.clone(),
-    });
+    let truth = truth_of(&dem);
     let world = utm35();
     let ground = Ground::Dem {
         dem,

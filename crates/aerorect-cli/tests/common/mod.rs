@@ -34,3 +34,22 @@ pub fn fails(out: &Output, needles: &[&str]) {
         assert!(err.contains(n), "stderr lacks '{n}': {err}");
     }
 }
+
+/// The bundled JPEG (data/aero1.jpg) with an APP1 XMP packet inserted after SOI, written to
+/// `dir/name`.
+pub fn jpeg_with_xmp(dir: &Path, name: &str, xmp: Option<&str>) -> std::path::PathBuf {
+    let jpeg =
+        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/aero1.jpg")).unwrap();
+    let mut out = jpeg[..2].to_vec();
+    if let Some(x) = xmp {
+        let mut payload = b"http://ns.adobe.com/xap/1.0/\0".to_vec();
+        payload.extend_from_slice(x.as_bytes());
+        out.extend_from_slice(&[0xff, 0xe1]);
+        out.extend_from_slice(&((payload.len() + 2) as u16).to_be_bytes());
+        out.extend_from_slice(&payload);
+    }
+    out.extend_from_slice(&jpeg[2..]);
+    let p = dir.join(name);
+    std::fs::write(&p, out).unwrap();
+    p
+}
