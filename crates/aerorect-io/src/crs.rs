@@ -60,9 +60,12 @@ impl Crs {
     pub fn to_proj_string(&self) -> Result<String, IoError> {
         let s = match self {
             Crs::Epsg(c) => epsg_definition(*c)?.proj4.to_string(),
-            Crs::Wkt(w) => proj4wkt::wkt_to_projstring(w).map_err(|e| {
-                IoError::field(SOURCE, format!("WKT '{}' does not convert: {e}", short(w)))
-            })?,
+            Crs::Wkt(w) => {
+                check_wkt_depth(w)?;
+                proj4wkt::wkt_to_projstring(w).map_err(|e| {
+                    IoError::field(SOURCE, format!("WKT '{}' does not convert: {e}", short(w)))
+                })?
+            }
             Crs::Proj(p) => p.clone(),
         };
         Ok(s)
@@ -140,6 +143,36 @@ fn looks_like_wkt(t: &str) -> bool {
         .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
         .collect();
     HEADS.iter().any(|h| head.eq_ignore_ascii_case(h)) && t.contains('[')
+}
+
+/// proj4wkt parses nested brackets by recursion, so a text nested deep enough overflows the
+/// stack (an abort, not an error); real WKT nests less than ten deep.
+const MAX_WKT_DEPTH: usize = 64;
+
+/// Refuses a WKT whose brackets (outside quoted names) nest deeper than [`MAX_WKT_DEPTH`].
+fn check_wkt_depth(w: &str) -> Result<(), IoError> {
+    let (mut depth, mut deepest, mut quoted) = (0usize, 0usize, false);
+    for c in w.chars() {
+        match c {
+            '"' => quoted = !quoted,
+            '[' | '(' if !quoted => {
+                depth += 1;
+                deepest = deepest.max(depth);
+            }
+            ']' | ')' if !quoted => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    if deepest > MAX_WKT_DEPTH {
+        return Err(IoError::field(
+            SOURCE,
+            format!(
+                "WKT '{}' is nested {deepest} deep (at most {MAX_WKT_DEPTH} is read)",
+                short(w)
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The first 80 characters of a long CRS text, for messages.
@@ -297,5 +330,17 @@ mod tests {
             let [x2, y2] = other.project_lon_lat(27.0, -30.0).expect("other");
             assert!((x - x2).abs() < 1e-6 && (y - y2).abs() < 1e-6, "{other}");
         }
+    }
+
+    /// Found by the fuzzer (tests/fuzz.rs, a WKT with 4096 '[' inserted): proj4wkt parses by
+    /// recursion and overflowed the stack, aborting the process; a GeoTIFF's WKT citation or
+    /// a .prj beside a pose table reaches it as well.
+    #[test]
+    fn deeply_nested_wkt_is_refused_not_a_stack_overflow() {
+        let w = format!("PROJCS[\"x\",{}", "GEOGCS[".repeat(100_000));
+        let e = Crs::parse(&w).unwrap_err().to_string();
+        assert!(e.contains("nested 100001 deep"), "{e}");
+        let e = Crs::Wkt(w).to_proj().unwrap_err().to_string();
+        assert!(e.contains("nested 100001 deep"), "{e}");
     }
 }
