@@ -49,6 +49,7 @@ pub(crate) fn decode(path: &Path) -> Result<Decoded, IoError> {
             ));
         }
     };
+    check_claimed_size(path, w, h, bands, &colour)?;
     let size = ImageSize::new(w as usize, h as usize);
     let mut samples = dec.read_image().map_err(|e| IoError::decode(path, e))?;
     if colour == ColorType::YCbCr(8)
@@ -61,6 +62,48 @@ pub(crate) fn decode(path: &Path) -> Result<Decoded, IoError> {
         bands,
         samples,
     })
+}
+
+/// No codec a TIFF may use expands its data much more than a thousand times (Deflate at most
+/// 1032:1, LZW about 2700:1 at best), so this many decoded bytes per file byte is out of reach.
+const MAX_EXPANSION: u64 = 4096;
+
+/// Refuses a header that claims more samples than the file could hold: the decoder allocates
+/// the whole image before it reads a strip, so a 3 KB file claiming 30000 x 30000 pixels
+/// (inside the 4 GiB limit) took 2.7 GB before failing (found by tests/fuzz.rs). Files under
+/// 64 KiB may claim up to 256 MiB, so a tiny compressed image is never refused by this.
+fn check_claimed_size(
+    path: &Path,
+    w: u32,
+    h: u32,
+    bands: usize,
+    colour: &ColorType,
+) -> Result<(), IoError> {
+    let bits = match *colour {
+        ColorType::Gray(b)
+        | ColorType::GrayA(b)
+        | ColorType::RGB(b)
+        | ColorType::RGBA(b)
+        | ColorType::YCbCr(b) => u64::from(b),
+        ColorType::Multiband { bit_depth, .. } => u64::from(bit_depth),
+        _ => 8,
+    };
+    let claimed = u64::from(w) * u64::from(h) * bands as u64 * bits.div_ceil(8);
+    let file_len = std::fs::metadata(path)
+        .map_err(|e| IoError::io(path, e))?
+        .len();
+    let most = file_len
+        .saturating_mul(MAX_EXPANSION)
+        .clamp(256 << 20, MAX_DECODED_BYTES);
+    if claimed > most {
+        return Err(IoError::decode(
+            path,
+            format!(
+                "the header claims {w} x {h} pixels of {bands} x {bits} bits ({claimed} bytes decoded), more than a file of {file_len} bytes can hold (at most {most} bytes are decoded from it)"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// JFIF's YCbCr -> RGB (ITU-R BT.601 full range, ReferenceBlackWhite at its default), in place.
