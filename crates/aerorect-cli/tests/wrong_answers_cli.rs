@@ -83,3 +83,82 @@ fn non_finite_distortion_coefficients_are_refused() {
         assert_eq!(files(&d), before, "nothing written");
     }
 }
+
+#[test]
+fn absurd_check_points_are_refused() {
+    let (_t, d) = fixture();
+    let cp = std::fs::read_to_string(d.join("cp.csv")).unwrap();
+    let header = cp.lines().next().unwrap();
+    let eval = |name: &str| {
+        aerorect(
+            &[
+                "evaluate",
+                "--camera",
+                "cam.toml",
+                "--attitude",
+                ATT,
+                "--checkpoints",
+                name,
+                "--json",
+            ],
+            &d,
+        )
+    };
+    // Before the fix: RMS inf, printed as null in JSON, exit 0.
+    std::fs::write(d.join("huge.csv"), format!("{header}\n10,10,1e308,20\n")).unwrap();
+    fails(
+        &eval("huge.csv"),
+        &["huge.csv", "line 2", "u_standard = 1e308"],
+    );
+    // Finite and within the readers' range, but not a pixel of the 320 x 240 frame.
+    std::fs::write(
+        d.join("out.csv"),
+        format!("{header}\n10,10,0,0\n5000,10,0,0\n"),
+    )
+    .unwrap();
+    fails(
+        &eval("out.csv"),
+        &[
+            "out.csv",
+            "check point 2",
+            "(5000, 10)",
+            "outside",
+            "320 x 240",
+        ],
+    );
+}
+
+#[test]
+fn a_gsd_as_large_as_the_footprint_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("cam.toml"),
+        "fx_px = 500.0\nfy_px = 500.0\nimage_size_px = [640, 480]\n",
+    )
+    .unwrap();
+    let xmp = r#"<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#"><rdf:Description rdf:about="DJI Meta Data" xmlns:drone-dji="http://www.dji.com/drone-dji/1.0/" drone-dji:GpsLatitude="+53.900000" drone-dji:GpsLongtitude="+27.550000" drone-dji:RelativeAltitude="+80.00" drone-dji:GimbalRollDegree="+0.00" drone-dji:GimbalYawDegree="+0.00" drone-dji:GimbalPitchDegree="-90.00" drone-dji:FlightYawDegree="+0.00"/></rdf:RDF></x:xmpmeta>"#;
+    common::jpeg_with_xmp(d, "p.jpg", Some(xmp));
+    // At nadir from 80 m with fx = 500 px the 640 x 480 frame covers 102.4 x 76.8 m.
+    let run = |gsd: &str| {
+        aerorect(
+            &[
+                "rectify", "p.jpg", "o.tif", "--camera", "cam.toml", "--gsd-m", gsd,
+            ],
+            d,
+        )
+    };
+    // Before the fix: a 2 x 2 px ortho, exit 0.
+    fails(
+        &run("1e6"),
+        &[
+            "--gsd-m 1000000 gives a 2 x 2 px ortho",
+            "103 x 77 m",
+            "16 px",
+            "--gsd-m 4.8",
+        ],
+    );
+    assert!(!d.join("o.tif").exists());
+    fails(&run("10"), &["--gsd-m 10 gives a 12 x 9 px ortho"]);
+    ok(&run("4"));
+}

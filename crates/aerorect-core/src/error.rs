@@ -4,7 +4,7 @@ use thiserror::Error;
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum GeometryError {
     /// A parameter is NaN, infinite, or outside its physical range.
-    #[error("{field} = {value} is invalid: {reason}")]
+    #[error("{field} = {} is invalid: {reason}", Num(*value))]
     InvalidParameter {
         field: &'static str,
         value: f64,
@@ -64,5 +64,45 @@ pub fn require_finite(field: &'static str, value: f64) -> Result<f64, GeometryEr
             value,
             reason: "not a finite number",
         })
+    }
+}
+
+/// A number for messages: as Rust writes it when that is short, in scientific notation when it
+/// is huge or tiny (1e300 is `1e300`, not 301 digits).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if !self.0.is_finite() || a == 0.0 || (1e-4..1e9).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_in_messages_are_compact() {
+        let shown = |v: f64| Num(v).to_string();
+        assert_eq!(shown(1e300), "1e300");
+        assert_eq!(shown(-1.5e308), "-1.5e308");
+        assert_eq!(shown(2.5e-7), "2.5e-7");
+        assert_eq!(shown(123456.5), "123456.5");
+        assert_eq!(shown(0.001), "0.001");
+        assert_eq!(shown(0.0), "0");
+        assert_eq!(shown(f64::NAN), "NaN");
+        assert_eq!(shown(f64::NEG_INFINITY), "-inf");
+        let e = require_positive("gsd_m", 1e300).map(|_| ()).err();
+        assert_eq!(e, None);
+        let e = require_finite("k1", f64::INFINITY).unwrap_err().to_string();
+        assert_eq!(e, "k1 = inf is invalid: not a finite number");
+        let e = require_positive("f", -1e300).unwrap_err().to_string();
+        assert_eq!(e, "f = -1e300 is invalid: must be > 0");
     }
 }

@@ -1,14 +1,30 @@
 //! Check-point tables: CSV with the header `u_oblique,v_oblique,u_standard,v_standard`.
 
 use crate::error::IoError;
-use crate::image_file::write_atomically;
 use aerorect_core::CheckPoint;
 use std::path::Path;
 
 const HEADER: [&str; 4] = ["u_oblique", "v_oblique", "u_standard", "v_standard"];
 
+/// The largest magnitude a table accepts: a billion pixels (or metres, or degrees) is beyond any
+/// image or survey, and keeps sums of squares of residuals far from overflowing.
+pub const MAX_TABLE_VALUE: f64 = 1e9;
+
+/// Why a table's number is refused, if it is.
+fn bad_number(v: f64) -> Option<String> {
+    let shown = aerorect_core::error::Num(v);
+    if !v.is_finite() {
+        Some(format!("{shown} is not a finite number"))
+    } else if v.abs() > MAX_TABLE_VALUE {
+        Some(format!("{shown} is out of range (magnitude above 1e9)"))
+    } else {
+        None
+    }
+}
+
 /// Reads a CSV table whose header must be exactly `header` and whose numbers (each record's,
-/// listed with their column names by `numbers`) are finite; errors name the file and line.
+/// listed with their column names by `numbers`) are finite and within [`MAX_TABLE_VALUE`];
+/// errors name the file and line.
 fn read_table<T: serde::de::DeserializeOwned>(
     path: &Path,
     header: &[&str],
@@ -39,10 +55,13 @@ fn read_table<T: serde::de::DeserializeOwned>(
     for (i, rec) in rdr.deserialize::<T>().enumerate() {
         let line = i + 2;
         let p = rec.map_err(|e| IoError::field(&name, format!("line {line}: {e}")))?;
-        if let Some((field, v)) = numbers(&p).into_iter().find(|(_, v)| !v.is_finite()) {
+        let bad = numbers(&p)
+            .into_iter()
+            .find_map(|(field, v)| bad_number(v).map(|why| (field, why)));
+        if let Some((field, why)) = bad {
             return Err(IoError::field(
                 &name,
-                format!("line {line}: {field} = {v} is not a finite number"),
+                format!("line {line}: {field} = {why}"),
             ));
         }
         rows.push(p);
@@ -50,7 +69,8 @@ fn read_table<T: serde::de::DeserializeOwned>(
     Ok(rows)
 }
 
-/// Reads check points; the header must be exactly [`HEADER`] and every value finite.
+/// Reads check points; the header must be exactly [`HEADER`], every value finite and within
+/// [`MAX_TABLE_VALUE`].
 pub fn read_checkpoints(path: &Path) -> Result<Vec<CheckPoint>, IoError> {
     let points = read_table(path, &HEADER, |p: &CheckPoint| {
         HEADER
@@ -91,14 +111,23 @@ pub fn read_gcps(path: &Path) -> Result<Vec<Gcp>, IoError> {
 
 /// Writes rows with a serde header and full f64 precision, atomically.
 pub fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<(), IoError> {
-    write_atomically(path, |w| {
-        let mut wr = csv::Writer::from_writer(w);
-        for p in rows {
-            wr.serialize(p)
-                .map_err(|e| IoError::field(path.display(), e))?;
-        }
-        wr.flush().map_err(|e| IoError::io(path, e))
-    })
+    let mut staged = crate::StagedOutputs::new();
+    staged.csv(path, rows)?;
+    staged.commit()
+}
+
+impl crate::StagedOutputs {
+    /// Stages rows like [`write_csv`], to land with the other staged outputs.
+    pub fn csv<T: serde::Serialize>(&mut self, path: &Path, rows: &[T]) -> Result<(), IoError> {
+        self.file(path, |w| {
+            let mut wr = csv::Writer::from_writer(w);
+            for p in rows {
+                wr.serialize(p)
+                    .map_err(|e| IoError::field(path.display(), e))?;
+            }
+            wr.flush().map_err(|e| IoError::io(path, e))
+        })
+    }
 }
 
 /// Writes check points with full f64 precision, atomically.
@@ -147,6 +176,16 @@ mod tests {
         .expect("write");
         let e = read_checkpoints(&p).unwrap_err().to_string();
         assert!(e.contains("line 3: u_standard = NaN"), "{e}");
+        std::fs::write(
+            &p,
+            "u_oblique,v_oblique,u_standard,v_standard\n1,2,3,4\n1,-2e9,3,4\n",
+        )
+        .expect("write");
+        let e = read_checkpoints(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("line 3: v_oblique = -2e9 is out of range"),
+            "{e}"
+        );
         std::fs::write(&p, "u_oblique,v_oblique,u_standard,v_standard\n1,2,abc,4\n")
             .expect("write");
         assert!(

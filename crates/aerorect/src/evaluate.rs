@@ -1,6 +1,7 @@
 //! Check-point evaluation, eq. (19)-(20): standard points mapped to the oblique frame with G.
 
 use crate::Error;
+use aerorect_core::error::Num;
 use aerorect_core::evaluate::{residuals, stats};
 use aerorect_core::rectify::standard_from_oblique;
 use aerorect_core::{Camera, CheckPoint, CheckPointStats, SixAngleAttitude};
@@ -13,6 +14,7 @@ pub fn evaluate(
     attitude: &SixAngleAttitude,
     points: &[CheckPoint],
 ) -> Result<CheckPointStats, Error> {
+    check_inside_the_frame(camera, points)?;
     let g = standard_from_oblique(&camera.intrinsics, attitude).inverse();
     let mut ideal = points.to_vec();
     if let Some(lens) = LensMap::of_camera(camera, LensDirection::IdealFromObserved) {
@@ -32,12 +34,40 @@ pub fn evaluate(
         return Err(Error::Invalid(format!(
             "check point {} (standard ({}, {})) lies beyond the horizon of the oblique frame",
             i + 1,
-            points[i].u_standard,
-            points[i].v_standard
+            Num(points[i].u_standard),
+            Num(points[i].v_standard)
         )));
     }
     let r: Vec<[f64; 2]> = r.into_iter().flatten().collect();
-    stats(&r).ok_or_else(|| Error::Invalid("no check points".into()))
+    let s = stats(&r).ok_or_else(|| Error::Invalid("no check points".into()))?;
+    if [s.du_max, s.dv_max, s.rmse].iter().all(|v| v.is_finite()) {
+        Ok(s)
+    } else {
+        Err(Error::Invalid(format!(
+            "the residuals overflow (RMSE = {}): a standard point is far outside the frame",
+            Num(s.rmse)
+        )))
+    }
+}
+
+/// Every recorded oblique point must be a position in the frame (pixel centres at integers, so
+/// the frame spans -0.5 .. W - 0.5).
+fn check_inside_the_frame(camera: &Camera, points: &[CheckPoint]) -> Result<(), Error> {
+    let (w, h) = (camera.size.width as f64, camera.size.height as f64);
+    let inside = |p: &CheckPoint| {
+        (-0.5..=w - 0.5).contains(&p.u_oblique) && (-0.5..=h - 0.5).contains(&p.v_oblique)
+    };
+    match points.iter().position(|p| !inside(p)) {
+        None => Ok(()),
+        Some(i) => Err(Error::Invalid(format!(
+            "check point {} at oblique ({}, {}) lies outside the {} x {} frame",
+            i + 1,
+            Num(points[i].u_oblique),
+            Num(points[i].v_oblique),
+            camera.size.width,
+            camera.size.height
+        ))),
+    }
 }
 
 /// PSNR (dB) of a rectified image against the standard scene it was simulated from, and the

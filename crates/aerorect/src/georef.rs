@@ -8,6 +8,7 @@
 //! camera at its own height.
 
 use crate::{Error, warp_any};
+use aerorect_core::error::Num;
 use aerorect_core::orientation::standard_from_rotation;
 use aerorect_core::{
     Camera, CameraRotation, Homography, Mat3, RectifyGeometry, RectifyLimits, Vec3,
@@ -176,17 +177,43 @@ pub fn plan_ortho(req: &OrthoRequest<'_>, warp: WarpOptions) -> Result<OrthoPlan
     let g = req.gsd_m;
     if !(g.is_finite() && g > 0.0) {
         return Err(Error::Invalid(format!(
-            "--gsd-m {g} must be a positive number of metres"
+            "--gsd-m {} must be a positive number of metres",
+            Num(g)
         )));
     }
-    match req.ground {
+    let plan = match req.ground {
         Ground::Flat(z) => plan_flat(req, *z, warp),
         Ground::Dem {
             dem,
             fallback,
             strict,
         } => plan_terrain(req, dem, *fallback, *strict, warp),
+    }?;
+    refuse_too_coarse(&plan)?;
+    Ok(plan)
+}
+
+/// The shortest side an ortho may have: below it the GSD is about the size of the footprint
+/// and the image says nothing (`--gsd-m 1e6` used to give a 2 x 2 px ortho, exit 0).
+pub const MIN_ORTHO_SIDE_PX: usize = 16;
+
+/// Refuses a plan whose grid has a side under [`MIN_ORTHO_SIDE_PX`], naming the GSD, the
+/// footprint's extent and the coarsest GSD that would do.
+fn refuse_too_coarse(plan: &OrthoPlan) -> Result<(), Error> {
+    let size = plan.grid.size;
+    if size.width.min(size.height) >= MIN_ORTHO_SIDE_PX {
+        return Ok(());
     }
+    let b = bounds_of(plan.footprint.iter().copied());
+    let (w, h) = (b[2] - b[0], b[3] - b[1]);
+    Err(Error::Invalid(format!(
+        "--gsd-m {} gives a {} x {} px ortho of a footprint about {w:.0} x {h:.0} m: \
+         a side needs at least {MIN_ORTHO_SIDE_PX} px, so give --gsd-m {:.3} or finer",
+        Num(plan.grid.gsd),
+        size.width,
+        size.height,
+        w.min(h) / MIN_ORTHO_SIDE_PX as f64,
+    )))
 }
 
 fn plan_flat(req: &OrthoRequest<'_>, z: f64, warp: WarpOptions) -> Result<OrthoPlan, Error> {
