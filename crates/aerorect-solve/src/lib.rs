@@ -1,5 +1,6 @@
 //! Estimators: the normalised DLT homography (Hartley) and camera calibration.
 
+pub mod adjust;
 pub mod calib;
 pub mod gcp;
 pub mod ransac;

@@ -2,6 +2,8 @@
 //! from the textbook formulas (independent of the optimised kernels), and image metrics.
 #![allow(clippy::unwrap_used)]
 
+pub mod flight;
+
 use aerorect_core::ImageSize;
 use aerorect_raster::{Interp, PixelMap, Raster, Sample};
 use rand::{Rng, SeedableRng};
