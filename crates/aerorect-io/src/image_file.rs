@@ -12,6 +12,38 @@ use std::path::{Path, PathBuf};
 /// The largest image we decode, in bytes of samples (guards against memory bombs): 4 GiB.
 pub const MAX_DECODED_BYTES: u64 = 4 << 30;
 
+/// No codec we read expands its data much more than a thousand times (Deflate at most 1032:1,
+/// LZW about 2700:1, baseline JPEG a few hundred), so this many decoded bytes per file byte is
+/// out of reach of a real file.
+const MAX_EXPANSION: u64 = 4096;
+
+/// The most a file of `file_len` bytes may decode to: the decoders allocate the whole image
+/// before reading its data, so a 3 KB PNG or TIFF whose header claims 30000 x 30000 pixels
+/// (under the 4 GiB limit) took up to 3 GB before failing (found by tests/fuzz.rs). Files
+/// under 64 KiB may claim up to 256 MiB, so no small real image is refused by this.
+pub(crate) fn most_decoded_bytes(file_len: u64) -> u64 {
+    file_len
+        .saturating_mul(MAX_EXPANSION)
+        .clamp(256 << 20, MAX_DECODED_BYTES)
+}
+
+/// The error for a header claiming `claimed` decoded bytes, more than the file can hold.
+pub(crate) fn check_claimed_bytes(path: &Path, what: &str, claimed: u64) -> Result<(), IoError> {
+    let file_len = std::fs::metadata(path)
+        .map_err(|e| IoError::io(path, e))?
+        .len();
+    let most = most_decoded_bytes(file_len);
+    if claimed > most {
+        return Err(IoError::decode(
+            path,
+            format!(
+                "the header claims {what} ({claimed} bytes decoded), more than a file of {file_len} bytes can hold (at most {most} bytes are decoded from it)"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Reads a PNG, JPEG or TIFF image (8/16-bit integer or 32-bit float, 1-4 bands).
 pub fn read_image(path: &Path) -> Result<AnyRaster, IoError> {
     let mut magic = [0u8; 4];
@@ -66,7 +98,13 @@ fn read_with_image_crate(path: &Path) -> Result<AnyRaster, IoError> {
     let mut limits = image::Limits::default();
     limits.max_alloc = Some(MAX_DECODED_BYTES);
     reader.limits(limits);
-    let img = reader.decode().map_err(|e| IoError::decode(path, e))?;
+    let decoder = reader
+        .into_decoder()
+        .map_err(|e| IoError::decode(path, e))?;
+    let (w, h) = image::ImageDecoder::dimensions(&decoder);
+    let claimed = image::ImageDecoder::total_bytes(&decoder);
+    check_claimed_bytes(path, &format!("{w} x {h} pixels"), claimed)?;
+    let img = DynamicImage::from_decoder(decoder).map_err(|e| IoError::decode(path, e))?;
     raster_from_dynamic(img).map_err(|e| IoError::decode(path, e))
 }
 

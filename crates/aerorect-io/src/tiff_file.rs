@@ -4,7 +4,7 @@
 
 use crate::error::IoError;
 use crate::geotiff::GeoReference;
-use crate::image_file::MAX_DECODED_BYTES;
+use crate::image_file::{MAX_DECODED_BYTES, check_claimed_bytes};
 use aerorect_core::ImageSize;
 use aerorect_raster::{AnyRaster, Raster, Sample};
 use std::io::{Seek, Write};
@@ -64,14 +64,8 @@ pub(crate) fn decode(path: &Path) -> Result<Decoded, IoError> {
     })
 }
 
-/// No codec a TIFF may use expands its data much more than a thousand times (Deflate at most
-/// 1032:1, LZW about 2700:1 at best), so this many decoded bytes per file byte is out of reach.
-const MAX_EXPANSION: u64 = 4096;
-
-/// Refuses a header that claims more samples than the file could hold: the decoder allocates
-/// the whole image before it reads a strip, so a 3 KB file claiming 30000 x 30000 pixels
-/// (inside the 4 GiB limit) took 2.7 GB before failing (found by tests/fuzz.rs). Files under
-/// 64 KiB may claim up to 256 MiB, so a tiny compressed image is never refused by this.
+/// Refuses a header that claims more samples than the file could hold, before the decoder
+/// allocates the whole image (see [`check_claimed_bytes`]).
 fn check_claimed_size(
     path: &Path,
     w: u32,
@@ -89,21 +83,8 @@ fn check_claimed_size(
         _ => 8,
     };
     let claimed = u64::from(w) * u64::from(h) * bands as u64 * bits.div_ceil(8);
-    let file_len = std::fs::metadata(path)
-        .map_err(|e| IoError::io(path, e))?
-        .len();
-    let most = file_len
-        .saturating_mul(MAX_EXPANSION)
-        .clamp(256 << 20, MAX_DECODED_BYTES);
-    if claimed > most {
-        return Err(IoError::decode(
-            path,
-            format!(
-                "the header claims {w} x {h} pixels of {bands} x {bits} bits ({claimed} bytes decoded), more than a file of {file_len} bytes can hold (at most {most} bytes are decoded from it)"
-            ),
-        ));
-    }
-    Ok(())
+    let what = format!("{w} x {h} pixels of {bands} x {bits} bits");
+    check_claimed_bytes(path, &what, claimed)
 }
 
 /// JFIF's YCbCr -> RGB (ITU-R BT.601 full range, ReferenceBlackWhite at its default), in place.
