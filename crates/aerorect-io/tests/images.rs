@@ -147,14 +147,9 @@ fn a_failed_write_leaves_nothing_behind() {
 
 #[test]
 fn real_sipi_tiffs_from_shared_data() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/aerial");
-    if !dir.is_dir() {
-        eprintln!(
-            "SKIP: {} is absent; the extended test of real TIFFs did not run",
-            dir.display()
-        );
+    let Some(dir) = aerorect_testkit::shared_data("aerial") else {
         return;
-    }
+    };
     let gray = read_image(&dir.join("sipi_5.3.02.tiff")).unwrap();
     assert_eq!((gray.size(), gray.bands()), (ImageSize::new(1024, 1024), 1));
     let rgb = read_image(&dir.join("sipi_2.1.01.tiff")).unwrap();

@@ -128,19 +128,51 @@ pub fn oracle_warp<T: Sample, M: PixelMap>(
         .collect()
 }
 
-/// `../shared/data/REL` beside the repository (extended tests), or `None` after saying on
-/// stderr that the test is skipped.
+/// `../shared/data/REL` beside the repository (extended tests; `AERORECT_SHARED_DATA` names
+/// another folder), or `None` after recording the skip with [`skip`].
 pub fn shared_data(rel: &str) -> Option<std::path::PathBuf> {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(rel);
+    let root = std::env::var_os("AERORECT_SHARED_DATA").map_or_else(
+        || std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"),
+        std::path::PathBuf::from,
+    );
+    let p = root.join(rel);
     if p.exists() {
         Some(p)
     } else {
-        eprintln!(
-            "SKIP: {} is absent; this extended test did not run",
-            p.display()
-        );
+        skip(&format!("{} is absent", p.display()));
         None
+    }
+}
+
+/// Records that the calling test did not run (libtest reports it as `ok` all the same): says
+/// `SKIP` on stderr and, when `AERORECT_SKIP_LOG` names a file, appends a line
+/// `TEST-BINARY::TEST: why` to it (.ci/run prints the count and the names).
+pub fn skip(why: &str) {
+    let test = std::thread::current()
+        .name()
+        .unwrap_or("unnamed test")
+        .to_string();
+    // Test binaries are named `NAME-HASH`.
+    let binary = std::env::current_exe()
+        .ok()
+        .and_then(|e| e.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .map(|s| match s.rsplit_once('-') {
+            Some((name, hash)) if hash.chars().all(|c| c.is_ascii_hexdigit()) => name.to_string(),
+            _ => s,
+        })
+        .unwrap_or_default();
+    eprintln!("SKIP: {binary}::{test}: {why}; this extended test did not run");
+    if let Some(log) = std::env::var_os("AERORECT_SKIP_LOG") {
+        use std::io::Write;
+        let line = format!("{binary}::{test}: {why}\n");
+        // One write of one line in append mode: lines from parallel tests do not interleave.
+        let written = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&log)
+            .and_then(|mut f| f.write_all(line.as_bytes()));
+        if let Err(e) = written {
+            eprintln!("cannot record the skip in {}: {e}", log.to_string_lossy());
+        }
     }
 }

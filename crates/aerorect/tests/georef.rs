@@ -290,7 +290,6 @@ fn dem_in_another_crs_is_reprojected() {
 fn downsampled_photo_lands_on_the_full_size_ortho() {
     use aerorect::drone::{DroneOptions, plan_from_metadata};
     let Some(p) = aerorect_testkit::shared_data("drone-xmp/DJI_0028.JPG") else {
-        eprintln!("SKIP: ../shared/data/drone-xmp not found");
         return;
     };
     let mut meta = aerorect::io::read_photo_metadata(&p).unwrap();
