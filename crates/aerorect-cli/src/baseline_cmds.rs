@@ -1,12 +1,12 @@
 //! The paper's baselines: `gcp` (polynomial correction), `register` (to a reference image) and
 //! `compare` (Table 1).
 
-use crate::commands::{refuse_overwrite, warp_options, write_image_and_report};
+use crate::commands::{warp_options, write_image_and_report};
+use crate::outputs::Files;
 use aerorect::compare::{CompareConfig, CompareResult};
 use aerorect::core::{ImageSize, RectifyLimits, SixAngleAttitude, rectify::DEFAULT_MAX_OUTPUT_PX};
-use aerorect::demo::write_text;
 use aerorect::gcp::{GcpPlan, GcpResidual};
-use aerorect::io::{CameraFile, read_attitude, read_gcps, read_image, write_image};
+use aerorect::io::{CameraFile, StagedOutputs, read_attitude, read_gcps, read_image};
 use aerorect::motion::gray;
 use aerorect::raster::Interp;
 use aerorect::register::{RegisterOptions, Registration, TieModel, register};
@@ -76,9 +76,12 @@ fn parse_grid(s: &str) -> Result<([i64; 2], ImageSize)> {
 }
 
 pub fn gcp(a: GcpArgs) -> Result<()> {
-    let mut outs = vec![a.output.as_path()];
-    outs.extend(a.report.as_deref());
-    refuse_overwrite(&a.input, &outs)?;
+    Files::new()
+        .input("INPUT", Some(&a.input))
+        .input("--gcps", Some(&a.gcps))
+        .output("OUTPUT", Some(&a.output))
+        .output("--report", a.report.as_deref())
+        .check()?;
     let model = GcpModel::parse(&a.model).with_context(|| {
         format!(
             "--model '{}': expected bilinear, quadratic, cubic or projective",
@@ -199,10 +202,12 @@ fn register_report(a: &RegisterArgs, reg: &Registration, seconds: f64) -> Result
 }
 
 pub fn register_cmd(a: RegisterArgs) -> Result<()> {
-    let mut outs = vec![a.output.as_path()];
-    outs.extend(a.report.as_deref());
-    refuse_overwrite(&a.input, &outs)?;
-    refuse_overwrite(&a.reference, &outs)?;
+    Files::new()
+        .input("INPUT", Some(&a.input))
+        .input("REFERENCE", Some(&a.reference))
+        .output("OUTPUT", Some(&a.output))
+        .output("--report", a.report.as_deref())
+        .check()?;
     let opts = RegisterOptions {
         model: TieModel::parse(&a.model)?,
         patch: a.patch,
@@ -281,9 +286,13 @@ pub struct CompareArgs {
 }
 
 pub fn compare(a: CompareArgs) -> Result<()> {
-    let mut outs: Vec<&std::path::Path> = a.json.iter().map(PathBuf::as_path).collect();
-    outs.extend(a.frame_out.as_deref());
-    refuse_overwrite(&a.reference, &outs)?;
+    Files::new()
+        .input("REFERENCE", Some(&a.reference))
+        .input("--camera", a.camera.as_deref())
+        .input_if_file("--attitude", a.attitude.as_deref())
+        .output("--json", a.json.as_deref())
+        .output("--frame-out", a.frame_out.as_deref())
+        .check()?;
     let cam = match &a.camera {
         Some(p) => CameraFile::read(p)?,
         None => CameraFile::parse(aerorect::compare::CAMERA_TOML, "default camera")?,
@@ -307,12 +316,14 @@ pub fn compare(a: CompareArgs) -> Result<()> {
     };
     let result = aerorect::compare::compare(&reference, &cfg)
         .with_context(|| format!("{}: Table 1", a.reference.display()))?;
+    let mut staged = StagedOutputs::new();
     if let Some(p) = &a.frame_out {
-        write_image(p, &result.frame)?;
+        staged.image(p, &result.frame, None)?;
     }
     if let Some(p) = &a.json {
-        write_text(p, &serde_json::to_string_pretty(&result)?)?;
+        staged.text(p, &serde_json::to_string_pretty(&result)?)?;
     }
+    staged.commit()?;
     print_table(&result, &a);
     Ok(())
 }

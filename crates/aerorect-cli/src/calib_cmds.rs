@@ -1,8 +1,9 @@
 //! Lens subcommands: calibrate, undistort.
 
+use crate::outputs::Files;
 use aerorect::core::ImageSize;
 use aerorect::core::distortion::Distortion;
-use aerorect::io::{CameraFile, camera_toml, read_image, write_image};
+use aerorect::io::{CameraFile, StagedOutputs, camera_toml, read_image, write_image};
 use aerorect::raster::Interp;
 use aerorect::undistort::UndistortPlan;
 use aerorect_solve::calib::{CalibrationOptions, CalibrationReport, calibrate};
@@ -58,6 +59,11 @@ fn parse_size(s: &str) -> Result<ImageSize> {
 }
 
 pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
+    Files::new()
+        .input("--points", Some(&a.points))
+        .output("--json", a.json.as_deref())
+        .output("--camera-out", a.camera_out.as_deref())
+        .check()?;
     let size = parse_size(&a.image_size)?;
     let model = Distortion::zero(&a.model).with_context(|| {
         format!(
@@ -82,14 +88,16 @@ pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
     opts.max_iterations = a.max_iterations;
     let r = calibrate(&obs, &opts).with_context(|| a.points.display().to_string())?;
     print_report(&r, obs.len());
+    let mut staged = StagedOutputs::new();
     if let Some(j) = &a.json {
-        aerorect::demo::write_text(j, &serde_json::to_string_pretty(&report_json(&r)?)?)?;
+        staged.text(j, &serde_json::to_string_pretty(&report_json(&r)?)?)?;
     }
     if let Some(c) = &a.camera_out {
         let text = camera_toml(&r.camera(size)?)?;
         let header = format!("# written by aerorect calibrate (RMS {:.4} px)\n", r.rms_px);
-        aerorect::demo::write_text(c, &(header + &text))?;
+        staged.text(c, &(header + &text))?;
     }
+    staged.commit()?;
     Ok(())
 }
 
@@ -166,7 +174,11 @@ pub struct UndistortArgs {
 }
 
 pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
-    crate::commands::refuse_overwrite(&a.input, &[a.output.as_path()])?;
+    Files::new()
+        .input("INPUT", Some(&a.input))
+        .input("--camera", Some(&a.camera))
+        .output("OUTPUT", Some(&a.output))
+        .check()?;
     let cam = CameraFile::read(&a.camera)?;
     if cam.distortion.is_none() {
         bail!(

@@ -1,12 +1,12 @@
 //! One function per subcommand.
 
+use crate::outputs::Files;
 use aerorect::core::{
     AltitudeScale, RectifyLimits, SixAngleAttitude, attitude::SixAngleDegrees,
     rectify::DEFAULT_MAX_OUTPUT_PX,
 };
 use aerorect::io::{
-    CameraFile, read_attitude, read_checkpoints, read_image, same_file, write_checkpoints,
-    write_image,
+    CameraFile, StagedOutputs, image_files, read_attitude, read_checkpoints, read_image,
 };
 use aerorect::raster::{AnyRaster, Interp, WarpOptions};
 use aerorect::rectify::RectifyPlan;
@@ -66,28 +66,20 @@ pub struct RectifyArgs {
     pub(crate) geo: crate::drone_cmds::GeoArgs,
 }
 
-/// Refuses outputs that name the input.
-pub(crate) fn refuse_overwrite(input: &Path, outputs: &[&Path]) -> Result<()> {
-    for out in outputs {
-        if same_file(input, out) {
-            bail!("{}: the output would overwrite the input", out.display());
-        }
-    }
-    Ok(())
-}
-
-/// Writes the image, then the JSON report when one is asked for (the report is serialised by
-/// the caller first, so a serialisation error leaves nothing written).
+/// Writes the image and the JSON report when one is asked for, together: both land or neither
+/// does (the report is serialised by the caller first).
 pub(crate) fn write_image_and_report(
     output: &Path,
     image: &AnyRaster,
     report: Option<&Path>,
     json: &str,
 ) -> Result<()> {
-    write_image(output, image)?;
+    let mut staged = StagedOutputs::new();
+    staged.image(output, image, None)?;
     if let Some(r) = report {
-        aerorect::demo::write_text(r, json)?;
+        staged.text(r, json)?;
     }
+    staged.commit()?;
     Ok(())
 }
 
@@ -118,10 +110,22 @@ fn altitude(h1: Option<f64>, h: Option<f64>) -> Result<Option<AltitudeScale>> {
     }
 }
 
+/// What rectify reads and writes (from metadata the output is georeferenced: a PNG gets
+/// sidecars).
+fn rectify_files(a: &RectifyArgs) -> Files {
+    let mut files = Files::new()
+        .input("INPUT", Some(&a.input))
+        .input("--camera", a.camera.as_deref())
+        .input_if_file("--attitude", a.attitude.as_deref())
+        .input("--dem", a.geo.dem.as_deref());
+    for p in image_files(&a.output, a.attitude.is_none()) {
+        files = files.output("OUTPUT", Some(&p));
+    }
+    files.output("--report", a.report.as_deref())
+}
+
 pub fn rectify(a: RectifyArgs) -> Result<()> {
-    let mut outs = vec![a.output.as_path()];
-    outs.extend(a.report.as_deref());
-    refuse_overwrite(&a.input, &outs)?;
+    rectify_files(&a).check()?;
     let Some(attitude) = &a.attitude else {
         return crate::drone_cmds::rectify_from_metadata(&a);
     };
@@ -194,9 +198,13 @@ pub struct SimulateArgs {
 }
 
 pub fn simulate(a: SimulateArgs) -> Result<()> {
-    let mut outs = vec![a.output.as_path()];
-    outs.extend(a.checkpoints_out.as_deref());
-    refuse_overwrite(&a.ortho, &outs)?;
+    Files::new()
+        .input("ORTHO", Some(&a.ortho))
+        .input("--camera", Some(&a.camera))
+        .input_if_file("--attitude", Some(&a.attitude))
+        .output("OUTPUT", Some(&a.output))
+        .output("--checkpoints-out", a.checkpoints_out.as_deref())
+        .check()?;
     let camera = CameraFile::read(&a.camera)?.camera(None)?;
     let frame = camera.size;
     let attitude = read_attitude(&a.attitude)?;
@@ -220,10 +228,12 @@ pub fn simulate(a: SimulateArgs) -> Result<()> {
             points.len()
         );
     }
-    write_image(&a.output, &frame_img)?;
+    let mut staged = StagedOutputs::new();
+    staged.image(&a.output, &frame_img, None)?;
     if let Some(p) = &a.checkpoints_out {
-        write_checkpoints(p, &points)?;
+        staged.csv(p, &points)?;
     }
+    staged.commit()?;
     println!(
         "{} -> {}: {} x {} frame, {} check points",
         a.ortho.display(),

@@ -1,17 +1,19 @@
 //! Drone photos from their own metadata: `rectify` without --attitude, and `batch`.
 
-use crate::commands::{RectifyArgs, refuse_overwrite};
+use crate::commands::RectifyArgs;
+use crate::outputs::Files;
 use aerorect::core::RectifyLimits;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
 use aerorect::demo::write_text;
-use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo};
+use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo, rectify_photo_staged};
 use aerorect::geo::{Mounting, Projection};
 use aerorect::georef::load_dem;
-use aerorect::io::{CameraFile, Crs, PoseRecord};
+use aerorect::io::{CameraFile, Crs, PoseRecord, StagedOutputs, image_files};
 use aerorect::raster::{Interp, WarpOptions};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::Mutex;
@@ -186,10 +188,12 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
         };
         opts.poses = Some(Arc::new([(name, rec)].into_iter().collect()));
     }
-    let r = rectify_photo(&a.input, &a.output, &opts, None)?;
+    let mut staged = StagedOutputs::new();
+    let r = rectify_photo_staged(&a.input, &a.output, &opts, None, &mut staged)?;
     if let Some(p) = &a.report {
-        write_text(p, &serde_json::to_string_pretty(&r)?)?;
+        staged.text(p, &serde_json::to_string_pretty(&r)?)?;
     }
+    staged.commit()?;
     println!("{}", result_line(&r));
     for w in &r.info.warnings {
         eprintln!("warning: {}: {w}", a.input.display());
@@ -281,14 +285,9 @@ pub fn batch(a: BatchArgs) -> Result<()> {
     if a.jobs == 0 {
         bail!("--jobs 0: at least one frame must be in flight");
     }
+    batch_files(&a)?.check()?;
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("{}: cannot create", a.out_dir.display()))?;
-    for input in &a.inputs {
-        let mut outs = vec![output_for(&a, input)?];
-        outs.extend(a.report_html.clone());
-        let refs: Vec<&Path> = outs.iter().map(PathBuf::as_path).collect();
-        refuse_overwrite(input, &refs)?;
-    }
     // One camera file and one set of options for every frame.
     let opts = ortho_options(
         &a.geo,
@@ -349,6 +348,48 @@ pub fn batch(a: BatchArgs) -> Result<()> {
     summarise(&a, &outcomes, started.elapsed().as_secs_f64())
 }
 
+/// Refuses two photos that would go to one output (a/X.JPG and b/X.JPG both to OUT/X.tif).
+fn refuse_collisions(a: &BatchArgs) -> Result<()> {
+    let mut first: HashMap<PathBuf, &Path> = HashMap::new();
+    for input in &a.inputs {
+        let out = output_for(a, input)?;
+        let key = aerorect::io::resolved_path(&out).unwrap_or_else(|| out.clone());
+        if let Some(other) = first.insert(key, input) {
+            bail!(
+                "{} and {} would both be written to {}: rename one, or rectify them in separate runs; nothing written",
+                other.display(),
+                input.display(),
+                out.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Everything batch reads and writes (every frame's output with its sidecars), after the
+/// name collisions between frames are refused.
+fn batch_files(a: &BatchArgs) -> Result<Files> {
+    refuse_collisions(a)?;
+    let prj = match (&a.geo.crs, &a.poses) {
+        (None, Some(p)) => Some(p.with_extension("prj")),
+        _ => None,
+    };
+    let mut files = Files::new()
+        .input("--camera", a.camera.as_deref())
+        .input("--poses", a.poses.as_deref())
+        .input("--poses (its .prj)", prj.as_deref())
+        .input("--dem", a.geo.dem.as_deref());
+    for input in &a.inputs {
+        files = files.input("PHOTOS", Some(input));
+    }
+    for input in &a.inputs {
+        for out in image_files(&output_for(a, input)?, true) {
+            files = files.output("--out-dir", Some(&out));
+        }
+    }
+    Ok(files.output("--report-html", a.report_html.as_deref()))
+}
+
 fn process(a: &BatchArgs, input: &Path, opts: &DroneOptions) -> Outcome {
     let output = match output_for(a, input) {
         Ok(o) => o,
@@ -388,9 +429,7 @@ fn summarise(a: &BatchArgs, outcomes: &[(usize, Outcome)], seconds: f64) -> Resu
     };
     let (failed, skipped) = (listed(true), listed(false));
     if let Some(p) = &a.report_html {
-        let html = aerorect::report_html::render(&done, &skipped, &failed, seconds);
-        write_text(p, &html)?;
-        println!("report: {}", p.display());
+        write_report(p, (&done, &skipped, &failed), seconds)?;
     }
     println!(
         "{} frames: {} rectified, {} skipped, {} failed, {:.2} s",
@@ -410,6 +449,26 @@ fn summarise(a: &BatchArgs, outcomes: &[(usize, Outcome)], seconds: f64) -> Resu
             outcomes.len()
         );
     }
+    Ok(())
+}
+
+/// Writes the HTML report, except over an earlier one when no frame was rectified in this run
+/// (a re-run that skips every frame would replace the flight's report with an empty one).
+fn write_report(
+    path: &Path,
+    (done, skipped, failed): (&[&PhotoResult], &[(String, String)], &[(String, String)]),
+    seconds: f64,
+) -> Result<()> {
+    if done.is_empty() && path.exists() {
+        println!(
+            "report: {} kept as it was (no frame was rectified in this run)",
+            path.display()
+        );
+        return Ok(());
+    }
+    let html = aerorect::report_html::render(done, skipped, failed, seconds);
+    write_text(path, &html)?;
+    println!("report: {}", path.display());
     Ok(())
 }
 

@@ -6,6 +6,7 @@ mod calib_cmds;
 mod commands;
 mod drone_cmds;
 mod motion_cmds;
+mod outputs;
 mod plot;
 
 use clap::{Parser, Subcommand};
@@ -63,8 +64,28 @@ enum Command {
     Overlap(drone_cmds::OverlapArgs),
 }
 
+/// On SIGINT or SIGTERM (Ctrl-C on Windows): remove the outputs still being written (their
+/// temporary files) and exit; outputs already in place stay whole.
+fn remove_partial_outputs_on_signal() {
+    let installed = ctrlc::set_handler(|| {
+        let abandoned = aerorect::io::remove_pending();
+        eprintln!(
+            "interrupted: {} unfinished output file(s) removed; finished outputs are kept",
+            abandoned.removed
+        );
+        // Exits with the register held, so no further output can land.
+        std::process::exit(130);
+    });
+    if let Err(e) = installed {
+        eprintln!(
+            "warning: no signal handler ({e}): an interrupted run may leave .aerorect-*.tmp files"
+        );
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    remove_partial_outputs_on_signal();
     if let Some(n) = cli.threads
         && let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)

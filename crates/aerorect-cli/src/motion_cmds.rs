@@ -1,10 +1,11 @@
 //! The image-motion subcommands: shift, motion-sim, velocity, track.
 
+use crate::outputs::Files;
 use aerorect::core::ImageSize;
 use aerorect::core::motion::{
     CcdAxes, FlightState, FlightUncertainty, corrected, forward_budget, predict, swing_budget,
 };
-use aerorect::io::read_image;
+use aerorect::io::{StagedOutputs, read_image};
 use aerorect::motion::{Displacement, Method, MotionSimConfig, Tracker, gray, motion_sim};
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -108,6 +109,16 @@ pub struct MotionSimArgs {
 }
 
 pub fn motion_sim_cmd(a: MotionSimArgs) -> Result<()> {
+    let manifest = a.dump_dir.as_ref().map(|d| d.join("manifest.csv"));
+    let mut files = Files::new();
+    for p in &a.images {
+        files = files.input("IMAGES", Some(p));
+    }
+    files
+        .output("--plot", Some(&a.plot))
+        .output("--json", a.json.as_deref())
+        .output("--dump-dir", manifest.as_deref())
+        .check()?;
     let scenes = a
         .images
         .iter()
@@ -180,11 +191,13 @@ pub fn motion_sim_cmd(a: MotionSimArgs) -> Result<()> {
             r.median_seconds * 1e3
         );
     }
-    crate::plot::error_vs_snr(&a.plot, &rows)?;
-    println!("plot: {}", a.plot.display());
+    let mut staged = StagedOutputs::new();
+    staged.text(&a.plot, &crate::plot::error_vs_snr(&a.plot, &rows)?)?;
     if let Some(j) = &a.json {
-        aerorect::demo::write_text(j, &serde_json::to_string_pretty(&rows)?)?;
+        staged.text(j, &serde_json::to_string_pretty(&rows)?)?;
     }
+    staged.commit()?;
+    println!("plot: {}", a.plot.display());
     Ok(())
 }
 

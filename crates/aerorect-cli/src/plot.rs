@@ -14,8 +14,15 @@ const COLOURS: [RGBColor; 6] = [
     RGBColor(23, 190, 207),
 ];
 
-/// One line per (scene, method) coloured by method, the CRLB of each scene dashed in gray.
-pub fn error_vs_snr(path: &Path, rows: &[MotionSimRow]) -> Result<()> {
+/// One line per (scene, method) coloured by method, the CRLB of each scene dashed in gray: the
+/// SVG text (written by the caller with its other outputs; `path` names it in errors).
+pub fn error_vs_snr(path: &Path, rows: &[MotionSimRow]) -> Result<String> {
+    let mut text = String::new();
+    draw(path, rows, &mut text)?;
+    Ok(text)
+}
+
+fn draw(path: &Path, rows: &[MotionSimRow], text: &mut String) -> Result<()> {
     let err = |e: &dyn std::fmt::Display| anyhow!("{}: {e}", path.display());
     let (lo, hi) = rows
         .iter()
@@ -38,7 +45,7 @@ pub fn error_vs_snr(path: &Path, rows: &[MotionSimRow]) -> Result<()> {
     methods.dedup();
     let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
     scenes.dedup();
-    let svg = SVGBackend::new(path, (900, 600)).into_drawing_area();
+    let svg = SVGBackend::with_string(text, (900, 600)).into_drawing_area();
     svg.fill(&WHITE).map_err(|e| err(&e))?;
     let mut chart = ChartBuilder::on(&svg)
         .caption(

@@ -2,6 +2,7 @@
 //! and from the extension when writing (.tif/.tiff, .png).
 
 use crate::error::IoError;
+use crate::staged::StagedOutputs;
 use crate::tiff_file;
 use aerorect_core::ImageSize;
 use aerorect_raster::{AnyRaster, Raster};
@@ -161,34 +162,71 @@ pub fn write_image_geo(
     raster: &AnyRaster,
     geo: Option<&crate::geotiff::GeoReference>,
 ) -> Result<(), IoError> {
-    let ext = path
+    let mut staged = StagedOutputs::new();
+    staged.image(path, raster, geo)?;
+    staged.commit()
+}
+
+impl StagedOutputs {
+    /// Stages an image like [`write_image_geo`] (with its sidecars), to land with the other
+    /// staged outputs.
+    pub fn image(
+        &mut self,
+        path: &Path,
+        raster: &AnyRaster,
+        geo: Option<&crate::geotiff::GeoReference>,
+    ) -> Result<(), IoError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("tif") | Some("tiff") => self.file(path, |w| {
+                tiff_file::write(w, raster, geo).map_err(|e| IoError::encode(path, e))
+            }),
+            Some("png") => {
+                let sidecars = match geo {
+                    Some(g) => png_sidecars(path, g)?,
+                    None => Vec::new(),
+                };
+                self.file(path, |w| {
+                    write_png(w, raster).map_err(|e| IoError::encode(path, e))
+                })?;
+                for (p, text) in &sidecars {
+                    self.text(p, text)?;
+                }
+                Ok(())
+            }
+            _ => Err(IoError::encode(
+                path,
+                "unknown output format: use a .tif, .tiff or .png file name",
+            )),
+        }
+    }
+}
+
+/// Every file an image write makes: the image, and for a georeferenced PNG its world file,
+/// `.prj` and `.png.aux.xml`.
+pub fn image_files(path: &Path, georeferenced: bool) -> Vec<PathBuf> {
+    let png = path
         .extension()
         .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
-    match ext.as_deref() {
-        Some("tif") | Some("tiff") => write_atomically(path, |w| {
-            tiff_file::write(w, raster, geo).map_err(|e| IoError::encode(path, e))
-        }),
-        Some("png") => {
-            let sidecars = match geo {
-                Some(g) => png_sidecars(path, g)?,
-                None => Vec::new(),
-            };
-            let mut staged = vec![stage(path, |w| {
-                write_png(w, raster).map_err(|e| IoError::encode(path, e))
-            })?];
-            for (p, text) in &sidecars {
-                staged.push(stage(p, |w| {
-                    w.write_all(text.as_bytes()).map_err(|e| IoError::io(p, e))
-                })?);
-            }
-            persist_all(staged)
-        }
-        _ => Err(IoError::encode(
-            path,
-            "unknown output format: use a .tif, .tiff or .png file name",
-        )),
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    let mut files = vec![path.to_path_buf()];
+    if png && georeferenced {
+        files.extend(png_sidecar_paths(path));
     }
+    files
+}
+
+fn png_sidecar_paths(path: &Path) -> [PathBuf; 3] {
+    let mut aux = path.as_os_str().to_owned();
+    aux.push(".aux.xml");
+    [
+        crate::geotiff::world_file_path(path),
+        path.with_extension("prj"),
+        PathBuf::from(aux),
+    ]
 }
 
 /// The world file, `.prj` and `.aux.xml` of a georeferenced PNG, with their text.
@@ -200,19 +238,15 @@ fn png_sidecars(
         .crs
         .to_wkt()
         .map_err(|e| IoError::encode(path, format!("no WKT for the .prj: {e}")))?;
-    let mut aux = path.as_os_str().to_owned();
-    aux.push(".aux.xml");
     let xml = format!(
         "<PAMDataset>\n  <SRS>{}</SRS>\n</PAMDataset>\n",
         xml_escape(&wkt)
     );
+    let [world, prj, aux] = png_sidecar_paths(path);
     Ok(vec![
-        (
-            crate::geotiff::world_file_path(path),
-            crate::geotiff::world_file_text(geo),
-        ),
-        (path.with_extension("prj"), wkt),
-        (PathBuf::from(aux), xml),
+        (world, crate::geotiff::world_file_text(geo)),
+        (prj, wkt),
+        (aux, xml),
     ])
 }
 
@@ -262,75 +296,30 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<(), IoError>,
 ) -> Result<(), IoError> {
-    persist_all(vec![stage(path, write)?])
-}
-
-/// A file written to a temporary file beside its target, not yet renamed.
-struct Staged {
-    tmp: tempfile::NamedTempFile,
-    path: PathBuf,
-}
-
-fn stage(
-    path: &Path,
-    write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<(), IoError>,
-) -> Result<Staged, IoError> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".aerorect-").suffix(".tmp");
-    // Outputs are ordinary files (rw-r--r-- before the umask), not tempfile's private 0600.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    let mut tmp = builder.tempfile_in(dir).map_err(|e| IoError::io(path, e))?;
-    {
-        let mut w = BufWriter::new(tmp.as_file_mut());
-        write(&mut w)?;
-        w.flush().map_err(|e| IoError::io(path, e))?;
-    }
-    Ok(Staged {
-        tmp,
-        path: path.to_path_buf(),
-    })
-}
-
-/// Renames every staged file into place; when one rename fails, the files already renamed
-/// are removed (and the remaining temporary files with them).
-fn persist_all(staged: Vec<Staged>) -> Result<(), IoError> {
-    let mut done: Vec<PathBuf> = Vec::new();
-    for s in staged {
-        if let Err(e) = s.tmp.persist(&s.path) {
-            for p in &done {
-                let _ = std::fs::remove_file(p);
-            }
-            return Err(IoError::io(&s.path, e.error));
-        }
-        done.push(s.path);
-    }
-    Ok(())
+    let mut staged = StagedOutputs::new();
+    staged.file(path, write)?;
+    staged.commit()
 }
 
 /// True when `a` and `b` name the same file (both resolved; `b` may not exist yet).
 pub fn same_file(a: &Path, b: &Path) -> bool {
-    let canon = |p: &Path| -> Option<std::path::PathBuf> {
-        if let Ok(c) = p.canonicalize() {
-            return Some(c);
-        }
-        let parent = match p.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        Some(parent.canonicalize().ok()?.join(p.file_name()?))
-    };
-    match (canon(a), canon(b)) {
+    match (resolved_path(a), resolved_path(b)) {
         (Some(x), Some(y)) => x == y,
         _ => false,
     }
+}
+
+/// The absolute path `p` names with links resolved: the file's own when it exists, else its
+/// folder's joined with the name; `None` when the folder does not exist either.
+pub fn resolved_path(p: &Path) -> Option<PathBuf> {
+    if let Ok(c) = p.canonicalize() {
+        return Some(c);
+    }
+    let parent = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    Some(parent.canonicalize().ok()?.join(p.file_name()?))
 }
 
 /// A PNG of `raster` scaled to fit `max_side` (8-bit: 16-bit samples are shifted, float

@@ -15,6 +15,7 @@ pub mod geotiff;
 pub mod image_file;
 pub mod metadata;
 pub mod sensors;
+pub mod staged;
 mod tiff_file;
 
 pub use attitude::read_attitude;
@@ -28,8 +29,9 @@ pub use dem::{Dem, read_dem};
 pub use error::IoError;
 pub use geotiff::{GeoReference, read_georeference, write_world_file};
 pub use image_file::{
-    decode_image_bytes, read_image, same_file, thumbnail_png, write_atomically, write_image,
-    write_image_geo,
+    decode_image_bytes, image_files, read_image, resolved_path, same_file, thumbnail_png,
+    write_atomically, write_image, write_image_geo,
 };
 pub use metadata::{PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};
+pub use staged::{Abandoned, StagedOutputs, remove_pending};

@@ -8,7 +8,7 @@ use crate::sensitivity::{SensitivityConfig, SensitivityRow};
 use crate::simulate::SimulatePlan;
 use aerorect_core::attitude::SixAngleDegrees;
 use aerorect_core::{CheckPointStats, RectifyLimits, SixAngleAttitude};
-use aerorect_io::{CameraFile, decode_image_bytes, write_checkpoints, write_image};
+use aerorect_io::{CameraFile, StagedOutputs, decode_image_bytes};
 use aerorect_raster::{Interp, WarpOptions};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -72,11 +72,13 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
         files.push(name.to_string());
         out_dir.join(name)
     };
-    write_image(&put("standard_scene.png"), &scene)?;
-    write_text(&put("camera.toml"), CAMERA_TOML)?;
-    write_text(&put("attitude.toml"), &attitude_toml(&ATTITUDE))?;
-    write_image(&put("oblique.png"), &oblique)?;
-    write_checkpoints(&put("checkpoints.csv"), &points)?;
+    // Every file lands at the end, together, or none does.
+    let mut staged = StagedOutputs::new();
+    staged.image(&put("standard_scene.png"), &scene, None)?;
+    staged.text(&put("camera.toml"), CAMERA_TOML)?;
+    staged.text(&put("attitude.toml"), &attitude_toml(&ATTITUDE))?;
+    staged.image(&put("oblique.png"), &oblique, None)?;
+    staged.csv(&put("checkpoints.csv"), &points)?;
 
     let mut psnr = [(0.0, 0); 2];
     let mut last = None;
@@ -93,8 +95,8 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
             .ok_or_else(|| Error::Invalid("no pixel to compare".into()))?;
         let name = format!("rectified_{}.png", interp.name());
         let report = plan.report("oblique.png", &name, seconds);
-        write_image(&put(&name), &rectified)?;
-        write_text(
+        staged.image(&put(&name), &rectified, None)?;
+        staged.text(
             &put(&format!("rectify_{}_report.json", interp.name())),
             &to_json(&report)?,
         )?;
@@ -137,7 +139,8 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
         psnr_bicubic_db: psnr[1],
         sensitivity,
     };
-    write_text(&out_dir.join("summary.json"), &to_json(&summary)?)?;
+    staged.text(&out_dir.join("summary.json"), &to_json(&summary)?)?;
+    staged.commit()?;
     Ok(summary)
 }
 

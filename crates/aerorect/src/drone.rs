@@ -592,6 +592,21 @@ pub fn rectify_photo(
     opts: &DroneOptions,
     thumbnail_side: Option<u32>,
 ) -> Result<PhotoResult, Error> {
+    let mut staged = aerorect_io::StagedOutputs::new();
+    let r = rectify_photo_staged(input, output, opts, thumbnail_side, &mut staged)?;
+    staged.commit()?;
+    Ok(r)
+}
+
+/// [`rectify_photo`] with the output (and its sidecars) staged, to land with the caller's
+/// other outputs when it commits them.
+pub fn rectify_photo_staged(
+    input: &std::path::Path,
+    output: &std::path::Path,
+    opts: &DroneOptions,
+    thumbnail_side: Option<u32>,
+    staged: &mut aerorect_io::StagedOutputs,
+) -> Result<PhotoResult, Error> {
     let t = std::time::Instant::now();
     let file = input.display().to_string();
     let meta = aerorect_io::read_photo_metadata(input)?;
@@ -609,7 +624,7 @@ pub fn rectify_photo(
         None => plan_from_metadata(&meta, size, opts, &file)?,
     };
     let out = plan.run(&image)?;
-    aerorect_io::write_image_geo(output, &out, Some(&info.geo))?;
+    staged.image(output, &out, Some(&info.geo))?;
     let thumbnails = match thumbnail_side {
         Some(s) => {
             let err = |e: String| Error::Invalid(format!("{file}: thumbnail: {e}"));
