@@ -126,6 +126,9 @@ fn print_report(r: &CalibrationReport, n: usize) {
             v.image, v.points, v.rms_px
         );
     }
+    for h in &r.held_fixed {
+        println!("note: {h}");
+    }
     for w in &r.correlation_warnings {
         println!("warning: {w}");
     }

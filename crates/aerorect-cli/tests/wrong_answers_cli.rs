@@ -162,3 +162,99 @@ fn a_gsd_as_large_as_the_footprint_is_refused() {
     fails(&run("10"), &["--gsd-m 10 gives a 12 x 9 px ortho"]);
     ok(&run("4"));
 }
+
+fn data(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data")
+        .join(name)
+        .to_str()
+        .unwrap()
+        .to_string()
+}
+
+#[test]
+fn calibrate_refuses_points_outside_the_image_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let pts = data("calib/left_corners.csv");
+    // The corners reach u = 500 or so: a 320 x 240 image cannot hold them.
+    let out = aerorect(
+        &[
+            "calibrate",
+            "--points",
+            &pts,
+            "--image-size",
+            "320x240",
+            "--model",
+            "opencv",
+        ],
+        dir.path(),
+    );
+    fails(&out, &["left_corners.csv", "outside the 320 x 240 image"]);
+    ok(&aerorect(
+        &[
+            "calibrate",
+            "--points",
+            &pts,
+            "--image-size",
+            "640x480",
+            "--model",
+            "opencv",
+        ],
+        dir.path(),
+    ));
+}
+
+#[test]
+fn brown_on_a_plane_holds_its_affinity_terms_and_finds_the_focal_length() {
+    let dir = tempfile::tempdir().unwrap();
+    let pts = data("calib/left_corners.csv");
+    // Before the fix: a1 and b2 absorbed the focal length, fx = 34 px with exit 0.
+    let out = ok(&aerorect(
+        &[
+            "calibrate",
+            "--points",
+            &pts,
+            "--image-size",
+            "640x480",
+            "--model",
+            "brown",
+            "--json",
+            "b.json",
+        ],
+        dir.path(),
+    ));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("b.json")).unwrap()).unwrap();
+    // OpenCV 5.0 on the same corners: fx 536.07 (its own model; Brown's differs a little).
+    let fx = v["fx"].as_f64().unwrap();
+    assert!((fx - 536.07).abs() < 10.0, "fx = {fx}");
+    let held: Vec<String> = serde_json::from_value(v["held_fixed"].clone()).unwrap();
+    for (term, partner) in [("a1", "fx"), ("b2", "fy"), ("dx0", "cx"), ("dy0", "cy")] {
+        assert!(
+            held.iter()
+                .any(|h| h.starts_with(term) && h.contains(partner)),
+            "{held:?}"
+        );
+        assert!(v["std"][term].is_null(), "{term} is held");
+        assert!(out.contains(&format!("{term} held at 0")), "{out}");
+    }
+    // Fixing the intrinsic frees its duplicate.
+    let out = ok(&aerorect(
+        &[
+            "calibrate",
+            "--points",
+            &pts,
+            "--image-size",
+            "640x480",
+            "--model",
+            "brown",
+            "--fix",
+            "cx,cy",
+        ],
+        dir.path(),
+    ));
+    assert!(
+        !out.contains("dx0 held") && out.contains("a1 held"),
+        "{out}"
+    );
+}

@@ -58,6 +58,10 @@ fn field(noise_px: f64, seed: u64) -> Result<(Vec<Observation>, Vec<Observation>
                 K[0] * o[0] + K[2] + noise.sample(&mut rng),
                 K[1] * o[1] + K[3] + noise.sample(&mut rng),
             ];
+            // The camera records only what falls on its frame (calibrate refuses the rest).
+            if !px.iter().all(|c| (-0.5..=799.5).contains(c)) {
+                continue;
+            }
             let ob = Observation {
                 image: "field".into(),
                 world: w,

@@ -147,6 +147,26 @@ impl Distortion {
         }
     }
 
+    /// Coefficients that duplicate a camera parameter, each with what it duplicates: Brown's
+    /// film terms scale (a1, b2) and shear (a2, b1) the image like fx, fy, the skew and the
+    /// views' rotation, and its offsets (dx0, dy0) move it like cx, cy. Fitted together with
+    /// their duplicate, the pair is unidentifiable (a planar target gave fx = 34 px).
+    pub fn duplicates(&self) -> &'static [(&'static str, &'static str)] {
+        const ROTATION: &str = "the views' rotation";
+        match self {
+            Distortion::Brown(_) => &[
+                ("a1", "fx"),
+                ("b2", "fy"),
+                ("a2", ROTATION),
+                ("b1", ROTATION),
+                ("dx0", "cx"),
+                ("dy0", "cy"),
+            ],
+            Distortion::Improved(_) => &[("dx0", "cx"), ("dy0", "cy")],
+            Distortion::Tsai(_) | Distortion::OpenCv(_) => &[],
+        }
+    }
+
     /// The model's name in files.
     pub fn kind(&self) -> &'static str {
         match self {

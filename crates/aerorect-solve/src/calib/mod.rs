@@ -15,6 +15,8 @@ pub use problem::{
     CalibrationOptions, CalibrationReport, Observation, ParameterValue, ViewReport, calibrate,
 };
 
+use aerorect_core::ImageSize;
+use aerorect_core::error::Num;
 use thiserror::Error;
 
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -26,6 +28,16 @@ pub enum CalibrationError {
         image: String,
         got: usize,
         need: usize,
+    },
+    #[error(
+        "point {index} (image '{image}') at ({}, {}) lies outside the {} x {} image",
+        Num(pixel[0]), Num(pixel[1]), size.width, size.height
+    )]
+    OutsideImage {
+        index: usize,
+        image: String,
+        pixel: [f64; 2],
+        size: ImageSize,
     },
     #[error("point {index} (image '{image}') is not finite")]
     NotFinite { index: usize, image: String },

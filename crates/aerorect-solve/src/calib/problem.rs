@@ -87,6 +87,9 @@ pub struct CalibrationReport {
     pub distortion_percent: f64,
     pub iterations: usize,
     pub stop_reason: StopReason,
+    /// Coefficients held at their starting values because they duplicate a free parameter
+    /// ("a1 held at 0: it duplicates fx").
+    pub held_fixed: Vec<String>,
 }
 
 impl CalibrationReport {
@@ -401,6 +404,7 @@ pub fn calibrate(
             need: 6,
         });
     }
+    check_inside(obs, opts.image_size)?;
     let (k, poses) = start(obs, &views, &ids, opts)?;
     let names = opts.model.model().names();
     let nd = names.len();
@@ -420,8 +424,10 @@ pub fn calibrate(
             return Err(CalibrationError::UnknownParameter(f.clone()));
         }
     }
+    let held = held_terms(opts);
     let is_fixed = |name: &str| {
         opts.fix.iter().any(|f| f == name)
+            || held.iter().any(|(term, _)| *term == name)
             || (name == "skew" && !opts.skew)
             || (name == "fy" && opts.fixed_aspect.is_some())
     };
@@ -552,5 +558,44 @@ fn report(
         distortion_percent: 100.0 * mean_error_px / mean_radius,
         iterations: res.iterations,
         stop_reason: res.stop,
+        held_fixed: held_terms(opts)
+            .into_iter()
+            .map(|(term, partner)| {
+                let m = opts.model.model();
+                let start = m
+                    .names()
+                    .iter()
+                    .position(|n| *n == term)
+                    .map_or(0.0, |i| m.params()[i]);
+                format!("{term} held at {start}: it duplicates {partner}")
+            })
+            .collect(),
     })
+}
+
+/// The model's coefficients that duplicate a parameter left free ([`Distortion::duplicates`]),
+/// unless the options fix the coefficient or its duplicate themselves.
+fn held_terms(opts: &CalibrationOptions) -> Vec<(&'static str, &'static str)> {
+    let fixed = |name: &str| opts.fix.iter().any(|f| f == name);
+    opts.model
+        .duplicates()
+        .iter()
+        .copied()
+        .filter(|(term, partner)| !fixed(term) && !fixed(partner))
+        .collect()
+}
+
+/// Every measured point must lie in the image (pixel centres at integers: -0.5 .. W - 0.5).
+fn check_inside(obs: &[Observation], size: ImageSize) -> Result<(), CalibrationError> {
+    let (w, h) = (size.width as f64, size.height as f64);
+    let inside = |p: [f64; 2]| (-0.5..=w - 0.5).contains(&p[0]) && (-0.5..=h - 0.5).contains(&p[1]);
+    match obs.iter().position(|o| !inside(o.pixel)) {
+        None => Ok(()),
+        Some(i) => Err(CalibrationError::OutsideImage {
+            index: i + 1,
+            image: obs[i].image.clone(),
+            pixel: obs[i].pixel,
+            size,
+        }),
+    }
 }
