@@ -16,6 +16,7 @@ pub mod image_file;
 pub mod metadata;
 pub mod sensors;
 pub mod staged;
+pub mod tiled_tiff;
 mod tiff_file;
 
 pub use attitude::read_attitude;
@@ -35,3 +36,4 @@ pub use image_file::{
 pub use metadata::{PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};
 pub use staged::{Abandoned, StagedOutputs, remove_pending};
+pub use tiled_tiff::write_tiled_tiff;

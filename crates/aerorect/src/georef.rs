@@ -95,6 +95,27 @@ impl OrthoPlan {
         }
     }
 
+    /// Resamples `input` onto the window of the grid whose top-left pixel is (`col0`, `row0`)
+    /// (may lie outside the grid) and of `size`: the same pixels as [`Self::run`] there.
+    pub fn render_window(
+        &self,
+        input: &AnyRaster,
+        col0: i64,
+        row0: i64,
+        size: aerorect_core::ImageSize,
+    ) -> Result<AnyRaster, Error> {
+        let lens = LensMap::of_camera(&self.camera, LensDirection::ObservedFromIdeal);
+        let w = WarpWindow { col0, row0 };
+        match (&self.map, lens) {
+            (OrthoMap::Flat(h), None) => warp_any(input, &w.of(h), size, &self.warp),
+            (OrthoMap::Flat(h), Some(lens)) => {
+                warp_any(input, &w.of(&Then(*h, lens)), size, &self.warp)
+            }
+            (OrthoMap::Terrain(m), _) => warp_any(input, &w.of(m.as_ref()), size, &self.warp),
+            (OrthoMap::Visible(m), _) => warp_any(input, &w.of(m.as_ref()), size, &self.warp),
+        }
+    }
+
     /// The frame pixel of an output pixel, hidden ground included.
     pub fn frame_pixel_of_unmasked(&self, col: f64, row: f64) -> Option<[f64; 2]> {
         use aerorect_raster::PixelMap;
@@ -120,6 +141,52 @@ impl OrthoPlan {
             }
             OrthoMap::Terrain(m) => m.source_of(col, row),
             OrthoMap::Visible(m) => m.source_of(col, row),
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+struct WarpWindow {
+    col0: i64,
+    row0: i64,
+}
+
+impl WarpWindow {
+    fn of<M>(self, map: &M) -> Window<'_, M> {
+        Window {
+            map,
+            col0: self.col0,
+            row0: self.row0,
+        }
+    }
+}
+
+/// `map` seen from a window whose pixel (0, 0) is the map's (`col0`, `row0`).
+struct Window<'a, M> {
+    map: &'a M,
+    col0: i64,
+    row0: i64,
+}
+
+impl<M: aerorect_raster::PixelMap> aerorect_raster::PixelMap for Window<'_, M> {
+    fn source_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+        self.map
+            .source_of(col + self.col0 as f64, row + self.row0 as f64)
+    }
+
+    fn source_row(&self, row: usize, col0: usize, xs: &mut [f64], ys: &mut [f64]) {
+        let (r, c) = (row as i64 + self.row0, col0 as i64 + self.col0);
+        match (usize::try_from(r), usize::try_from(c)) {
+            (Ok(r), Ok(c)) => self.map.source_row(r, c, xs, ys),
+            _ => {
+                for (i, (x, y)) in xs.iter_mut().zip(ys.iter_mut()).enumerate() {
+                    let p = self
+                        .map
+                        .source_of((c + i as i64) as f64, r as f64)
+                        .unwrap_or([f64::NAN; 2]);
+                    (*x, *y) = (p[0], p[1]);
+                }
+            }
         }
     }
 }

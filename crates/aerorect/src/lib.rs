@@ -14,6 +14,7 @@ pub mod evaluate;
 pub mod gcp;
 pub mod georef;
 pub mod lens_compare;
+pub mod mosaic;
 pub mod motion;
 pub mod overlap;
 pub mod rectify;

@@ -1,0 +1,472 @@
+//! Mosaics of frames simulated from one ground texture: the mosaic is the texture where
+//! covered, each cell comes from the frame a brute-force score picks, feathering leaves no step
+//! larger than the blend allows, and the tile-by-tile path equals a whole-mosaic composite
+//! computed here the slow way.
+#![allow(clippy::unwrap_used)]
+
+use aerorect::core::{Camera, CameraRotation, ImageSize, Intrinsics, RectifyLimits};
+use aerorect::geo::{Pose, Projection};
+use aerorect::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
+use aerorect::mosaic::{Blend, MosaicFrame, MosaicOptions, MosaicPlan, MosaicRun, Window};
+use aerorect::raster::{AnyRaster, Interp, Raster, WarpOptions};
+use std::path::PathBuf;
+
+const GSD: f64 = 0.25;
+const ORIGIN: [f64; 2] = [500_000.0, 5_970_000.0];
+
+fn texture(x: f64, y: f64) -> f64 {
+    let (x, y) = (x - ORIGIN[0], y - ORIGIN[1]);
+    128.0 + 50.0 * (x / 2.1).sin() * (y / 2.9).cos() + 30.0 * ((x + y) / 3.7).sin()
+}
+
+fn camera() -> Camera {
+    Camera::new(
+        Intrinsics::new(150.0, 150.0, 79.5, 59.5).unwrap(),
+        None,
+        ImageSize::new(160, 120),
+    )
+}
+
+/// Two near-nadir frames and an oblique one, overlapping: (x, y, height, yaw, pitch).
+const SHOTS: [[f64; 5]; 3] = [
+    [0.0, 0.0, 60.0, 0.0, -90.0],
+    [35.0, 12.0, 70.0, 30.0, -86.0],
+    [-10.0, -45.0, 55.0, 10.0, -60.0],
+];
+
+fn pose(shot: [f64; 5]) -> Pose {
+    let r = CameraRotation::dji_gimbal(shot[3], shot[4], 0.0).unwrap();
+    Pose::new(
+        [ORIGIN[0] + shot[0], ORIGIN[1] + shot[1], shot[2]],
+        r.ground_from_camera(),
+    )
+}
+
+/// The frame a camera at `pose` records of the textured level ground at z = 0, each pixel's
+/// brightness raised by `offset`.
+fn simulate(cam: &Camera, pose: &Pose, offset: f64) -> AnyRaster {
+    let s = cam.size;
+    let mut px = vec![0f32; s.pixels()];
+    for v in 0..s.height {
+        for u in 0..s.width {
+            let d = pose.world_direction(cam.ray_from_pixel(u as f64, v as f64).unwrap());
+            let t = -pose.centre[2] / d.z;
+            let g = [pose.centre[0] + t * d.x, pose.centre[1] + t * d.y];
+            px[v * s.width + u] = (texture(g[0], g[1]) + offset) as f32;
+        }
+    }
+    AnyRaster::F32(Raster::from_planes(s, vec![px]).unwrap())
+}
+
+fn plan(cam: &Camera, pose: Pose) -> OrthoPlan {
+    let world = Projection::new("+proj=utm +zone=35 +datum=WGS84 +units=m +no_defs").unwrap();
+    let req = OrthoRequest {
+        camera: cam,
+        pose,
+        world: &world,
+        ground: &Ground::Flat(0.0),
+        gsd_m: GSD,
+        limits: RectifyLimits::default(),
+        occlusion: false,
+    };
+    let warp = WarpOptions {
+        interp: Interp::Bilinear,
+        nodata: f64::NAN,
+        alpha: false,
+    };
+    plan_ortho(&req, warp).unwrap()
+}
+
+struct Scene {
+    cam: Camera,
+    poses: Vec<Pose>,
+    frames: Vec<MosaicFrame>,
+    images: Vec<AnyRaster>,
+}
+
+fn scene(offsets: [f64; 3]) -> Scene {
+    let cam = camera();
+    let poses: Vec<Pose> = SHOTS.iter().map(|&s| pose(s)).collect();
+    let frames = poses
+        .iter()
+        .enumerate()
+        .map(|(k, p)| MosaicFrame {
+            path: PathBuf::from(format!("frame{k}.tif")),
+            plan: plan(&cam, *p),
+            nadir_xy: [p.centre[0], p.centre[1]],
+            height_m: p.centre[2],
+        })
+        .collect();
+    let images = poses
+        .iter()
+        .zip(offsets)
+        .map(|(p, o)| simulate(&cam, p, o))
+        .collect();
+    Scene {
+        cam,
+        poses,
+        frames,
+        images,
+    }
+}
+
+/// The whole mosaic, tile by tile (band 0 and alpha), and the run's decode counts.
+fn run_all(s: &Scene, opts: MosaicOptions) -> (MosaicPlan, Vec<f32>, Vec<f32>, Vec<usize>) {
+    let plan = MosaicPlan::new(s.frames.clone(), GSD, opts).unwrap();
+    let size = plan.grid.size;
+    let (mut v, mut a) = (vec![0f32; size.pixels()], vec![0f32; size.pixels()]);
+    let paths: Vec<PathBuf> = s.frames.iter().map(|f| f.path.clone()).collect();
+    let mut run = MosaicRun::new(&plan, |f: &MosaicFrame| {
+        let k = paths.iter().position(|p| *p == f.path).unwrap();
+        Ok(s.images[k].clone())
+    });
+    for t in plan.tile_windows().collect::<Vec<_>>() {
+        let AnyRaster::F32(r) = run.tile(t).unwrap() else {
+            panic!("f32 frames give an f32 mosaic")
+        };
+        for i in 0..t.size.pixels() {
+            let (c, row) = (t.col0 + i % t.size.width, t.row0 + i / t.size.width);
+            v[row * size.width + c] = r.plane(0)[i];
+            a[row * size.width + c] = r.plane(1)[i];
+        }
+    }
+    let loads = run.loads.clone();
+    (plan, v, a, loads)
+}
+
+/// Brute-force scores from the poses: each cell's corners projected through the camera.
+fn brute_scores(s: &Scene, plan: &MosaicPlan) -> Vec<Vec<f64>> {
+    let g = plan.grid;
+    let (w, h) = (s.cam.size.width as f64, s.cam.size.height as f64);
+    let project = |p: &Pose, x: f64, y: f64| {
+        s.cam
+            .pixel_from_camera_point(p.camera_from_world([x, y, 0.0]))
+    };
+    s.poses
+        .iter()
+        .zip(&s.frames)
+        .map(|(p, f)| {
+            let fg = f.plan.grid;
+            (0..g.size.pixels())
+                .map(|i| {
+                    let (c, r) = ((i % g.size.width) as f64, (i / g.size.width) as f64);
+                    let [x, y] = g.centre_of(c, r);
+                    let (fc, fr) = (
+                        (x - fg.top_left[0]) / GSD - 0.5,
+                        (fg.top_left[1] - y) / GSD - 0.5,
+                    );
+                    let in_grid = fc > -0.1
+                        && fr > -0.1
+                        && fc < fg.size.width as f64 - 0.9
+                        && fr < fg.size.height as f64 - 0.9;
+                    let q = project(p, x, y).unwrap();
+                    let in_frame =
+                        (-0.5..w - 0.5).contains(&q[0]) && (-0.5..h - 0.5).contains(&q[1]);
+                    if !(in_grid && in_frame) {
+                        return f64::INFINITY;
+                    }
+                    let e = 0.5 * GSD;
+                    let k: Vec<[f64; 2]> = [[-e, e], [e, e], [e, -e], [-e, -e]]
+                        .iter()
+                        .map(|d| project(p, x + d[0], y + d[1]).unwrap())
+                        .collect();
+                    let area = 0.5
+                        * (0..4)
+                            .map(|i| k[i][0] * k[(i + 1) % 4][1] - k[(i + 1) % 4][0] * k[i][1])
+                            .sum::<f64>()
+                            .abs();
+                    let tan = (x - p.centre[0]).hypot(y - p.centre[1]) / p.centre[2];
+                    GSD / area.sqrt() * tan.hypot(1.0)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn each_cell_comes_from_the_frame_with_the_best_brute_force_score() {
+    let s = scene([0.0; 3]);
+    let plan = MosaicPlan::new(s.frames.clone(), GSD, MosaicOptions::default()).unwrap();
+    let size = plan.grid.size;
+    let labels = plan.labels(Window {
+        col0: 0,
+        row0: 0,
+        size,
+    });
+    let scores = brute_scores(&s, &plan);
+    let (mut checked, mut per_frame) = (0, [0usize; 3]);
+    for (i, l) in labels.iter().enumerate() {
+        let mut order: Vec<(f64, usize)> = (0..3)
+            .map(|k| (scores[k][i], k))
+            .filter(|p| p.0.is_finite())
+            .collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0));
+        match order.first() {
+            None => assert_eq!(*l, None, "cell {i}: no frame covers it"),
+            Some(&(best, k)) => {
+                if order.len() > 1 && order[1].0 - best < 1e-9 * best {
+                    continue; // a tie: either is right
+                }
+                assert_eq!(*l, Some(k), "cell {i}: scores {order:?}");
+                per_frame[k] += 1;
+                checked += 1;
+            }
+        }
+    }
+    println!(
+        "mosaic {} x {}, cells per frame {per_frame:?}",
+        size.width, size.height
+    );
+    assert!(checked > 50_000, "{checked}");
+    assert!(per_frame.iter().all(|&n| n > 5_000), "{per_frame:?}");
+}
+
+#[test]
+fn the_mosaic_is_the_ground_where_covered() {
+    let s = scene([0.0; 3]);
+    for blend in [Blend::None, Blend::Feather] {
+        let opts = MosaicOptions {
+            blend,
+            tile_px: 128,
+            ..MosaicOptions::default()
+        };
+        let (plan, v, a, _) = run_all(&s, opts);
+        let mut err: Vec<f64> = Vec::new();
+        for i in 0..v.len() {
+            let (c, r) = (
+                (i % plan.grid.size.width) as f64,
+                (i / plan.grid.size.width) as f64,
+            );
+            if a[i] > 0.0 {
+                let [x, y] = plan.grid.centre_of(c, r);
+                err.push((v[i] as f64 - texture(x, y)).abs());
+            } else {
+                assert_eq!(v[i], 0.0, "uncovered cells are nodata");
+            }
+        }
+        err.sort_by(f64::total_cmp);
+        let mean = err.iter().sum::<f64>() / err.len() as f64;
+        let p99 = err[err.len() * 99 / 100];
+        println!(
+            "{blend:?}: {} covered cells, mean |error| {mean:.3}, p99 {p99:.3}, max {:.3}",
+            err.len(),
+            err[err.len() - 1]
+        );
+        // Bilinear from frames of 0.4-0.7 m pixels over a texture of 13 m wavelength.
+        assert!(mean < 1.0 && p99 < 4.0, "mean {mean}, p99 {p99}");
+    }
+}
+
+/// The largest change between neighbouring covered cells of the mosaic minus the ground,
+/// away from the corners where footprint edges cross (within 2 px of a cell whose 3 x 3
+/// neighbourhood holds three or more different sets of covering frames): at such a corner one
+/// frame alone covers the cells on one side, and no blend can be continuous at the point.
+fn largest_step(s: &Scene, plan: &MosaicPlan, v: &[f32], a: &[f32]) -> f64 {
+    let (w, h) = (plan.grid.size.width, plan.grid.size.height);
+    let scores = brute_scores(s, plan);
+    let set = |i: usize| {
+        (0..3)
+            .filter(|&k| scores[k][i].is_finite())
+            .fold(0u8, |m, k| m | 1 << k)
+    };
+    let around = |c: usize, r: usize, d: usize| {
+        let rows = r.saturating_sub(d)..(r + d + 1).min(h);
+        rows.flat_map(move |rr| {
+            (c.saturating_sub(d)..(c + d + 1).min(w)).map(move |cc| rr * w + cc)
+        })
+    };
+    let corner: Vec<bool> = (0..w * h)
+        .map(|i| {
+            let mut sets: Vec<u8> = around(i % w, i / w, 1).map(set).collect();
+            sets.sort_unstable();
+            sets.dedup();
+            sets.len() >= 3
+        })
+        .collect();
+    let near_corner = |i: usize| around(i % w, i / w, 2).any(|j| corner[j]);
+    let residual = |i: usize| {
+        let [x, y] = plan.grid.centre_of((i % w) as f64, (i / w) as f64);
+        v[i] as f64 - texture(x, y)
+    };
+    let mut worst: f64 = 0.0;
+    for r in 0..h - 1 {
+        for c in 0..w - 1 {
+            let i = r * w + c;
+            for j in [i + 1, i + w] {
+                if a[i] > 0.0 && a[j] > 0.0 && !near_corner(i) && !near_corner(j) {
+                    worst = worst.max((residual(i) - residual(j)).abs());
+                }
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn feathering_leaves_no_step_larger_than_the_blend_allows() {
+    // Frames 40 apart in brightness: without blending the seams are steps of 20 to 40.
+    let s = scene([0.0, 20.0, -20.0]);
+    let (plan, v, a, _) = run_all(
+        &s,
+        MosaicOptions {
+            blend: Blend::None,
+            ..MosaicOptions::default()
+        },
+    );
+    let hard = largest_step(&s, &plan, &v, &a);
+    let n = 16.0;
+    let (plan, v, a, _) = run_all(
+        &s,
+        MosaicOptions {
+            feather_px: 16,
+            ..MosaicOptions::default()
+        },
+    );
+    let soft = largest_step(&s, &plan, &v, &a);
+    println!("largest step: none {hard:.2}, feather over {n} px {soft:.2}");
+    assert!(hard > 19.0, "{hard}");
+    // A linear ramp over N px moves 40 / N a pixel; where the seam is a frame's own edge the
+    // fade is steeper by up to 2; plus the interpolation error of neighbours (< 4).
+    assert!(soft < 2.0 * 40.0 / n + 4.0, "{soft}");
+}
+
+/// The whole mosaic composited in one piece, the slow way: brute-force labels, distances by
+/// searching every cell within reach, frames from their full orthos.
+fn oracle(s: &Scene, plan: &MosaicPlan, n: usize) -> (Vec<f64>, Vec<bool>) {
+    let g = plan.grid;
+    let (w, h) = (g.size.width as i64, g.size.height as i64);
+    let scores = brute_scores(s, plan);
+    let label: Vec<Option<usize>> = (0..g.size.pixels())
+        .map(|i| {
+            (0..3)
+                .filter(|&k| scores[k][i].is_finite())
+                .min_by(|&a, &b| scores[a][i].total_cmp(&scores[b][i]))
+        })
+        .collect();
+    let reach = n as i64 + 1;
+    // Distance from (c, r) to the nearest cell where `f` holds, searched within `reach`.
+    let nearest = |c: i64, r: i64, f: &dyn Fn(usize) -> bool| -> f64 {
+        let mut best = f64::INFINITY;
+        for dr in -reach..=reach {
+            for dc in -reach..=reach {
+                let (cc, rr) = (c + dc, r + dr);
+                if cc >= 0 && rr >= 0 && cc < w && rr < h && f((rr * w + cc) as usize) {
+                    best = best.min((dc as f64).hypot(dr as f64));
+                }
+            }
+        }
+        best
+    };
+    let orthos: Vec<AnyRaster> = s
+        .frames
+        .iter()
+        .zip(&s.images)
+        .map(|(f, im)| f.plan.run(im).unwrap())
+        .collect();
+    let nf = n as f64;
+    let mut out = vec![0.0; g.size.pixels()];
+    let mut covered = vec![false; g.size.pixels()];
+    for i in 0..g.size.pixels() {
+        let (c, r) = (i as i64 % w, i as i64 / w);
+        let (mut sum, mut wsum) = (0.0, 0.0);
+        for k in 0..3 {
+            if !scores[k][i].is_finite() {
+                continue;
+            }
+            let mine = |j: usize| label[j] == Some(k);
+            let signed = if mine(i) {
+                nearest(c, r, &|j| !mine(j)) - 0.5
+            } else {
+                0.5 - nearest(c, r, &mine)
+            };
+            let cov = nearest(c, r, &|j| !scores[k][j].is_finite());
+            let weight = (0.5 + signed / nf).clamp(0.0, 1.0) * (cov / nf).min(1.0);
+            if weight <= 0.0 {
+                continue;
+            }
+            let fg = s.frames[k].plan.grid;
+            let fc = (c as f64 + (g.top_left[0] - fg.top_left[0]) / GSD).round() as usize;
+            let fr = (r as f64 + (fg.top_left[1] - g.top_left[1]) / GSD).round() as usize;
+            let AnyRaster::F32(o) = &orthos[k] else {
+                panic!()
+            };
+            sum += weight * o.plane(0)[fr * fg.size.width + fc] as f64;
+            wsum += weight;
+        }
+        if wsum > 0.0 {
+            out[i] = sum / wsum;
+            covered[i] = true;
+        }
+    }
+    (out, covered)
+}
+
+#[test]
+fn tiles_equal_the_whole_mosaic_composited_in_one_piece() {
+    let s = scene([0.0, 20.0, -20.0]);
+    let n = 8;
+    let opts = MosaicOptions {
+        feather_px: n,
+        tile_px: 48,
+        cache_frames: 2,
+        ..MosaicOptions::default()
+    };
+    let (plan, v, a, loads) = run_all(&s, opts);
+    let (want, covered) = oracle(&s, &plan, n);
+    let mut worst: f64 = 0.0;
+    for i in 0..v.len() {
+        assert_eq!(a[i] > 0.0, covered[i], "cell {i}");
+        if covered[i] {
+            worst = worst.max((v[i] as f64 - want[i]).abs());
+        }
+    }
+    println!(
+        "{} tiles, decodes per frame {loads:?}, largest difference {worst:e}",
+        plan.tile_windows().count()
+    );
+    assert!(worst < 1e-3, "{worst}");
+    assert!(
+        loads.iter().sum::<usize>() > 3,
+        "a cache of 2 frames reloads: {loads:?}"
+    );
+}
+
+#[test]
+fn mosaic_writes_a_tiled_geotiff_of_the_tiles_or_nothing() {
+    let s = scene([0.0; 3]);
+    let dir = tempfile::tempdir().unwrap();
+    let mut frames = s.frames.clone();
+    for (f, im) in frames.iter_mut().zip(&s.images) {
+        f.path = dir.path().join(&f.path);
+        aerorect::io::write_image(&f.path, im).unwrap();
+    }
+    let opts = MosaicOptions {
+        tile_px: 128,
+        ..MosaicOptions::default()
+    };
+    let out = dir.path().join("mosaic.tif");
+    let crs = aerorect::io::Crs::Epsg(32635);
+    let report = aerorect::mosaic::mosaic(frames.clone(), crs.clone(), &out, &opts).unwrap();
+    let (plan, v, a, _) = run_all(&s, opts.clone());
+    assert_eq!(report.size, [plan.grid.size.width, plan.grid.size.height]);
+    assert_eq!(report.covered_cells, a.iter().filter(|&&x| x > 0.0).count());
+    let AnyRaster::F32(back) = aerorect::io::read_image(&out).unwrap() else {
+        panic!("f32")
+    };
+    assert_eq!(back.plane(0), &v[..]);
+    assert_eq!(back.plane(1), &a[..]);
+    let geo = aerorect::io::read_georeference(&out).unwrap().unwrap();
+    assert_eq!(geo.top_left, plan.grid.top_left);
+    assert_eq!(geo.pixel_size, [GSD, GSD]);
+
+    // A frame that cannot be read: an error naming it, and no mosaic (nor temporary file).
+    std::fs::remove_file(&out).unwrap();
+    std::fs::remove_file(&frames[2].path).unwrap();
+    let e = aerorect::mosaic::mosaic(frames, crs, &out, &opts).unwrap_err();
+    assert!(e.to_string().contains("frame2.tif"), "{e}");
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left.len(), 2, "{left:?}");
+}
