@@ -262,6 +262,15 @@ pub struct BatchArgs {
     /// height, GSD and warnings.
     #[arg(long)]
     report_html: Option<PathBuf>,
+    /// Make the flight consistent first: tie points from the frames' overlaps, then a joint
+    /// adjustment of attitudes and camera; writes OUT_DIR/adjustment.json (every frame is
+    /// rewritten: each depends on the whole flight).
+    #[arg(long)]
+    adjust: bool,
+    /// With --adjust: also correct positions, with this prior standard deviation (m; e.g. 5 for
+    /// GPS, 0.05 for RTK).
+    #[arg(long, requires = "adjust")]
+    adjust_positions_m: Option<f64>,
 }
 
 /// What became of one input.
@@ -302,6 +311,9 @@ pub fn batch(a: BatchArgs) -> Result<()> {
         },
         a.poses.as_deref(),
     )?;
+    if a.adjust {
+        return batch_adjusted(&a, &opts);
+    }
     let started = std::time::Instant::now();
     let pb =
         ProgressBar::with_draw_target(Some(a.inputs.len() as u64), ProgressDrawTarget::stderr());
@@ -452,11 +464,14 @@ fn summarise(a: &BatchArgs, outcomes: &[(usize, Outcome)], seconds: f64) -> Resu
     Ok(())
 }
 
+/// A frame listed in the summary: its input and why.
+type Listed = (String, String);
+
 /// Writes the HTML report, except over an earlier one when no frame was rectified in this run
 /// (a re-run that skips every frame would replace the flight's report with an empty one).
 fn write_report(
     path: &Path,
-    (done, skipped, failed): (&[&PhotoResult], &[(String, String)], &[(String, String)]),
+    (done, skipped, failed): (&[&PhotoResult], &[Listed], &[Listed]),
     seconds: f64,
 ) -> Result<()> {
     if done.is_empty() && path.exists() {
@@ -506,6 +521,75 @@ pub fn overlap(a: OverlapArgs) -> Result<()> {
             r.median_m[0],
             r.median_m[1],
             r.rms_px
+        );
+    }
+    Ok(())
+}
+
+/// `batch --adjust`: plan, match and adjust the whole flight, then write every frame with its
+/// adjusted orientation and `adjustment.json`; a failed adjustment writes nothing.
+fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
+    if a.poses.is_some() {
+        bail!("--adjust works from the photos' metadata; --poses are taken as they are");
+    }
+    let fo = aerorect::flight::FlightOptions {
+        position_sigma_m: a.adjust_positions_m,
+        ..Default::default()
+    };
+    let flight = aerorect::flight::adjust_flight(&a.inputs, opts, &fo)?;
+    let r = &flight.report;
+    for p in &r.pairs {
+        println!(
+            "pair {} / {}: {} tie points of {} patches{}, misalignment {:.3} m -> {}",
+            p.a,
+            p.b,
+            p.inliers,
+            p.patches,
+            if p.reliable {
+                ""
+            } else {
+                " (nothing reliable shared: not used)"
+            },
+            p.misalignment_before_m,
+            p.misalignment_after_m
+                .map_or("-".to_string(), |m| format!("{m:.3} m"))
+        );
+    }
+    for u in &r.unconnected {
+        eprintln!("warning: {u}: overlaps no other frame reliably; left as recorded");
+    }
+    let adj = &r.adjustment;
+    println!(
+        "adjustment: {} frames, {} tie points, rms {:.2} -> {:.2} px in {} iterations, {:.2} s",
+        r.frames.len(),
+        adj.tie_points,
+        adj.rms_before_px,
+        adj.rms_after_px,
+        adj.iterations,
+        adj.seconds
+    );
+    let json = serde_json::to_string_pretty(r)?;
+    let results: Vec<Result<PhotoResult>> = (0..flight.len())
+        .map(|k| {
+            let out = output_for(a, &a.inputs[k])?;
+            Ok(flight.write_frame(k, &out, opts)?)
+        })
+        .collect();
+    let mut failed = 0;
+    for (k, res) in results.iter().enumerate() {
+        match res {
+            Ok(p) => println!("{}", result_line(p)),
+            Err(e) => {
+                failed += 1;
+                eprintln!("failed: {}: {e:#}", a.inputs[k].display());
+            }
+        }
+    }
+    write_text(&a.out_dir.join("adjustment.json"), &json)?;
+    if failed > 0 {
+        bail!(
+            "{failed} of {} frames failed (listed above)",
+            a.inputs.len()
         );
     }
     Ok(())

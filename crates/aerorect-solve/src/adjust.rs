@@ -43,6 +43,9 @@ pub struct TiePoint {
     pub observations: Vec<Observation>,
 }
 
+/// The terrain's height at (x, y) of the world frame.
+pub type HeightFn<'a> = &'a (dyn Fn(f64, f64) -> f64 + Sync);
+
 /// What is solved for, and how strongly the records hold.
 #[derive(Clone)]
 pub struct AdjustOptions<'a> {
@@ -57,7 +60,7 @@ pub struct AdjustOptions<'a> {
     /// Huber threshold, in units of `pixel_sigma`.
     pub huber: f64,
     /// Terrain height at (x, y) and its standard deviation (m): tie points stay on the ground.
-    pub terrain: Option<(&'a (dyn Fn(f64, f64) -> f64 + Sync), f64)>,
+    pub terrain: Option<(HeightFn<'a>, f64)>,
     pub max_iterations: usize,
 }
 
@@ -71,7 +74,7 @@ impl Default for AdjustOptions<'_> {
             pixel_sigma: 0.5,
             huber: 3.0,
             terrain: None,
-            max_iterations: 30,
+            max_iterations: 50,
         }
     }
 }
@@ -211,7 +214,13 @@ impl Problem<'_> {
         )
     }
 
-    fn residual_with(&self, fp: &[f64], cp: &[f64], o: &Observation, x: &Vec3) -> Option<SVector<f64, 2>> {
+    fn residual_with(
+        &self,
+        fp: &[f64],
+        cp: &[f64],
+        o: &Observation,
+        x: &Vec3,
+    ) -> Option<SVector<f64, 2>> {
         let fr = &self.frames[o.frame];
         let p = project(fr, &self.cameras[fr.camera], fp, cp, x)?;
         Some(SVector::<f64, 2>::new(p[0] - o.pixel[0], p[1] - o.pixel[1]) / self.opts.pixel_sigma)
@@ -254,7 +263,9 @@ impl Problem<'_> {
             let (mut xp, mut xm) = (*x, *x);
             xp[k] += 1e-3;
             xm[k] -= 1e-3;
-            let col = (self.residual_with(&fp, &cp, o, &xp)? - self.residual_with(&fp, &cp, o, &xm)?) / 2e-3;
+            let col = (self.residual_with(&fp, &cp, o, &xp)?
+                - self.residual_with(&fp, &cp, o, &xm)?)
+                / 2e-3;
             lin.j_point.set_column(k, &col);
         }
         Some(lin)
@@ -319,6 +330,14 @@ struct Reduced {
     points: Vec<Option<PointBlock>>,
 }
 
+/// One observation's reduced-parameter indices, Jacobian, residual and weight.
+struct LocalObservation {
+    idx: Vec<usize>,
+    jc: SMatrix<f64, 2, 9>,
+    r: SVector<f64, 2>,
+    w: f64,
+}
+
 struct PointBlock {
     hpp_inv: Matrix3<f64>,
     bp: Vec3,
@@ -347,13 +366,7 @@ fn reduce(p: &Problem<'_>, s: &State, lambda: f64) -> Option<Reduced> {
         let mut hpp = Matrix3::<f64>::zeros();
         let mut bp = Vec3::zeros();
         let mut hpc: HashMap<usize, Vec3> = HashMap::new();
-        let mut local: Vec<(
-            Vec<usize>,
-            SMatrix<f64, 2, 9>,
-            SVector<f64, 2>,
-            SMatrix<f64, 2, 3>,
-            f64,
-        )> = Vec::new();
+        let mut local: Vec<LocalObservation> = Vec::new();
         for o in &tie.observations {
             let lin = p.linearise(s, o, x)?;
             let w = p.weight(&lin.r, o);
@@ -365,7 +378,12 @@ fn reduce(p: &Problem<'_>, s: &State, lambda: f64) -> Option<Reduced> {
             for (a, &i) in idx.iter().enumerate() {
                 *hpc.entry(i).or_insert_with(Vec3::zeros) += cross.row(a).transpose();
             }
-            local.push((idx, jc, lin.r, lin.j_point, w));
+            local.push(LocalObservation {
+                idx,
+                jc,
+                r: lin.r,
+                w,
+            });
         }
         if let Some((h, sigma)) = p.opts.terrain {
             // d/dx of (z - h(x, y)) / sigma.
@@ -381,7 +399,7 @@ fn reduce(p: &Problem<'_>, s: &State, lambda: f64) -> Option<Reduced> {
             hpp[(k, k)] += lambda * hpp[(k, k)].max(1e-9);
         }
         // Camera-camera blocks and the right-hand side.
-        for (idx, jc, r, _, w) in &local {
+        for LocalObservation { idx, jc, r, w } in &local {
             let hcc = *w * jc.transpose() * jc;
             let bc = -*w * jc.transpose() * r;
             for (a, &i) in idx.iter().enumerate() {
@@ -545,7 +563,7 @@ pub fn adjust(
                 s = next;
                 cost = c;
                 lambda = (lambda / 3.0).max(1e-9);
-                if gain < 1e-9 {
+                if gain < 1e-6 {
                     converged = true;
                     break;
                 }
@@ -578,7 +596,7 @@ fn check_input(
         let bad = t.observations.len() < 2
             || t.observations.iter().any(|o| {
                 o.frame >= frames.len()
-                    || !(o.weight > 0.0)
+                    || o.weight.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
                     || !o.pixel.iter().all(|v| v.is_finite())
             })
             || !t.ground.iter().all(|v| v.is_finite());

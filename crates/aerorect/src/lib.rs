@@ -12,6 +12,7 @@ pub mod drone;
 pub mod error;
 pub mod evaluate;
 pub mod gcp;
+pub mod flight;
 pub mod georef;
 pub mod lens_compare;
 pub mod mosaic;

@@ -1,0 +1,582 @@
+//! A flight made consistent from its own overlaps: each frame is first rectified from its
+//! metadata onto one coarse ground grid; overlapping frames are matched there by phase
+//! correlation of patches (the ortho removes most of the perspective between look
+//! directions); RANSAC keeps the matches one homography explains; every match becomes a tie
+//! point (its frame pixels through each frame's own ortho map), and the joint adjustment
+//! (`aerorect_solve::adjust`) corrects attitudes (and optionally positions) and the cameras.
+
+use crate::Error;
+use crate::drone::{DroneOptions, DronePlanInfo, georeference, plan_from_metadata};
+use crate::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
+use aerorect_core::{Camera, ImageSize};
+use aerorect_geo::{Pose, Projection};
+use aerorect_io::{Crs, PhotoMetadata};
+use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
+use aerorect_raster::{AnyRaster, Interp, Raster, WarpOptions};
+use aerorect_solve::adjust::{AdjustFrame, AdjustOptions, AdjustReport, Observation, TiePoint};
+use aerorect_solve::ransac::{RansacOptions, ransac_homography};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// How frames are matched and what the adjustment solves for.
+#[derive(Debug, Clone)]
+pub struct FlightOptions {
+    /// Ground sample distance of the matching grid; default 4x the finest frame's own.
+    pub match_gsd_m: Option<f64>,
+    /// Side of the correlated patches (pixels of the matching grid).
+    pub patch: usize,
+    /// Prior standard deviation of positions (m); `None` keeps the recorded positions.
+    pub position_sigma_m: Option<f64>,
+    pub attitude_sigma_deg: f64,
+    pub refine_focal: bool,
+    pub refine_principal_point: bool,
+}
+
+impl Default for FlightOptions {
+    fn default() -> Self {
+        Self {
+            match_gsd_m: None,
+            patch: 64,
+            position_sigma_m: None,
+            attitude_sigma_deg: 1.0,
+            refine_focal: true,
+            refine_principal_point: false,
+        }
+    }
+}
+
+/// One frame of the flight, planned from its metadata.
+struct Frame {
+    input: PathBuf,
+    info: DronePlanInfo,
+    /// Its gray ortho on the matching grid (NaN: no data) and that ortho's plan.
+    coarse: Raster<f32>,
+    coarse_plan: OrthoPlan,
+}
+
+/// What matching a pair of frames found.
+#[derive(Debug, Clone, Serialize)]
+pub struct PairReport {
+    pub a: String,
+    pub b: String,
+    pub patches: usize,
+    pub inliers: usize,
+    /// Median ground distance between where the two frames put the same tie point (m), with
+    /// the recorded and with the adjusted orientation.
+    pub misalignment_before_m: f64,
+    pub misalignment_after_m: Option<f64>,
+    /// False when the pair shares nothing reliable (then it gives no tie points).
+    pub reliable: bool,
+}
+
+/// The flight's matching and adjustment.
+#[derive(Debug, Clone, Serialize)]
+pub struct FlightReport {
+    pub frames: Vec<String>,
+    pub match_gsd_m: f64,
+    pub pairs: Vec<PairReport>,
+    /// Frames no reliable pair reaches (left as recorded).
+    pub unconnected: Vec<String>,
+    pub adjustment: AdjustReport,
+    pub seconds: f64,
+}
+
+/// The flight's shared CRS: `--crs`, else the UTM zone of the first frame with a position.
+fn flight_crs(
+    frames: &[(PathBuf, PhotoMetadata)],
+    opts: &DroneOptions,
+) -> Result<(Crs, Projection), Error> {
+    if let Some(c) = &opts.crs {
+        return Ok(c.clone());
+    }
+    let (lon, lat) = frames
+        .iter()
+        .find_map(|(_, m)| Some((m.longitude_deg?, m.latitude_deg?)))
+        .ok_or_else(|| Error::Invalid("no frame of the flight has a GPS position".into()))?;
+    let (p, epsg) = Projection::utm_for(lon, lat).map_err(|e| Error::Invalid(e.to_string()))?;
+    Ok((Crs::Epsg(epsg), p))
+}
+
+/// Plans a frame on the matching grid and renders its gray ortho there.
+fn coarse_frame(
+    input: &Path,
+    meta: PhotoMetadata,
+    opts: &DroneOptions,
+    gsd: f64,
+) -> Result<Frame, Error> {
+    let file = input.display().to_string();
+    let image = aerorect_io::read_image(input)?;
+    let size = image.size();
+    let gray = AnyRaster::F32(crate::motion::gray(&image)?);
+    drop(image);
+    let coarse_opts = DroneOptions {
+        gsd_m: Some(gsd),
+        warp: WarpOptions {
+            interp: Interp::Bilinear,
+            nodata: f64::NAN,
+            alpha: false,
+        },
+        limits: aerorect_core::RectifyLimits {
+            max_output_px: 4_000_000,
+        },
+        occlusion: false,
+        ..opts.clone()
+    };
+    let (coarse_plan, info) = plan_from_metadata(&meta, size, &coarse_opts, &file)?;
+    let AnyRaster::F32(coarse) = coarse_plan.run(&gray)? else {
+        return Err(Error::Invalid(format!("{file}: gray ortho is not f32")));
+    };
+    Ok(Frame {
+        input: input.to_path_buf(),
+        info,
+        coarse,
+        coarse_plan,
+    })
+}
+
+/// The overlap of two frames' grids in A's pixels: [c0, r0, c1, r1) and B's offset.
+fn overlap(a: &Frame, b: &Frame) -> Option<([i64; 4], [i64; 2])> {
+    let (ga, gb) = (a.coarse_plan.grid, b.coarse_plan.grid);
+    let g = ga.gsd;
+    let off = [
+        ((gb.top_left[0] - ga.top_left[0]) / g).round() as i64,
+        ((ga.top_left[1] - gb.top_left[1]) / g).round() as i64,
+    ];
+    let c0 = off[0].max(0);
+    let r0 = off[1].max(0);
+    let c1 = (ga.size.width as i64).min(off[0] + gb.size.width as i64);
+    let r1 = (ga.size.height as i64).min(off[1] + gb.size.height as i64);
+    (c1 > c0 && r1 > r0).then_some(([c0, r0, c1, r1], off))
+}
+
+/// A patch of a raster at (c, r) of `side` px, or `None` if it has nodata or no texture.
+fn patch(img: &Raster<f32>, c: usize, r: usize, side: usize) -> Option<Vec<f32>> {
+    let w = img.size().width;
+    let mut out = Vec::with_capacity(side * side);
+    for y in r..r + side {
+        out.extend_from_slice(&img.plane(0)[y * w + c..y * w + c + side]);
+    }
+    if out.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let n = out.len() as f32;
+    let mean = out.iter().sum::<f32>() / n;
+    let var = out.iter().map(|v| (v - mean) * (v - mean)).sum::<f32>() / n;
+    (var > 4.0).then_some(out)
+}
+
+/// Matched patch centres: position in A's grid and in B's grid, with confidence.
+type Match = ([f64; 2], [f64; 2], f64);
+
+/// Patches of `side` px over the pair's overlap, each of B's taken `prior` px away from A's,
+/// phase-correlated: the matches and the number of patches compared.
+fn match_patches(
+    a: &Frame,
+    b: &Frame,
+    side: usize,
+    prior: [i64; 2],
+) -> Result<(Vec<Match>, usize), Error> {
+    let Some(([c0, r0, c1, r1], off)) = overlap(a, b) else {
+        return Ok((vec![], 0));
+    };
+    let mut pc = PhaseCorrelator::new(
+        side,
+        side,
+        PhaseOptions {
+            weighting: Weighting::Phase,
+            window: true,
+        },
+    )
+    .map_err(|e| Error::Invalid(e.to_string()))?;
+    let (mut out, mut tried) = (Vec::new(), 0);
+    let step = (side / 2) as i64;
+    let (bw, bh) = (b.coarse.size().width as i64, b.coarse.size().height as i64);
+    let mut r = r0;
+    while r + side as i64 <= r1 {
+        let mut c = c0;
+        while c + side as i64 <= c1 {
+            let (cb, rb) = (c - off[0] + prior[0], r - off[1] + prior[1]);
+            let inside_b = cb >= 0 && rb >= 0 && cb + side as i64 <= bw && rb + side as i64 <= bh;
+            let pa = patch(&a.coarse, c as usize, r as usize, side);
+            let pb = if inside_b {
+                patch(&b.coarse, cb as usize, rb as usize, side)
+            } else {
+                None
+            };
+            if let (Some(pa), Some(pb)) = (pa, pb) {
+                tried += 1;
+                if let Ok(e) = pc.estimate(&pa, &pb)
+                    && e.confidence > 0.08
+                    && e.dx.abs().max(e.dy.abs()) < side as f64 / 4.0
+                {
+                    let h = side as f64 / 2.0 - 0.5;
+                    let at_a = [c as f64 + h, r as f64 + h];
+                    let at_b = [cb as f64 + h + e.dx, rb as f64 + h + e.dy];
+                    out.push((at_a, at_b, e.confidence));
+                }
+            }
+            c += step;
+        }
+        r += step;
+    }
+    Ok((out, tried))
+}
+
+/// Coarse to fine: large patches find the pair's overall offset (attitude errors move frames
+/// by metres), then `side` patches are matched around it.
+fn match_pair(a: &Frame, b: &Frame, side: usize) -> Result<(Vec<Match>, usize), Error> {
+    let big = (4 * side).min(256);
+    let (coarse, _) = match_patches(a, b, big, [0, 0])?;
+    let mut prior = [0i64; 2];
+    if !coarse.is_empty() {
+        let off = overlap(a, b).map_or([0, 0], |o| o.1);
+        for k in 0..2 {
+            let mut d: Vec<f64> = coarse
+                .iter()
+                .map(|m| m.1[k] - (m.0[k] - off[k] as f64))
+                .collect();
+            d.sort_by(f64::total_cmp);
+            prior[k] = d[d.len() / 2].round() as i64;
+        }
+    }
+    match_patches(a, b, side, prior)
+}
+
+/// Where a frame pixel's ray meets the level `z` (world x, y).
+fn on_level(pose: &Pose, camera: &Camera, px: [f64; 2], z: f64) -> Option<[f64; 2]> {
+    let d = pose.world_direction(camera.ray_from_pixel(px[0], px[1])?);
+    let c = pose.centre;
+    (d.z < 0.0).then(|| {
+        let t = (z - c[2]) / d.z;
+        [c[0] + t * d.x, c[1] + t * d.y]
+    })
+}
+
+/// Tie points of one pair (frame indices `i`, `j`) and its report.
+fn pair_ties(
+    frames: &[Frame],
+    i: usize,
+    j: usize,
+    side: usize,
+    ground_z: &(dyn Fn(f64, f64) -> f64 + Sync),
+) -> Result<(Vec<TiePoint>, PairReport), Error> {
+    let (a, b) = (&frames[i], &frames[j]);
+    let (matches, tried) = match_pair(a, b, side)?;
+    let mut report = PairReport {
+        a: a.input.display().to_string(),
+        b: b.input.display().to_string(),
+        patches: tried,
+        inliers: 0,
+        misalignment_before_m: f64::NAN,
+        misalignment_after_m: None,
+        reliable: false,
+    };
+    let from: Vec<[f64; 2]> = matches.iter().map(|m| m.0).collect();
+    let to: Vec<[f64; 2]> = matches.iter().map(|m| m.1).collect();
+    let ransac = RansacOptions {
+        threshold: 1.0,
+        ..RansacOptions::default()
+    };
+    let Ok(fit) = ransac_homography(&from, &to, &ransac) else {
+        return Ok((vec![], report));
+    };
+    let mut ties = Vec::new();
+    for (m, keep) in matches.iter().zip(&fit.inliers) {
+        let (Some(pa), Some(pb)) = (
+            a.coarse_plan.frame_pixel_of_unmasked(m.0[0], m.0[1]),
+            b.coarse_plan.frame_pixel_of_unmasked(m.1[0], m.1[1]),
+        ) else {
+            continue;
+        };
+        if !*keep {
+            continue;
+        }
+        let g = a.coarse_plan.grid.centre_of(m.0[0], m.0[1]);
+        let obs = |frame, pixel| Observation {
+            frame,
+            pixel,
+            weight: m.2.clamp(0.05, 1.0),
+        };
+        ties.push(TiePoint {
+            ground: [g[0], g[1], ground_z(g[0], g[1])],
+            observations: vec![obs(i, pa), obs(j, pb)],
+        });
+    }
+    report.inliers = ties.len();
+    report.reliable = ties.len() >= 8;
+    if !report.reliable {
+        ties.clear();
+    }
+    Ok((ties, report))
+}
+
+/// Median ground distance between the two frames' rays of each tie (at the tie's height).
+fn misalignment(ties: &[TiePoint], poses: &[Pose], cameras: &[&Camera]) -> f64 {
+    let mut d: Vec<f64> = ties
+        .iter()
+        .filter_map(|t| {
+            let [a, b] = [t.observations[0], t.observations[1]];
+            let pa = on_level(&poses[a.frame], cameras[a.frame], a.pixel, t.ground[2])?;
+            let pb = on_level(&poses[b.frame], cameras[b.frame], b.pixel, t.ground[2])?;
+            Some((pa[0] - pb[0]).hypot(pa[1] - pb[1]))
+        })
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d.get(d.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// The terrain's height at world (x, y): the DEM (through its CRS), the level ground, or 0
+/// (heights above the take-off point).
+fn ground_fn(opts: &DroneOptions, world: &Projection) -> Box<dyn Fn(f64, f64) -> f64 + Sync> {
+    if let Some(dem) = &opts.dem {
+        let dem = std::sync::Arc::clone(dem);
+        let world = world.clone();
+        let mid = dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1));
+        return Box::new(move |x, y| {
+            let at = if world == dem.projection {
+                Some([x, y])
+            } else {
+                world.transform(&dem.projection, x, y).ok()
+            };
+            at.and_then(|p| dem.height_at(p[0], p[1])).unwrap_or(mid)
+        });
+    }
+    let z = opts.ground_height_m.unwrap_or(0.0);
+    Box::new(move |_, _| z)
+}
+
+/// The flight after adjustment: every frame's corrected pose and camera.
+pub struct AdjustedFlight {
+    frames: Vec<Frame>,
+    pub poses: Vec<Pose>,
+    pub cameras: Vec<Camera>,
+    pub report: FlightReport,
+    world: Projection,
+    crs: Crs,
+}
+
+/// Plans, matches and adjusts a flight.
+pub fn adjust_flight(
+    inputs: &[PathBuf],
+    opts: &DroneOptions,
+    fo: &FlightOptions,
+) -> Result<AdjustedFlight, Error> {
+    let t0 = std::time::Instant::now();
+    let metas: Vec<(PathBuf, PhotoMetadata)> = inputs
+        .iter()
+        .map(|p| Ok((p.clone(), aerorect_io::read_photo_metadata(p)?)))
+        .collect::<Result<_, Error>>()?;
+    let (crs, world) = flight_crs(&metas, opts)?;
+    let opts = DroneOptions {
+        crs: Some((crs.clone(), world.clone())),
+        ..opts.clone()
+    };
+    // The matching grid: 4x the finest nadir GSD unless given (one probe plan per frame).
+    let gsd = match fo.match_gsd_m {
+        Some(g) => g,
+        None => 4.0 * finest_gsd(&metas, &opts)?,
+    };
+    let frames: Vec<Frame> = metas
+        .into_par_iter()
+        .map(|(p, m)| coarse_frame(&p, m, &opts, gsd))
+        .collect::<Result<_, Error>>()?;
+    let ground = ground_fn(&opts, &world);
+    let pairs: Vec<(usize, usize)> = (0..frames.len())
+        .flat_map(|i| (i + 1..frames.len()).map(move |j| (i, j)))
+        .filter(|&(i, j)| overlap(&frames[i], &frames[j]).is_some())
+        .collect();
+    let matched: Vec<(Vec<TiePoint>, PairReport)> = pairs
+        .par_iter()
+        .map(|&(i, j)| pair_ties(&frames, i, j, fo.patch, ground.as_ref()))
+        .collect::<Result<_, Error>>()?;
+    let (poses, cameras, camera_of) = recorded(&frames);
+    let cams: Vec<&Camera> = camera_of.iter().map(|&c| &cameras[c]).collect();
+    let mut reports = Vec::with_capacity(matched.len());
+    let mut ties = Vec::new();
+    for (t, mut r) in matched {
+        r.misalignment_before_m = misalignment(&t, &poses, &cams);
+        ties.extend(t);
+        reports.push(r);
+    }
+    let adjust_frames: Vec<AdjustFrame> = poses
+        .iter()
+        .zip(&camera_of)
+        .map(|(p, &camera)| AdjustFrame {
+            camera,
+            centre: p.centre,
+            world_from_camera: p.world_from_camera(),
+        })
+        .collect();
+    let aopts = AdjustOptions {
+        attitude_sigma_deg: fo.attitude_sigma_deg,
+        position_sigma_m: fo.position_sigma_m,
+        refine_focal: fo.refine_focal,
+        refine_principal_point: fo.refine_principal_point,
+        terrain: Some((ground.as_ref(), if opts.dem.is_some() { 1.0 } else { 0.1 })),
+        ..AdjustOptions::default()
+    };
+    let adjusted = aerorect_solve::adjust::adjust(&adjust_frames, &cameras, &ties, &aopts)
+        .map_err(|e| Error::Invalid(format!("flight adjustment: {e}")))?;
+    if !adjusted.report.converged {
+        return Err(Error::Invalid(format!(
+            "the flight adjustment did not converge in {} iterations (rms {:.2} px); nothing written",
+            adjusted.report.iterations, adjusted.report.rms_after_px
+        )));
+    }
+    let new_poses: Vec<Pose> = adjusted
+        .frames
+        .iter()
+        .map(|f| Pose::new(f.centre, &f.world_from_camera))
+        .collect();
+    let new_cams: Vec<&Camera> = camera_of.iter().map(|&c| &adjusted.cameras[c]).collect();
+    finish_reports(&mut reports, &ties, &new_poses, &new_cams);
+    let unconnected = unconnected(&frames, &reports);
+    let report = FlightReport {
+        frames: frames
+            .iter()
+            .map(|f| f.input.display().to_string())
+            .collect(),
+        match_gsd_m: gsd,
+        pairs: reports,
+        unconnected,
+        adjustment: adjusted.report,
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+    let cameras = camera_of
+        .iter()
+        .map(|&c| adjusted.cameras[c].clone())
+        .collect();
+    Ok(AdjustedFlight {
+        frames,
+        poses: new_poses,
+        cameras,
+        report,
+        world,
+        crs,
+    })
+}
+
+/// The finest nadir GSD of the flight's frames (height over the focal length in pixels).
+fn finest_gsd(metas: &[(PathBuf, PhotoMetadata)], opts: &DroneOptions) -> Result<f64, Error> {
+    let mut best = f64::INFINITY;
+    for (p, m) in metas {
+        let size = match (m.width, m.height) {
+            (Some(w), Some(h)) => ImageSize::new(w as usize, h as usize),
+            _ => aerorect_io::read_image(p)?.size(),
+        };
+        let cam = crate::drone::camera_from_metadata(m, size, &p.display().to_string())
+            .map(|c| c.camera)
+            .or_else(|e| {
+                opts.camera
+                    .as_ref()
+                    .map(|c| c.camera(Some(size)).map_err(Error::from))
+                    .unwrap_or(Err(e))
+            })?;
+        let h = m.dji.relative_altitude_m.unwrap_or(100.0).abs().max(1.0);
+        best = best.min(h / cam.intrinsics.fx);
+    }
+    Ok(best)
+}
+
+/// The recorded poses, the distinct cameras and each frame's camera index.
+fn recorded(frames: &[Frame]) -> (Vec<Pose>, Vec<Camera>, Vec<usize>) {
+    let mut cameras: Vec<Camera> = Vec::new();
+    let mut camera_of = Vec::with_capacity(frames.len());
+    for f in frames {
+        let c = &f.info.camera.camera;
+        let k = cameras.iter().position(|x| x == c).unwrap_or_else(|| {
+            cameras.push(c.clone());
+            cameras.len() - 1
+        });
+        camera_of.push(k);
+    }
+    (
+        frames.iter().map(|f| f.info.pose).collect(),
+        cameras,
+        camera_of,
+    )
+}
+
+fn finish_reports(reports: &mut [PairReport], ties: &[TiePoint], poses: &[Pose], cams: &[&Camera]) {
+    // Ties are in pair order; each reliable pair contributed `inliers` of them.
+    let mut at = 0;
+    for r in reports.iter_mut().filter(|r| r.reliable) {
+        let t = &ties[at..at + r.inliers];
+        r.misalignment_after_m = Some(misalignment(t, poses, cams));
+        at += r.inliers;
+    }
+}
+
+fn unconnected(frames: &[Frame], reports: &[PairReport]) -> Vec<String> {
+    frames
+        .iter()
+        .map(|f| f.input.display().to_string())
+        .filter(|name| {
+            !reports
+                .iter()
+                .any(|r| r.reliable && (&r.a == name || &r.b == name))
+        })
+        .collect()
+}
+
+impl AdjustedFlight {
+    /// Rectifies frame `k` with its adjusted pose and camera onto the output grid and writes
+    /// `output` (GeoTIFF, or PNG + world file) atomically.
+    pub fn write_frame(
+        &self,
+        k: usize,
+        output: &Path,
+        opts: &DroneOptions,
+    ) -> Result<crate::drone::PhotoResult, Error> {
+        let t = std::time::Instant::now();
+        let f = &self.frames[k];
+        let file = f.input.display().to_string();
+        let image = aerorect_io::read_image(&f.input)?;
+        let ground = match &opts.dem {
+            Some(dem) => Ground::Dem {
+                dem: std::sync::Arc::clone(dem),
+                fallback: None,
+                strict: opts.strict,
+            },
+            None => Ground::Flat(f.info.pose.centre[2] - f.info.height_m),
+        };
+        let camera = self.cameras[k].clone();
+        let req = OrthoRequest {
+            camera: &camera,
+            pose: self.poses[k],
+            world: &self.world,
+            ground: &ground,
+            gsd_m: opts.gsd_m.unwrap_or(f.info.gsd_m),
+            limits: opts.limits,
+            occlusion: opts.occlusion,
+        };
+        let plan =
+            plan_ortho(&req, opts.warp).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+        let out = plan.run(&image)?;
+        let mut info = f.info.clone();
+        info.pose = self.poses[k];
+        info.geo = georeference(self.crs.clone(), &plan, &opts.warp);
+        info.gsd_m = plan.grid.gsd;
+        info.warnings.extend(plan.warnings.iter().cloned());
+        aerorect_io::write_image_geo(output, &out, Some(&info.geo))?;
+        Ok(crate::drone::PhotoResult {
+            input: file,
+            output: output.display().to_string(),
+            input_size: [image.size().width, image.size().height],
+            output_size: [plan.grid.size.width, plan.grid.size.height],
+            footprint_en: plan.footprint.clone(),
+            info,
+            seconds: t.elapsed().as_secs_f64(),
+            thumbnails: None,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+}
