@@ -210,6 +210,9 @@ pub fn simulate(a: SimulateArgs) -> Result<()> {
     let attitude = read_attitude(&a.attitude)?;
     let ortho = read_image(&a.ortho)?;
     let plan = SimulatePlan::new(camera, &attitude, ortho.size());
+    if let Some(n) = a.checkpoints {
+        plan.check_checkpoint_count(n)?;
+    }
     let warp = WarpOptions {
         interp: a.interp,
         nodata: a.nodata,

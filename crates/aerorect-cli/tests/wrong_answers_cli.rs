@@ -258,3 +258,79 @@ fn brown_on_a_plane_holds_its_affinity_terms_and_finds_the_focal_length() {
         "{out}"
     );
 }
+
+#[test]
+fn simulate_bounds_the_number_of_check_points() {
+    let (_t, d) = fixture();
+    let run = |n: &str| {
+        aerorect(
+            &[
+                "simulate",
+                "scene.jpg",
+                "f2.png",
+                "--camera",
+                "cam.toml",
+                "--attitude",
+                ATT,
+                "--checkpoints",
+                n,
+                "--checkpoints-out",
+                "cp2.csv",
+            ],
+            &d,
+        )
+    };
+    // Before the fix: 1e9 ran without bound. 320 x 240 / 16 = 4800.
+    fails(
+        &run("1000000000"),
+        &["--checkpoints 1000000000", "1 to 4800", "320 x 240"],
+    );
+    fails(&run("0"), &["--checkpoints 0", "1 to 4800"]);
+    assert!(!d.join("f2.png").exists() && !d.join("cp2.csv").exists());
+}
+
+#[test]
+fn gcp_grid_respects_the_output_limit() {
+    let (_t, d) = fixture();
+    let cp = std::fs::read_to_string(d.join("cp.csv")).unwrap();
+    let body: Vec<&str> = cp.lines().skip(1).collect();
+    std::fs::write(
+        d.join("gcps.csv"),
+        format!("u_image,v_image,u_ref,v_ref\n{}\n", body.join("\n")),
+    )
+    .unwrap();
+    let run = |grid: &str, limit: &str| {
+        let grid = format!("--grid={grid}");
+        aerorect(
+            &[
+                "gcp",
+                "frame.png",
+                "g.tif",
+                "--gcps",
+                "gcps.csv",
+                &grid,
+                "--max-output-px",
+                limit,
+            ],
+            &d,
+        )
+    };
+    // Before the fix: the grid was allocated and written whatever the limit.
+    fails(
+        &run("0,0,20000,20000", "64000000"),
+        &[
+            "--grid 20000 x 20000 = 400000000 px",
+            "limit of 64000000 px",
+        ],
+    );
+    fails(
+        &run(
+            "0,0,9223372036854775807,9223372036854775807",
+            "18446744073709551615",
+        ),
+        &["--grid", "more than 2^64"],
+    );
+    fails(&run("-50,-60,200,100", "10000"), &["200 x 100 = 20000 px"]);
+    assert!(!d.join("g.tif").exists());
+    ok(&run("-50,-60,200,100", "20000"));
+}

@@ -2,6 +2,7 @@
 //! fitted transform maps reference (output) pixels to image pixels, so the warp is indirect.
 
 use crate::{Error, warp_any};
+use aerorect_core::error::Num;
 use aerorect_core::{ImageSize, PlaneTransform, RectifyLimits};
 use aerorect_io::Gcp;
 use aerorect_raster::{AnyRaster, WarpOptions};
@@ -80,7 +81,7 @@ impl GcpPlan {
             })
             .collect();
         let (output_origin, output_size) = match grid {
-            Some(g) => g,
+            Some(g) => within_limit(g, limits)?,
             None => {
                 let ref_from_image = fit_transform(model, &imgs, &refs)
                     .map_err(solve_err("inverse fit for the output bounds"))?;
@@ -142,6 +143,22 @@ impl GcpPlan {
     }
 }
 
+/// A given output grid, refused (before anything is allocated) beyond the pixel limit.
+fn within_limit(
+    grid: ([i64; 2], ImageSize),
+    limits: RectifyLimits,
+) -> Result<([i64; 2], ImageSize), Error> {
+    let (w, h) = (grid.1.width as u64, grid.1.height as u64);
+    match w.checked_mul(h) {
+        Some(pixels) if pixels <= limits.max_output_px => Ok(grid),
+        pixels => Err(Error::Invalid(format!(
+            "--grid {w} x {h} = {} px exceeds the limit of {} px (--max-output-px)",
+            pixels.map_or("more than 2^64".to_string(), |p| p.to_string()),
+            limits.max_output_px
+        ))),
+    }
+}
+
 /// The integer grid covering `transform` of the image's border (64 samples per edge).
 fn footprint(
     ref_from_image: &PlaneTransform,
@@ -163,8 +180,10 @@ fn footprint(
     let pixels = ow * oh;
     if pixels.is_nan() || pixels > limits.max_output_px as f64 {
         return Err(Error::Invalid(format!(
-            "the image's footprint under the fit is {ow} x {oh} px, beyond the limit of {} px: \
+            "the image's footprint under the fit is {} x {} px, beyond the limit of {} px: \
              the GCPs do not constrain the border (give the output grid explicitly)",
+            Num(ow),
+            Num(oh),
             limits.max_output_px
         )));
     }

@@ -83,6 +83,26 @@ impl SimulatePlan {
             })
     }
 
+    /// The most check points asked of one frame: one per 16 of its pixels, at most
+    /// [`MAX_CHECKPOINTS`] (the search for them grows with the count: 1e9 ran without bound).
+    pub fn checkpoint_limit(&self) -> usize {
+        let s = self.frame_size();
+        (s.width * s.height / 16).clamp(1, MAX_CHECKPOINTS)
+    }
+
+    /// Refuses a check-point count of 0 or above [`Self::checkpoint_limit`].
+    pub fn check_checkpoint_count(&self, n: usize) -> Result<(), Error> {
+        let (limit, s) = (self.checkpoint_limit(), self.frame_size());
+        if (1..=limit).contains(&n) {
+            return Ok(());
+        }
+        Err(Error::Invalid(format!(
+            "--checkpoints {n}: give 1 to {limit} for a {} x {} frame \
+             (one per 16 px, at most {MAX_CHECKPOINTS})",
+            s.width, s.height
+        )))
+    }
+
     /// Up to `n` check points spread evenly over the frame (5 % margin), each on the ground
     /// inside ORTHO; the standard coordinates are exact (F of the true attitude).
     pub fn checkpoints(&self, n: usize) -> Vec<CheckPoint> {
@@ -112,6 +132,9 @@ impl SimulatePlan {
         }
     }
 }
+
+/// The most check points [`SimulatePlan::checkpoints`] is asked for.
+pub const MAX_CHECKPOINTS: usize = 100_000;
 
 /// A k x k grid of cell centres over the frame, inside a 5 % margin.
 pub fn spread_grid(frame: ImageSize, k: usize) -> Vec<[f64; 2]> {
