@@ -82,48 +82,61 @@ impl GeoReference {
         self.rotation == [0.0, 0.0] && self.pixel_size[0] > 0.0 && self.pixel_size[1] > 0.0
     }
 
+    /// The GeoTIFF tags of this grid, in tag order: the scale and tie point (north-up) or the
+    /// transformation, the GeoKeys and GDAL_NODATA. Written by the `tiff` crate's encoder
+    /// ([`Self::write_tags`]) and by the cloud-optimised writer's own IFDs (`cog`).
+    pub(crate) fn tags(&self) -> Result<Vec<(u16, GeoTagValue)>, String> {
+        let (dir, doubles, ascii) = geokeys::encode(&self.crs).map_err(|e| e.to_string())?;
+        let mut tags = Vec::new();
+        if self.is_north_up() {
+            let scale = vec![self.pixel_size[0], self.pixel_size[1], 0.0];
+            let tie = vec![0.0, 0.0, 0.0, self.top_left[0], self.top_left[1], 0.0];
+            tags.push((MODEL_PIXEL_SCALE, GeoTagValue::Doubles(scale)));
+            tags.push((MODEL_TIEPOINT, GeoTagValue::Doubles(tie)));
+        } else {
+            let g = self.geotransform();
+            let m = vec![
+                g[1], g[2], 0.0, g[0], g[4], g[5], 0.0, g[3], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                1.0,
+            ];
+            tags.push((MODEL_TRANSFORMATION, GeoTagValue::Doubles(m)));
+        }
+        tags.push((GEO_KEY_DIRECTORY, GeoTagValue::Shorts(dir)));
+        if !doubles.is_empty() {
+            tags.push((GEO_DOUBLE_PARAMS, GeoTagValue::Doubles(doubles)));
+        }
+        if !ascii.is_empty() {
+            tags.push((GEO_ASCII_PARAMS, GeoTagValue::Ascii(ascii)));
+        }
+        if let Some(nd) = self.nodata {
+            tags.push((GDAL_NODATA, GeoTagValue::Ascii(format!("{nd}"))));
+        }
+        Ok(tags)
+    }
+
     pub(crate) fn write_tags<W: std::io::Write + std::io::Seek, K: tiff::encoder::TiffKind>(
         &self,
         enc: &mut tiff::encoder::DirectoryEncoder<'_, W, K>,
     ) -> Result<(), String> {
-        let (dir, doubles, ascii) = geokeys::encode(&self.crs).map_err(|e| e.to_string())?;
-        let e = |e: tiff::TiffError| e.to_string();
-        if self.is_north_up() {
-            enc.write_tag(
-                Tag::Unknown(MODEL_PIXEL_SCALE),
-                &[self.pixel_size[0], self.pixel_size[1], 0.0][..],
-            )
-            .map_err(e)?;
-            enc.write_tag(
-                Tag::Unknown(MODEL_TIEPOINT),
-                &[0.0, 0.0, 0.0, self.top_left[0], self.top_left[1], 0.0][..],
-            )
-            .map_err(e)?;
-        } else {
-            let g = self.geotransform();
-            let m = [
-                g[1], g[2], 0.0, g[0], g[4], g[5], 0.0, g[3], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                1.0,
-            ];
-            enc.write_tag(Tag::Unknown(MODEL_TRANSFORMATION), &m[..])
-                .map_err(e)?;
-        }
-        enc.write_tag(Tag::Unknown(GEO_KEY_DIRECTORY), &dir[..])
-            .map_err(e)?;
-        if !doubles.is_empty() {
-            enc.write_tag(Tag::Unknown(GEO_DOUBLE_PARAMS), &doubles[..])
-                .map_err(e)?;
-        }
-        if !ascii.is_empty() {
-            enc.write_tag(Tag::Unknown(GEO_ASCII_PARAMS), ascii.as_str())
-                .map_err(e)?;
-        }
-        if let Some(nd) = self.nodata {
-            enc.write_tag(Tag::Unknown(GDAL_NODATA), format!("{nd}").as_str())
-                .map_err(e)?;
+        for (tag, value) in self.tags()? {
+            let t = Tag::Unknown(tag);
+            match &value {
+                GeoTagValue::Doubles(v) => enc.write_tag(t, &v[..]),
+                GeoTagValue::Shorts(v) => enc.write_tag(t, &v[..]),
+                GeoTagValue::Ascii(s) => enc.write_tag(t, s.as_str()),
+            }
+            .map_err(|e| e.to_string())?;
         }
         Ok(())
     }
+}
+
+/// The value of one GeoTIFF tag.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum GeoTagValue {
+    Doubles(Vec<f64>),
+    Shorts(Vec<u16>),
+    Ascii(String),
 }
 
 /// The world file beside an image: `out.png` -> `out.pgw` (also `.tfw`, `.jgw`).

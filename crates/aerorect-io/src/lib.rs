@@ -7,6 +7,7 @@
 pub mod attitude;
 pub mod camera;
 pub mod checkpoints;
+pub mod cog;
 pub mod crs;
 pub mod dem;
 pub mod error;
@@ -16,7 +17,6 @@ pub mod image_file;
 pub mod metadata;
 pub mod sensors;
 pub mod staged;
-pub mod tiled_tiff;
 mod tiff_file;
 
 pub use attitude::read_attitude;
@@ -25,6 +25,7 @@ pub use checkpoints::{
     ControlPoint, Gcp, PoseRecord, read_checkpoints, read_control_points, read_gcps, read_poses,
     write_checkpoints, write_csv,
 };
+pub use cog::{CogCompression, CogMask, CogOptions, write_cog, write_image_cog};
 pub use crs::Crs;
 pub use dem::{Dem, read_dem};
 pub use error::IoError;
@@ -36,4 +37,3 @@ pub use image_file::{
 pub use metadata::{PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};
 pub use staged::{Abandoned, StagedOutputs, remove_pending};
-pub use tiled_tiff::write_tiled_tiff;
