@@ -334,3 +334,26 @@ fn gcp_grid_respects_the_output_limit() {
     assert!(!d.join("g.tif").exists());
     ok(&run("-50,-60,200,100", "20000"));
 }
+
+#[test]
+fn shift_of_a_frame_against_itself_is_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A 40 x 32 texture: one-way JTC read up to 0.1 px here.
+    let img = aerorect::raster::AnyRaster::U8(aerorect_testkit::textured_scene(
+        aerorect::core::ImageSize::new(40, 32),
+        1,
+        255.0,
+        5,
+    ));
+    aerorect::io::write_image(&d.join("a.png"), &img).unwrap();
+    for method in ["jtc", "jtc-centroid", "phase", "xcorr"] {
+        let out = ok(&aerorect(
+            &["shift", "a.png", "a.png", "--method", method, "--json"],
+            d,
+        ));
+        let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+        let (dx, dy) = (v["dx"].as_f64().unwrap(), v["dy"].as_f64().unwrap());
+        assert!(dx.abs().max(dy.abs()) < 1e-9, "{method}: {out}");
+    }
+}

@@ -13,7 +13,8 @@
 //! value, -1 below: the binary JTC); the
 //! inverse FFT; the two cross peaks; a sub-pixel fit around each: the paper's 3 x 3 centroid,
 //! a parabola, or (the default) a three-point Gaussian fit, which alone meets the paper's
-//! 0.1 px at 4 dB on the shared scenes.
+//! 0.1 px at 4 dB on the shared scenes. The estimate is antisymmetrised: half the difference
+//! of the shifts with the frames in both orders (see `estimate`).
 
 use super::fft2::Fft2;
 use super::{ShiftError, ShiftEstimate, ShiftEstimator, check_frame, check_size, parabola_vertex};
@@ -223,6 +224,11 @@ impl JointTransformCorrelator {
 }
 
 impl ShiftEstimator for JointTransformCorrelator {
+    /// The antisymmetrised estimate (e(reference, current) - e(current, reference)) / 2: the
+    /// binarised spectrum's background and the spectral filter's weight 2 - 2 cos(2 pi x / 6w)
+    /// (not symmetric about the cross peak at 2w) pull the peak the same way whichever frame
+    /// comes first, so the difference cancels them; a frame against itself gives exactly 0
+    /// (one way alone gave up to 0.1 px on small frames).
     fn estimate(
         &mut self,
         reference: &[f32],
@@ -234,6 +240,21 @@ impl ShiftEstimator for JointTransformCorrelator {
         let (mut r, mut t) = (std::mem::take(&mut self.r), std::mem::take(&mut self.t));
         self.prepare(reference, mr, &mut r);
         self.prepare(current, mt, &mut t);
+        let forward = self.one_way(&r, &t);
+        let backward = self.one_way(&t, &r);
+        (self.r, self.t) = (r, t);
+        Ok(ShiftEstimate {
+            dx: 0.5 * (forward.dx - backward.dx),
+            dy: 0.5 * (forward.dy - backward.dy),
+            confidence: forward.confidence.min(backward.confidence),
+        })
+    }
+}
+
+impl JointTransformCorrelator {
+    /// The shift of prepared frame `t` relative to prepared frame `r` from one joint image.
+    fn one_way(&mut self, r: &[f32], t: &[f32]) -> ShiftEstimate {
+        let (w, h) = (self.w, self.h);
         self.fft.forward_rows(
             h,
             |row, buf| {
@@ -243,7 +264,6 @@ impl ShiftEstimator for JointTransformCorrelator {
             },
             &mut self.spec,
         );
-        (self.r, self.t) = (r, t);
         self.process_spectrum();
         // Keep correlation rows dy in -h/2..h/2 and columns w..5w (both cross terms).
         let (hh, half) = (2 * h, h / 2);
@@ -267,7 +287,7 @@ impl ShiftEstimator for JointTransformCorrelator {
         let dx = 0.5 * ((x1 - w as f64) + (3.0 * w as f64 - x2));
         let dy = 0.5 * ((y1 - half as f64) - (y2 - half as f64));
         let confidence = self.confidence(x1, y1, p1.min(p2));
-        Ok(ShiftEstimate { dx, dy, confidence })
+        ShiftEstimate { dx, dy, confidence }
     }
 }
 
