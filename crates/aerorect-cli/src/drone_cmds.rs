@@ -529,9 +529,6 @@ pub fn overlap(a: OverlapArgs) -> Result<()> {
 /// `batch --adjust`: plan, match and adjust the whole flight, then write every frame with its
 /// adjusted orientation and `adjustment.json`; a failed adjustment writes nothing.
 fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
-    if a.poses.is_some() {
-        bail!("--adjust works from the photos' metadata; --poses are taken as they are");
-    }
     let fo = aerorect::flight::FlightOptions {
         position_sigma_m: a.adjust_positions_m,
         ..Default::default()

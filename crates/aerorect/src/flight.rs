@@ -123,7 +123,15 @@ fn coarse_frame(
         occlusion: false,
         ..opts.clone()
     };
-    let (coarse_plan, info) = plan_from_metadata(&meta, size, &coarse_opts, &file)?;
+    let posed = opts
+        .poses
+        .as_deref()
+        .map(|p| crate::drone::pose_for(p, input));
+    let (coarse_plan, info) = match posed {
+        Some(Some(pose)) => crate::drone::plan_from_pose(pose, &meta, size, &coarse_opts, &file)?,
+        Some(None) => return Err(Error::Invalid(format!("{file}: not in the pose table"))),
+        None => plan_from_metadata(&meta, size, &coarse_opts, &file)?,
+    };
     let AnyRaster::F32(coarse) = coarse_plan.run(&gray)? else {
         return Err(Error::Invalid(format!("{file}: gray ortho is not f32")));
     };
@@ -226,7 +234,14 @@ fn match_patches(
 /// Coarse to fine: large patches find the pair's overall offset (attitude errors move frames
 /// by metres), then `side` patches are matched around it.
 fn match_pair(a: &Frame, b: &Frame, side: usize) -> Result<(Vec<Match>, usize), Error> {
-    let big = (4 * side).min(256);
+    // The largest power-of-two patch (up to 256 px) that fits the overlap.
+    let fits = overlap(a, b).map_or(0, |([c0, r0, c1, r1], _)| {
+        (c1 - c0).min(r1 - r0).max(0) as usize
+    });
+    let big = [256, 128, 64]
+        .into_iter()
+        .find(|&s| s <= fits)
+        .unwrap_or(side);
     let (coarse, _) = match_patches(a, b, big, [0, 0])?;
     let mut prior = [0i64; 2];
     if !coarse.is_empty() {
@@ -372,10 +387,13 @@ pub fn adjust_flight(
         crs: Some((crs.clone(), world.clone())),
         ..opts.clone()
     };
-    // The matching grid: 4x the finest nadir GSD unless given (one probe plan per frame).
+    // The matching grid: the finest nadir GSD times up to 4 (frames keep about 600 px across).
     let gsd = match fo.match_gsd_m {
         Some(g) => g,
-        None => 4.0 * finest_gsd(&metas, &opts)?,
+        None => {
+            let (g, short_side) = finest_gsd(&metas, &opts)?;
+            g * (short_side as f64 / 600.0).clamp(1.0, 4.0)
+        }
     };
     let frames: Vec<Frame> = metas
         .into_par_iter()
@@ -457,26 +475,46 @@ pub fn adjust_flight(
     })
 }
 
-/// The finest nadir GSD of the flight's frames (height over the focal length in pixels).
-fn finest_gsd(metas: &[(PathBuf, PhotoMetadata)], opts: &DroneOptions) -> Result<f64, Error> {
-    let mut best = f64::INFINITY;
+/// The finest nadir GSD of the flight's frames (height over the focal length in pixels) and
+/// the shortest side of their images.
+fn finest_gsd(
+    metas: &[(PathBuf, PhotoMetadata)],
+    opts: &DroneOptions,
+) -> Result<(f64, usize), Error> {
+    let ground = match (&opts.dem, opts.ground_height_m) {
+        (_, Some(g)) => g,
+        (Some(dem), None) => dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1)),
+        (None, None) => 0.0,
+    };
+    let (mut best, mut short) = (f64::INFINITY, usize::MAX);
     for (p, m) in metas {
-        let size = match (m.width, m.height) {
-            (Some(w), Some(h)) => ImageSize::new(w as usize, h as usize),
-            _ => aerorect_io::read_image(p)?.size(),
+        // Only the matching grid's GSD depends on this: the camera file's own size, else the
+        // size the photo's tags were written for.
+        let cam = match (&opts.camera, m.width, m.height) {
+            (Some(c), _, _) => c
+                .camera(None)
+                .or_else(|_| c.camera(Some(aerorect_io::read_image(p)?.size())))?,
+            (None, Some(w), Some(h)) => {
+                let size = ImageSize::new(w as usize, h as usize);
+                crate::drone::camera_from_metadata(m, size, &p.display().to_string())?.camera
+            }
+            (None, _, _) => {
+                let size = aerorect_io::read_image(p)?.size();
+                crate::drone::camera_from_metadata(m, size, &p.display().to_string())?.camera
+            }
         };
-        let cam = crate::drone::camera_from_metadata(m, size, &p.display().to_string())
-            .map(|c| c.camera)
-            .or_else(|e| {
-                opts.camera
-                    .as_ref()
-                    .map(|c| c.camera(Some(size)).map_err(Error::from))
-                    .unwrap_or(Err(e))
-            })?;
-        let h = m.dji.relative_altitude_m.unwrap_or(100.0).abs().max(1.0);
-        best = best.min(h / cam.intrinsics.fx);
+        let pose = opts
+            .poses
+            .as_deref()
+            .and_then(|t| crate::drone::pose_for(t, p));
+        let h = match pose {
+            Some(pose) => pose.z - ground,
+            None => m.dji.relative_altitude_m.unwrap_or(100.0),
+        };
+        best = best.min(h.abs().max(1.0) / cam.intrinsics.fx);
+        short = short.min(cam.size.width.min(cam.size.height));
     }
-    Ok(best)
+    Ok((best, short))
 }
 
 /// The recorded poses, the distinct cameras and each frame's camera index.
