@@ -18,6 +18,7 @@ pub mod metadata;
 pub mod sensors;
 pub mod staged;
 mod tiff_file;
+pub mod tiled_tiff;
 
 pub use attitude::read_attitude;
 pub use camera::{CameraFile, camera_toml};
@@ -37,3 +38,4 @@ pub use image_file::{
 pub use metadata::{PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};
 pub use staged::{Abandoned, StagedOutputs, remove_pending};
+pub use tiled_tiff::write_tiled_tiff;
