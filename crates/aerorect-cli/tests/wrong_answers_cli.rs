@@ -357,3 +357,48 @@ fn shift_of_a_frame_against_itself_is_zero() {
         assert!(dx.abs().max(dy.abs()) < 1e-9, "{method}: {out}");
     }
 }
+
+/// A 300 x 300 texture as a GeoTIFF at 0.5 m in UTM 35N with its corner at (x0, y0).
+fn geotiff(d: &Path, name: &str, x0: f64, y0: f64) {
+    use aerorect::io::{Crs, GeoReference};
+    let img = aerorect::raster::AnyRaster::U8(aerorect_testkit::textured_scene(
+        aerorect::core::ImageSize::new(300, 300),
+        1,
+        250.0,
+        3,
+    ));
+    let geo = GeoReference {
+        crs: Crs::Epsg(32635),
+        pixel_size: [0.5, 0.5],
+        top_left: [x0, y0],
+        rotation: [0.0, 0.0],
+        nodata: None,
+    };
+    aerorect::io::write_image_geo(&d.join(name), &img, Some(&geo)).unwrap();
+}
+
+#[test]
+fn overlap_refuses_grids_offset_by_a_fraction_of_a_pixel() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    geotiff(d, "a.tif", 536000.0, 5972000.0);
+    geotiff(d, "b.tif", 536010.0, 5971990.0);
+    // Before the fix: half a pixel (0.25 m) off, rounded away and measured as "one grid".
+    geotiff(d, "c.tif", 536010.25, 5971990.0);
+    let out = ok(&aerorect(
+        &["overlap", "a.tif", "b.tif", "--patch", "64"],
+        d,
+    ));
+    assert!(!out.is_empty());
+    fails(
+        &aerorect(&["overlap", "a.tif", "c.tif", "--patch", "64"], d),
+        &[
+            "a.tif",
+            "c.tif",
+            "not on one grid",
+            "536000",
+            "536010.25",
+            "0.5 px",
+        ],
+    );
+}

@@ -2,6 +2,7 @@
 //! the phase correlator.
 
 use crate::Error;
+use aerorect_core::error::Num;
 use aerorect_io::GeoReference;
 use serde::Serialize;
 
@@ -17,6 +18,41 @@ pub struct OverlapShift {
     pub rms_px: f64,
     pub gsd_m: f64,
     pub overlap_px: [usize; 2],
+}
+
+/// Offset of B's pixel grid in A's pixels; refused unless it is whole pixels (within 1e-6
+/// px): grids half a pixel apart are two grids, and rounding the offset away would report
+/// that half pixel as the frames' misalignment.
+fn grid_offset(
+    a: &std::path::Path,
+    b: &std::path::Path,
+    ga: &GeoReference,
+    gb: &GeoReference,
+) -> Result<[i64; 2], Error> {
+    let gsd = ga.pixel_size[0];
+    let off = [
+        (gb.top_left[0] - ga.top_left[0]) / gsd,
+        (ga.top_left[1] - gb.top_left[1]) / gsd,
+    ];
+    let frac = off.map(|o| o - o.round());
+    if frac.iter().all(|f| f.abs() <= 1e-6) && off.iter().all(|o| o.abs() < 1e12) {
+        return Ok(off.map(|o| o.round() as i64));
+    }
+    Err(Error::Invalid(format!(
+        "{} and {} are not on one grid: origins ({}, {}) and ({}, {}) differ by \
+         ({:.3}, {:.3}) pixels of {} m, off whole pixels by {} px, {} px",
+        a.display(),
+        b.display(),
+        ga.top_left[0],
+        ga.top_left[1],
+        gb.top_left[0],
+        gb.top_left[1],
+        off[0],
+        off[1],
+        gsd,
+        Num(frac[0].abs()),
+        Num(frac[1].abs()),
+    )))
 }
 
 /// Measures where frame B's content sits relative to frame A's over their common area, with
@@ -46,11 +82,7 @@ pub fn overlap_shift(
     let gsd = ga.pixel_size[0];
     let ia = crate::motion::gray(&aerorect_io::read_image(a)?)?;
     let ib = crate::motion::gray(&aerorect_io::read_image(b)?)?;
-    // Offset of B's pixel grid in A's pixels (integral when both are aligned to the GSD).
-    let off = [
-        ((gb.top_left[0] - ga.top_left[0]) / gsd).round() as i64,
-        ((ga.top_left[1] - gb.top_left[1]) / gsd).round() as i64,
-    ];
+    let off = grid_offset(a, b, &ga, &gb)?;
     let (sa, sb) = (ia.size(), ib.size());
     let x0 = off[0].max(0);
     let y0 = off[1].max(0);
