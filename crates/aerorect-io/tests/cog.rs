@@ -42,7 +42,7 @@ fn pattern(w: usize, h: usize, band: usize, max: u32) -> Vec<u32> {
         .map(|i| {
             let (x, y) = ((i % w) as u32, (i / w) as u32);
             let hash =
-                (x.wrapping_mul(2_654_435_761) ^ y.wrapping_mul(40_503) ^ band as u32 * 97) >> 7;
+                (x.wrapping_mul(2_654_435_761) ^ y.wrapping_mul(40_503) ^ (band as u32 * 97)) >> 7;
             (x + 2 * y + hash % 17 + band as u32 * 31) % (max + 1)
         })
         .collect()
@@ -162,7 +162,7 @@ fn check_cog_layout(path: &Path, tile: u64) -> (bool, Vec<ParsedIfd>) {
     for (k, ifd) in ifds.iter().enumerate() {
         assert_eq!(ifd.one(322), tile);
         assert_eq!(ifd.one(323), tile);
-        assert!(tile % 16 == 0);
+        assert!(tile.is_multiple_of(16));
         let (w, h) = ifd.size();
         let n = w.div_ceil(tile) * h.div_ceil(tile);
         assert_eq!(ifd.tags[&324].len() as u64, n, "IFD {k} tile count");
