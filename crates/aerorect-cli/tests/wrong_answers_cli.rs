@@ -402,3 +402,48 @@ fn overlap_refuses_grids_offset_by_a_fraction_of_a_pixel() {
         ],
     );
 }
+
+/// Uniform noise, 320 x 240, from `seed` (an LCG: independent of any library's generator).
+fn noise(d: &Path, name: &str, seed: u64) {
+    let mut x = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    let v: Vec<u8> = (0..320 * 240)
+        .map(|_| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 56) as u8
+        })
+        .collect();
+    let r =
+        aerorect::raster::Raster::from_planes(aerorect::core::ImageSize::new(320, 240), vec![v]);
+    aerorect::io::write_image(&d.join(name), &aerorect::raster::AnyRaster::U8(r.unwrap())).unwrap();
+}
+
+#[test]
+fn register_refuses_unrelated_noise_images() {
+    let (_t, d) = fixture();
+    // Before the fix: 9 of 30 chance matches "registered", exit 0.
+    let mut by_peak = 0;
+    for seed in 0..4 {
+        noise(&d, "n1.png", seed);
+        noise(&d, "n2.png", seed + 100);
+        let out = aerorect(
+            &[
+                "register", "n1.png", "n2.png", "r.png", "--report", "r.json",
+            ],
+            &d,
+        );
+        fails(&out, &["n1.png", "registration"]);
+        by_peak +=
+            String::from_utf8_lossy(&out.stderr).contains("median correlation peak") as usize;
+        assert!(!d.join("r.png").exists() && !d.join("r.json").exists());
+    }
+    assert!(by_peak > 0, "no pair reached the peak test");
+    // The simulated frame still registers to its scene (see baseline_cli for its accuracy).
+    ok(&aerorect(
+        &["register", "frame.png", "scene.jpg", "r.png"],
+        &d,
+    ));
+}
