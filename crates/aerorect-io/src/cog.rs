@@ -173,20 +173,48 @@ pub fn write_image_cog(
     geo: Option<&GeoReference>,
     opts: &CogOptions,
 ) -> Result<(), IoError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
-    if !matches!(ext.as_deref(), Some("tif") | Some("tiff")) {
-        return Err(IoError::encode(
-            path,
-            "a cloud-optimised GeoTIFF needs a .tif or .tiff file name",
-        ));
-    }
-    write_cog_file(path, raster, geo, opts)
+    let mut staged = crate::StagedOutputs::new();
+    staged.cog(path, raster, geo, opts)?;
+    staged.commit()
 }
 
 fn write_cog_file(
+    path: &Path,
+    raster: &AnyRaster,
+    geo: Option<&GeoReference>,
+    opts: &CogOptions,
+) -> Result<(), IoError> {
+    let mut staged = crate::StagedOutputs::new();
+    stage_cog(&mut staged, path, raster, geo, opts)?;
+    staged.commit()
+}
+
+impl crate::StagedOutputs {
+    /// Stages a cloud-optimised GeoTIFF like [`write_image_cog`], to land with the other
+    /// staged outputs.
+    pub fn cog(
+        &mut self,
+        path: &Path,
+        raster: &AnyRaster,
+        geo: Option<&GeoReference>,
+        opts: &CogOptions,
+    ) -> Result<(), IoError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
+        if !matches!(ext.as_deref(), Some("tif") | Some("tiff")) {
+            return Err(IoError::encode(
+                path,
+                "a cloud-optimised GeoTIFF needs a .tif or .tiff file name",
+            ));
+        }
+        stage_cog(self, path, raster, geo, opts)
+    }
+}
+
+fn stage_cog(
+    staged: &mut crate::StagedOutputs,
     path: &Path,
     raster: &AnyRaster,
     geo: Option<&GeoReference>,
@@ -214,7 +242,7 @@ fn write_cog_file(
             (t, v)
         })
         .collect();
-    crate::write_atomically(path, |w| {
+    staged.file(path, |w| {
         let r = match raster {
             AnyRaster::U8(r) => write_typed(w, r, nodata, &geo_tags, opts),
             AnyRaster::U16(r) => write_typed(w, r, nodata, &geo_tags, opts),

@@ -324,6 +324,24 @@ pub struct DroneOptions {
     pub mounting: Mounting,
     pub limits: RectifyLimits,
     pub warp: WarpOptions,
+    /// Write each frame as a cloud-optimised GeoTIFF with these options instead of the strip
+    /// GeoTIFF (the output must be .tif).
+    pub cog: Option<aerorect_io::CogOptions>,
+}
+
+/// Stages a frame's output: a COG when `cog` is set, else as its extension says.
+pub(crate) fn stage_output(
+    staged: &mut aerorect_io::StagedOutputs,
+    output: &std::path::Path,
+    image: &aerorect_raster::AnyRaster,
+    geo: &GeoReference,
+    cog: Option<&aerorect_io::CogOptions>,
+) -> Result<(), Error> {
+    match cog {
+        Some(c) => staged.cog(output, image, Some(geo), c)?,
+        None => staged.image(output, image, Some(geo))?,
+    }
+    Ok(())
 }
 
 /// The output CRS and the camera's position in it.
@@ -624,7 +642,7 @@ pub fn rectify_photo_staged(
         None => plan_from_metadata(&meta, size, opts, &file)?,
     };
     let out = plan.run(&image)?;
-    staged.image(output, &out, Some(&info.geo))?;
+    stage_output(staged, output, &out, &info.geo, opts.cog.as_ref())?;
     let thumbnails = match thumbnail_side {
         Some(s) => {
             let err = |e: String| Error::Invalid(format!("{file}: thumbnail: {e}"));

@@ -559,47 +559,108 @@ fn unconnected(frames: &[Frame], reports: &[PairReport]) -> Vec<String> {
 }
 
 impl AdjustedFlight {
-    /// Rectifies frame `k` with its adjusted pose and camera onto the output grid and writes
-    /// `output` (GeoTIFF, or PNG + world file) atomically.
-    pub fn write_frame(
-        &self,
-        k: usize,
-        output: &Path,
-        opts: &DroneOptions,
-    ) -> Result<crate::drone::PhotoResult, Error> {
-        let t = std::time::Instant::now();
+    /// Frame `k`'s ortho plan with its adjusted pose and camera on the output grid (`opts`'s
+    /// GSD, else the frame's own at nadir).
+    pub fn plan(&self, k: usize, opts: &DroneOptions) -> Result<OrthoPlan, Error> {
         let f = &self.frames[k];
         let file = f.input.display().to_string();
-        let image = aerorect_io::read_image(&f.input)?;
         let ground = match &opts.dem {
             Some(dem) => Ground::Dem {
                 dem: std::sync::Arc::clone(dem),
                 fallback: None,
                 strict: opts.strict,
             },
-            None => Ground::Flat(f.info.pose.centre[2] - f.info.height_m),
+            None => Ground::Flat(self.ground_z(k)),
         };
-        let camera = self.cameras[k].clone();
+        // `info.gsd_m` is the matching grid's; the frame's own is its height over fx.
+        let own_gsd = f.info.height_m / f.info.camera.camera.intrinsics.fx;
         let req = OrthoRequest {
-            camera: &camera,
+            camera: &self.cameras[k],
             pose: self.poses[k],
             world: &self.world,
             ground: &ground,
-            gsd_m: opts.gsd_m.unwrap_or(f.info.gsd_m),
+            gsd_m: opts.gsd_m.unwrap_or(own_gsd),
             limits: opts.limits,
             occlusion: opts.occlusion,
         };
-        let plan =
-            plan_ortho(&req, opts.warp).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+        plan_ortho(&req, opts.warp).map_err(|e| Error::Invalid(format!("{file}: {e}")))
+    }
+
+    /// The level ground under frame `k` as planned from its metadata.
+    fn ground_z(&self, k: usize) -> f64 {
+        let f = &self.frames[k];
+        f.info.pose.centre[2] - f.info.height_m
+    }
+
+    /// The output CRS of every frame.
+    pub fn crs(&self) -> &Crs {
+        &self.crs
+    }
+
+    /// Every frame planned for a mosaic with its adjusted pose and camera, all at one GSD:
+    /// `opts`'s, else the finest frame's own (to the millimetre, as
+    /// [`crate::mosaic::frames_from_photos`] chooses it).
+    pub fn mosaic_frames(
+        &self,
+        opts: &DroneOptions,
+    ) -> Result<Vec<crate::mosaic::MosaicFrame>, Error> {
+        let mut o = opts.clone();
+        if o.gsd_m.is_none() {
+            let finest = self
+                .frames
+                .iter()
+                .map(|f| f.info.height_m / f.info.camera.camera.intrinsics.fx)
+                .fold(f64::INFINITY, f64::min);
+            o.gsd_m = Some(((finest * 1000.0).round() / 1000.0).max(0.001));
+        }
+        (0..self.frames.len())
+            .map(|k| {
+                let c = self.poses[k].centre;
+                Ok(crate::mosaic::MosaicFrame {
+                    path: self.frames[k].input.clone(),
+                    plan: self.plan(k, &o)?,
+                    nadir_xy: [c[0], c[1]],
+                    height_m: c[2] - self.ground_z(k),
+                })
+            })
+            .collect()
+    }
+
+    /// Rectifies frame `k` with its adjusted pose and camera onto the output grid and writes
+    /// `output` (GeoTIFF, COG with `opts.cog`, or PNG + world file) atomically.
+    pub fn write_frame(
+        &self,
+        k: usize,
+        output: &Path,
+        opts: &DroneOptions,
+    ) -> Result<crate::drone::PhotoResult, Error> {
+        let mut staged = aerorect_io::StagedOutputs::new();
+        let r = self.write_frame_staged(k, output, opts, &mut staged)?;
+        staged.commit()?;
+        Ok(r)
+    }
+
+    /// [`Self::write_frame`] with the output staged, to land with the caller's other outputs.
+    pub fn write_frame_staged(
+        &self,
+        k: usize,
+        output: &Path,
+        opts: &DroneOptions,
+        staged: &mut aerorect_io::StagedOutputs,
+    ) -> Result<crate::drone::PhotoResult, Error> {
+        let t = std::time::Instant::now();
+        let f = &self.frames[k];
+        let image = aerorect_io::read_image(&f.input)?;
+        let plan = self.plan(k, opts)?;
         let out = plan.run(&image)?;
         let mut info = f.info.clone();
         info.pose = self.poses[k];
         info.geo = georeference(self.crs.clone(), &plan, &opts.warp);
         info.gsd_m = plan.grid.gsd;
         info.warnings.extend(plan.warnings.iter().cloned());
-        aerorect_io::write_image_geo(output, &out, Some(&info.geo))?;
+        crate::drone::stage_output(staged, output, &out, &info.geo, opts.cog.as_ref())?;
         Ok(crate::drone::PhotoResult {
-            input: file,
+            input: f.input.display().to_string(),
             output: output.display().to_string(),
             input_size: [image.size().width, image.size().height],
             output_size: [plan.grid.size.width, plan.grid.size.height],

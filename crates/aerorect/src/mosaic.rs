@@ -325,4 +325,6 @@ fn best_of(cands: &[usize], scores: &[Vec<f64>], n: usize) -> Vec<Option<usize>>
 
 mod run;
 
-pub use run::{FrameUse, MosaicReport, MosaicRun, frames_from_photos, mosaic};
+pub use run::{
+    COG_MAX_PX, FrameUse, MosaicReport, MosaicRun, frames_from_photos, mosaic, mosaic_cog,
+};

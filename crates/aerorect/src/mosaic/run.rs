@@ -258,16 +258,14 @@ fn assemble(
     })
 }
 
-/// Builds the mosaic of `frames` (all planned at one GSD on the global grid of `crs`) and
-/// writes it to `out` as a tiled GeoTIFF, tile by tile; atomically (nothing is left when a
-/// frame fails). Frames are decoded with `aerorect_io::read_image`.
-pub fn mosaic(
+/// The plan of a mosaic written to `out` and its georeference, after refusing an `out` that
+/// names a frame.
+fn prepare(
     frames: Vec<MosaicFrame>,
     crs: Crs,
     out: &Path,
     opts: &MosaicOptions,
-) -> Result<MosaicReport, Error> {
-    let t0 = std::time::Instant::now();
+) -> Result<(MosaicPlan, GeoReference), Error> {
     let gsd = frames.first().map_or(1.0, |f| f.plan.grid.gsd);
     let plan = MosaicPlan::new(frames, gsd, opts.clone())?;
     for f in &plan.frames {
@@ -286,9 +284,55 @@ pub fn mosaic(
         rotation: [0.0, 0.0],
         nodata: (!opts.alpha).then_some(opts.nodata),
     };
-    let mut run = MosaicRun::new(&plan, |f: &MosaicFrame| {
-        Ok(aerorect_io::read_image(&f.path)?)
-    });
+    Ok((plan, geo))
+}
+
+fn report<L>(
+    plan: &MosaicPlan,
+    run: &MosaicRun<'_, L>,
+    out: &Path,
+    tiles: usize,
+    t0: std::time::Instant,
+) -> MosaicReport {
+    let frames = plan
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| FrameUse {
+            path: f.path.display().to_string(),
+            cells: run.cells[k],
+            loads: run.loads[k],
+        })
+        .collect();
+    MosaicReport {
+        output: out.display().to_string(),
+        size: [plan.grid.size.width, plan.grid.size.height],
+        gsd_m: plan.grid.gsd,
+        top_left: plan.grid.top_left,
+        tiles,
+        blend: plan.opts.blend,
+        covered_cells: run.cells.iter().sum(),
+        frames,
+        seconds: t0.elapsed().as_secs_f64(),
+    }
+}
+
+fn read_frame(f: &MosaicFrame) -> Result<AnyRaster, Error> {
+    Ok(aerorect_io::read_image(&f.path)?)
+}
+
+/// Builds the mosaic of `frames` (all planned at one GSD on the global grid of `crs`) and
+/// writes it to `out` as a tiled GeoTIFF, tile by tile; atomically (nothing is left when a
+/// frame fails). Frames are decoded with `aerorect_io::read_image`.
+pub fn mosaic(
+    frames: Vec<MosaicFrame>,
+    crs: Crs,
+    out: &Path,
+    opts: &MosaicOptions,
+) -> Result<MosaicReport, Error> {
+    let t0 = std::time::Instant::now();
+    let (plan, geo) = prepare(frames, crs, out, opts)?;
+    let mut run = MosaicRun::new(&plan, read_frame);
     let mut tiles = 0;
     aerorect_io::write_tiled_tiff::<Error>(
         out,
@@ -304,27 +348,89 @@ pub fn mosaic(
             })
         },
     )?;
-    let frames = plan
-        .frames
-        .iter()
-        .enumerate()
-        .map(|(k, f)| FrameUse {
-            path: f.path.display().to_string(),
-            cells: run.cells[k],
-            loads: run.loads[k],
-        })
-        .collect();
-    Ok(MosaicReport {
-        output: out.display().to_string(),
-        size: [plan.grid.size.width, plan.grid.size.height],
-        gsd_m: gsd,
-        top_left: plan.grid.top_left,
-        tiles,
-        blend: opts.blend,
-        covered_cells: run.cells.iter().sum(),
-        frames,
-        seconds: t0.elapsed().as_secs_f64(),
-    })
+    Ok(report(&plan, &run, out, tiles, t0))
+}
+
+/// The largest mosaic (pixels) [`mosaic_cog`] composites in memory: the COG writer takes a
+/// whole raster.
+pub const COG_MAX_PX: usize = 200_000_000;
+
+/// [`mosaic`], composited tile by tile into one raster and written as a cloud-optimised
+/// GeoTIFF (an alpha band becomes its internal mask); a mosaic over [`COG_MAX_PX`] pixels is
+/// refused before any frame is read.
+pub fn mosaic_cog(
+    frames: Vec<MosaicFrame>,
+    crs: Crs,
+    out: &Path,
+    opts: &MosaicOptions,
+    cog: &aerorect_io::CogOptions,
+) -> Result<MosaicReport, Error> {
+    let t0 = std::time::Instant::now();
+    let (plan, geo) = prepare(frames, crs, out, opts)?;
+    let size = plan.grid.size;
+    if size.pixels() > COG_MAX_PX {
+        return Err(Error::Invalid(format!(
+            "the mosaic is {} x {} px ({:.0} Mpx): a cloud-optimised GeoTIFF is composited in memory, up to {} Mpx; write the tiled GeoTIFF (without --cog) or use a coarser GSD",
+            size.width,
+            size.height,
+            size.pixels() as f64 / 1e6,
+            COG_MAX_PX / 1_000_000
+        )));
+    }
+    let mut run = MosaicRun::new(&plan, read_frame);
+    let mut whole: Option<AnyRaster> = None;
+    let mut tiles = 0;
+    let windows: Vec<Window> = plan.tile_windows().collect();
+    for w in windows {
+        let t = run.tile(w)?;
+        tiles += 1;
+        paste(&mut whole, size, &t, w)?;
+    }
+    let whole = whole.ok_or_else(|| Error::Invalid("the mosaic is empty".into()))?;
+    let mut cog = cog.clone();
+    if opts.alpha {
+        cog.mask = aerorect_io::CogMask::AlphaBand;
+    }
+    aerorect_io::write_cog(out, &whole, &geo, &cog)?;
+    Ok(report(&plan, &run, out, tiles, t0))
+}
+
+/// Copies `tile` into the mosaic `whole` (made, of the tile's type and bands, at the first).
+fn paste(
+    whole: &mut Option<AnyRaster>,
+    size: ImageSize,
+    tile: &AnyRaster,
+    w: Window,
+) -> Result<(), Error> {
+    fn copy<T: Sample>(dst: &mut Raster<T>, src: &Raster<T>, w: Window) {
+        let (width, tw) = (dst.size().width, w.size.width);
+        for b in 0..src.bands() {
+            let d = dst.plane_mut(b);
+            for (r, row) in src.plane(b).chunks(tw).enumerate() {
+                let at = (w.row0 + r) * width + w.col0;
+                d[at..at + tw].copy_from_slice(row);
+            }
+        }
+    }
+    if whole.is_none() {
+        let bands = tile.bands();
+        *whole = Some(match tile {
+            AnyRaster::U8(_) => AnyRaster::U8(Raster::new(size, bands)?),
+            AnyRaster::U16(_) => AnyRaster::U16(Raster::new(size, bands)?),
+            AnyRaster::F32(_) => AnyRaster::F32(Raster::new(size, bands)?),
+        });
+    }
+    match (whole.as_mut(), tile) {
+        (Some(AnyRaster::U8(d)), AnyRaster::U8(s)) if d.bands() == s.bands() => copy(d, s, w),
+        (Some(AnyRaster::U16(d)), AnyRaster::U16(s)) if d.bands() == s.bands() => copy(d, s, w),
+        (Some(AnyRaster::F32(d)), AnyRaster::F32(s)) if d.bands() == s.bands() => copy(d, s, w),
+        _ => {
+            return Err(Error::Invalid(
+                "mosaic tiles of different sample types or bands".into(),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Plans photos for a mosaic from their metadata (or `opts.poses`): one GSD for all (`opts`'s,
