@@ -64,6 +64,10 @@ pub struct RectifyArgs {
     pub(crate) pose: Option<String>,
     #[command(flatten)]
     pub(crate) geo: crate::drone_cmds::GeoArgs,
+    /// Write a cloud-optimised GeoTIFF (tiled, Deflate, internal overviews; an --alpha band
+    /// becomes its internal mask) instead of the strip GeoTIFF; georeferenced output only.
+    #[arg(long, conflicts_with = "attitude")]
+    pub(crate) cog: bool,
 }
 
 /// Writes the image and the JSON report when one is asked for, together: both land or neither

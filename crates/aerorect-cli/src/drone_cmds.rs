@@ -8,7 +8,7 @@ use aerorect::demo::write_text;
 use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo, rectify_photo_staged};
 use aerorect::geo::{Mounting, Projection};
 use aerorect::georef::load_dem;
-use aerorect::io::{CameraFile, Crs, PoseRecord, StagedOutputs, image_files};
+use aerorect::io::{CameraFile, CogMask, CogOptions, Crs, PoseRecord, StagedOutputs, image_files};
 use aerorect::raster::{Interp, WarpOptions};
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -136,7 +136,36 @@ pub(crate) fn ortho_options(
         mounting,
         limits,
         warp,
+        cog: None,
     })
+}
+
+/// The cloud-optimised GeoTIFF options of `--cog`: Deflate, overviews, the nodata value, and
+/// an alpha band (when there is one) as the internal mask.
+pub(crate) fn cog_options(alpha: bool) -> CogOptions {
+    CogOptions {
+        mask: if alpha {
+            CogMask::AlphaBand
+        } else {
+            CogMask::None
+        },
+        ..CogOptions::default()
+    }
+}
+
+/// `--cog` writes a .tif: refuses another extension.
+pub(crate) fn cog_needs_tif(flag: &str, path: &Path) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    if !matches!(ext.as_deref(), Some("tif") | Some("tiff")) {
+        bail!(
+            "--cog writes a cloud-optimised GeoTIFF: {flag} {} must end in .tif or .tiff",
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
@@ -187,6 +216,10 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
             kappa,
         };
         opts.poses = Some(Arc::new([(name, rec)].into_iter().collect()));
+    }
+    if a.cog {
+        cog_needs_tif("OUTPUT", &a.output)?;
+        opts.cog = Some(cog_options(a.alpha));
     }
     let mut staged = StagedOutputs::new();
     let r = rectify_photo_staged(&a.input, &a.output, &opts, None, &mut staged)?;
@@ -271,6 +304,10 @@ pub struct BatchArgs {
     /// GPS, 0.05 for RTK).
     #[arg(long, requires = "adjust")]
     adjust_positions_m: Option<f64>,
+    /// Write cloud-optimised GeoTIFFs (tiled, Deflate, internal overviews) instead of strip
+    /// GeoTIFFs; needs --format tif.
+    #[arg(long)]
+    cog: bool,
 }
 
 /// What became of one input.
@@ -294,11 +331,17 @@ pub fn batch(a: BatchArgs) -> Result<()> {
     if a.jobs == 0 {
         bail!("--jobs 0: at least one frame must be in flight");
     }
+    if a.cog && a.format != "tif" {
+        bail!(
+            "--cog writes cloud-optimised GeoTIFFs: it needs --format tif, not '{}'",
+            a.format
+        );
+    }
     batch_files(&a)?.check()?;
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("{}: cannot create", a.out_dir.display()))?;
     // One camera file and one set of options for every frame.
-    let opts = ortho_options(
+    let mut opts = ortho_options(
         &a.geo,
         (a.gsd_m, a.ground_height_m, a.camera.as_deref()),
         RectifyLimits {
@@ -311,6 +354,9 @@ pub fn batch(a: BatchArgs) -> Result<()> {
         },
         a.poses.as_deref(),
     )?;
+    if a.cog {
+        opts.cog = Some(cog_options(false));
+    }
     if a.adjust {
         return batch_adjusted(&a, &opts);
     }
@@ -399,7 +445,15 @@ fn batch_files(a: &BatchArgs) -> Result<Files> {
             files = files.output("--out-dir", Some(&out));
         }
     }
-    Ok(files.output("--report-html", a.report_html.as_deref()))
+    let adjustment = a.adjust.then(|| adjustment_json(a));
+    Ok(files
+        .output("--report-html", a.report_html.as_deref())
+        .output("--adjust (its report)", adjustment.as_deref()))
+}
+
+/// Where `batch --adjust` writes the adjustment's report.
+fn adjustment_json(a: &BatchArgs) -> PathBuf {
+    a.out_dir.join("adjustment.json")
 }
 
 fn process(a: &BatchArgs, input: &Path, opts: &DroneOptions) -> Outcome {
@@ -528,13 +582,7 @@ pub fn overlap(a: OverlapArgs) -> Result<()> {
 
 /// `batch --adjust`: plan, match and adjust the whole flight, then write every frame with its
 /// adjusted orientation and `adjustment.json`; a failed adjustment writes nothing.
-fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
-    let fo = aerorect::flight::FlightOptions {
-        position_sigma_m: a.adjust_positions_m,
-        ..Default::default()
-    };
-    let flight = aerorect::flight::adjust_flight(&a.inputs, opts, &fo)?;
-    let r = &flight.report;
+pub(crate) fn print_adjustment(r: &aerorect::flight::FlightReport) {
     for p in &r.pairs {
         println!(
             "pair {} / {}: {} tie points of {} patches{}, misalignment {:.3} m -> {}",
@@ -565,29 +613,40 @@ fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
         adj.iterations,
         adj.seconds
     );
+}
+
+fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
+    let fo = aerorect::flight::FlightOptions {
+        position_sigma_m: a.adjust_positions_m,
+        ..Default::default()
+    };
+    let flight = aerorect::flight::adjust_flight(&a.inputs, opts, &fo)?;
+    let r = &flight.report;
+    print_adjustment(r);
     let json = serde_json::to_string_pretty(r)?;
-    let results: Vec<Result<PhotoResult>> = (0..flight.len())
-        .map(|k| {
-            let out = output_for(a, &a.inputs[k])?;
-            Ok(flight.write_frame(k, &out, opts)?)
-        })
-        .collect();
+    // Every frame depends on the whole adjustment: the frames and adjustment.json land
+    // together, or (when a frame fails) none of them does.
+    let mut staged = StagedOutputs::new();
     let mut failed = 0;
-    for (k, res) in results.iter().enumerate() {
+    for (k, input) in a.inputs.iter().enumerate() {
+        let res = output_for(a, input)
+            .and_then(|out| Ok(flight.write_frame_staged(k, &out, opts, &mut staged)?));
         match res {
-            Ok(p) => println!("{}", result_line(p)),
+            Ok(p) => println!("{}", result_line(&p)),
             Err(e) => {
                 failed += 1;
-                eprintln!("failed: {}: {e:#}", a.inputs[k].display());
+                eprintln!("failed: {}: {e:#}", input.display());
             }
         }
     }
-    write_text(&a.out_dir.join("adjustment.json"), &json)?;
     if failed > 0 {
         bail!(
-            "{failed} of {} frames failed (listed above)",
+            "{failed} of {} frames failed (listed above); nothing written: the adjusted frames and adjustment.json land together",
             a.inputs.len()
         );
     }
+    staged.text(&adjustment_json(a), &json)?;
+    staged.commit()?;
+    println!("adjustment report: {}", adjustment_json(a).display());
     Ok(())
 }

@@ -5,6 +5,7 @@ mod baseline_cmds;
 mod calib_cmds;
 mod commands;
 mod drone_cmds;
+mod mosaic_cmds;
 mod motion_cmds;
 mod outputs;
 mod plot;
@@ -62,6 +63,8 @@ enum Command {
     Batch(drone_cmds::BatchArgs),
     /// Misalignment of two georeferenced frames over their overlap (phase correlation of tiles).
     Overlap(drone_cmds::OverlapArgs),
+    /// One mosaic of a flight's photos on one grid (optionally after --adjust), tile by tile.
+    Mosaic(mosaic_cmds::MosaicArgs),
 }
 
 /// On SIGINT or SIGTERM (Ctrl-C on Windows): remove the outputs still being written (their
@@ -104,6 +107,7 @@ fn main() -> ExitCode {
         Command::Compare(a) => baseline_cmds::compare(a),
         Command::Batch(a) => drone_cmds::batch(a),
         Command::Overlap(a) => drone_cmds::overlap(a),
+        Command::Mosaic(a) => mosaic_cmds::mosaic_cmd(a),
         Command::Demo(a) => commands::demo(a),
         Command::Shift(a) => motion_cmds::shift(a),
         Command::MotionSim(a) => motion_cmds::motion_sim_cmd(a),

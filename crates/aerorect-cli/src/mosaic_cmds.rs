@@ -1,0 +1,140 @@
+//! `mosaic`: many drone photos on one grid, optionally after the flight's joint adjustment.
+
+use crate::drone_cmds::{GeoArgs, cog_options, ortho_options, print_adjustment};
+use crate::outputs::Files;
+use aerorect::core::RectifyLimits;
+use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
+use aerorect::mosaic::{Blend, MosaicOptions, frames_from_photos, mosaic, mosaic_cog};
+use aerorect::raster::{Interp, WarpOptions};
+use anyhow::{Result, bail};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+#[derive(Args)]
+pub struct MosaicArgs {
+    /// Photos of a flight (JPEG with DJI metadata, or any image with --camera and the same tags).
+    #[arg(required = true)]
+    inputs: Vec<PathBuf>,
+    /// The mosaic (.tif): a tiled GeoTIFF built tile by tile, or a COG with --cog.
+    #[arg(long)]
+    out: PathBuf,
+    /// Make the flight consistent first (tie points and joint adjustment, as `batch --adjust`)
+    /// and mosaic the adjusted frames.
+    #[arg(long)]
+    adjust: bool,
+    /// With --adjust: also correct positions, with this prior standard deviation (m).
+    #[arg(long, requires = "adjust")]
+    adjust_positions_m: Option<f64>,
+    /// Ground sample distance, metres; default: the finest frame's own at nadir (to the mm).
+    #[arg(long)]
+    gsd_m: Option<f64>,
+    /// Ground elevation against AbsoluteAltitude (default: height above the take-off point).
+    #[arg(long)]
+    ground_height_m: Option<f64>,
+    /// Camera file for every frame (overrides the metadata's camera).
+    #[arg(long)]
+    camera: Option<PathBuf>,
+    /// Exterior orientation of the frames: CSV `filename,x,y,z,omega,phi,kappa`.
+    #[arg(long)]
+    poses: Option<PathBuf>,
+    #[command(flatten)]
+    geo: GeoArgs,
+    /// How frames meet at seamlines: feather (a cross-fade of --feather-px) or none.
+    #[arg(long, default_value = "feather")]
+    blend: String,
+    /// Width of the cross-fade across a seam, pixels.
+    #[arg(long, default_value_t = 16)]
+    feather_px: usize,
+    #[arg(long, default_value = "bilinear")]
+    interp: Interp,
+    /// Largest frame ortho in pixels; a footprint reaching the horizon is clipped to it.
+    #[arg(long, default_value_t = DEFAULT_MAX_OUTPUT_PX)]
+    max_output_px: u64,
+    /// Write a cloud-optimised GeoTIFF (composited in memory: mosaics up to 200 Mpx).
+    #[arg(long)]
+    cog: bool,
+}
+
+/// Everything mosaic reads and writes.
+fn mosaic_files(a: &MosaicArgs) -> Files {
+    let prj = match (&a.geo.crs, &a.poses) {
+        (None, Some(p)) => Some(p.with_extension("prj")),
+        _ => None,
+    };
+    let mut files = Files::new()
+        .input("--camera", a.camera.as_deref())
+        .input("--poses", a.poses.as_deref())
+        .input("--poses (its .prj)", prj.as_deref())
+        .input("--dem", a.geo.dem.as_deref());
+    for input in &a.inputs {
+        files = files.input("PHOTOS", Some(input));
+    }
+    files.output("--out", Some(&a.out))
+}
+
+pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
+    let blend: Blend = a.blend.parse().map_err(anyhow::Error::msg)?;
+    let mopts = MosaicOptions {
+        blend,
+        feather_px: a.feather_px,
+        ..MosaicOptions::default()
+    };
+    mopts.validate()?;
+    mosaic_files(&a).check()?;
+    let ext = a.out.extension().and_then(|e| e.to_str());
+    if !ext.is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff")) {
+        bail!(
+            "--out {}: the mosaic is a GeoTIFF: give a .tif or .tiff name",
+            a.out.display()
+        );
+    }
+    let t0 = std::time::Instant::now();
+    let opts = ortho_options(
+        &a.geo,
+        (a.gsd_m, a.ground_height_m, a.camera.as_deref()),
+        RectifyLimits {
+            max_output_px: a.max_output_px,
+        },
+        WarpOptions {
+            interp: a.interp,
+            nodata: 0.0,
+            alpha: false,
+        },
+        a.poses.as_deref(),
+    )?;
+    let (frames, crs) = if a.adjust {
+        let fo = aerorect::flight::FlightOptions {
+            position_sigma_m: a.adjust_positions_m,
+            ..Default::default()
+        };
+        let flight = aerorect::flight::adjust_flight(&a.inputs, &opts, &fo)?;
+        print_adjustment(&flight.report);
+        (flight.mosaic_frames(&opts)?, flight.crs().clone())
+    } else {
+        frames_from_photos(&a.inputs, &opts)?
+    };
+    let r = if a.cog {
+        mosaic_cog(frames, crs, &a.out, &mopts, &cog_options(mopts.alpha))?
+    } else {
+        mosaic(frames, crs, &a.out, &mopts)?
+    };
+    println!(
+        "{} frames -> {}: {} x {} px at {:.3} m/px, {} tiles{}, {:.2} s",
+        r.frames.len(),
+        display(&a.out),
+        r.size[0],
+        r.size[1],
+        r.gsd_m,
+        r.tiles,
+        if a.cog { ", cloud-optimised" } else { "" },
+        t0.elapsed().as_secs_f64()
+    );
+    for f in r.frames.iter().filter(|f| f.cells == 0) {
+        eprintln!("warning: {}: no cell of the mosaic comes from it", f.path);
+    }
+    Ok(())
+}
+
+fn display(p: &Path) -> String {
+    p.display().to_string()
+}
