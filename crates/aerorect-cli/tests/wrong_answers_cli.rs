@@ -447,3 +447,59 @@ fn register_refuses_unrelated_noise_images() {
         &d,
     ));
 }
+
+/// A little-endian, uncompressed, single-strip 16 x 4 gray TIFF of `bits` per sample.
+fn tiny_tiff(bits: u16) -> Vec<u8> {
+    let (w, h) = (16u32, 4u32);
+    let data_len = (w * u32::from(bits)).div_ceil(8) * h;
+    let entries: [(u16, u16, u32); 9] = [
+        (256, 4, w),                  // ImageWidth
+        (257, 4, h),                  // ImageLength
+        (258, 3, bits as u32),        // BitsPerSample
+        (259, 3, 1),                  // Compression: none
+        (262, 3, 1),                  // Photometric: black is zero
+        (273, 4, 8 + 2 + 9 * 12 + 4), // StripOffsets: after the IFD
+        (277, 3, 1),                  // SamplesPerPixel
+        (278, 4, h),                  // RowsPerStrip
+        (279, 4, data_len),           // StripByteCounts
+    ];
+    let mut b = b"II*\0".to_vec();
+    b.extend(8u32.to_le_bytes());
+    b.extend((entries.len() as u16).to_le_bytes());
+    for (tag, kind, value) in entries {
+        b.extend(tag.to_le_bytes());
+        b.extend(kind.to_le_bytes());
+        b.extend(1u32.to_le_bytes());
+        if kind == 3 {
+            b.extend((value as u16).to_le_bytes());
+            b.extend([0, 0]);
+        } else {
+            b.extend(value.to_le_bytes());
+        }
+    }
+    b.extend(0u32.to_le_bytes());
+    b.extend((0..data_len).map(|i| (i * 37) as u8));
+    b
+}
+
+#[test]
+fn unreadable_tiffs_say_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let good = tiny_tiff(8);
+    std::fs::write(d.join("good.tif"), &good).unwrap();
+    let img = aerorect::io::read_image(&d.join("good.tif")).unwrap();
+    assert_eq!((img.size().width, img.size().height), (16, 4));
+    // Before: "failed to fill whole buffer".
+    std::fs::write(d.join("cut.tif"), &good[..good.len() - 20]).unwrap();
+    fails(
+        &aerorect(&["shift", "cut.tif", "good.tif"], d),
+        &["cut.tif", "truncated"],
+    );
+    // Before: "buffer holds 512 samples, ...".
+    std::fs::write(d.join("bits.tif"), tiny_tiff(1)).unwrap();
+    fails(
+        &aerorect(&["shift", "bits.tif", "good.tif"], d),
+        &["bits.tif", "unsupported 1-bit samples"],
+    );
+}

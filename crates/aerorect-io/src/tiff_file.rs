@@ -49,9 +49,10 @@ pub(crate) fn decode(path: &Path) -> Result<Decoded, IoError> {
             ));
         }
     };
+    check_bit_depth(path, &colour)?;
     check_claimed_size(path, w, h, bands, &colour)?;
     let size = ImageSize::new(w as usize, h as usize);
-    let mut samples = dec.read_image().map_err(|e| IoError::decode(path, e))?;
+    let mut samples = dec.read_image().map_err(|e| read_error(path, e))?;
     if colour == ColorType::YCbCr(8)
         && let DecodingResult::U8(v) = &mut samples
     {
@@ -62,6 +63,40 @@ pub(crate) fn decode(path: &Path) -> Result<Decoded, IoError> {
         bands,
         samples,
     })
+}
+
+/// Refuses sample sizes other than whole bytes (1-bit bilevel, 4-bit palette, 12-bit), which
+/// the decoder would hand back packed, not one value per sample.
+fn check_bit_depth(path: &Path, colour: &ColorType) -> Result<(), IoError> {
+    let bits = match *colour {
+        ColorType::Gray(b)
+        | ColorType::GrayA(b)
+        | ColorType::RGB(b)
+        | ColorType::RGBA(b)
+        | ColorType::YCbCr(b) => b,
+        ColorType::Multiband { bit_depth, .. } => bit_depth,
+        _ => 8,
+    };
+    if matches!(bits, 8 | 16 | 32 | 64) {
+        return Ok(());
+    }
+    Err(IoError::decode(
+        path,
+        format!("unsupported {bits}-bit samples: only 8, 16, 32 and 64-bit TIFFs are read"),
+    ))
+}
+
+/// The decoder's error in words: a read past the end is a truncated file.
+fn read_error(path: &Path, e: tiff::TiffError) -> IoError {
+    match &e {
+        tiff::TiffError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            IoError::decode(
+                path,
+                "the file is truncated: its image data ends before the size its header states",
+            )
+        }
+        _ => IoError::decode(path, e),
+    }
 }
 
 /// Refuses a header that claims more samples than the file could hold, before the decoder
