@@ -4,6 +4,7 @@
 use crate::commands::{warp_options, write_image_and_report};
 use crate::outputs::Files;
 use aerorect::compare::{CompareConfig, CompareResult};
+use aerorect::core::error::Num;
 use aerorect::core::{ImageSize, RectifyLimits, SixAngleAttitude, rectify::DEFAULT_MAX_OUTPUT_PX};
 use aerorect::gcp::{GcpPlan, GcpResidual};
 use aerorect::io::{CameraFile, StagedOutputs, read_attitude, read_gcps, read_image};
@@ -131,6 +132,25 @@ pub fn gcp(a: GcpArgs) -> Result<()> {
     Ok(())
 }
 
+/// Each out-of-range option named alone, with its value and its range.
+fn check_register_ranges(a: &RegisterArgs) -> Result<()> {
+    if a.patch < 16 {
+        bail!("--patch {}: must be at least 16", a.patch);
+    }
+    if !(a.ransac_px.is_finite() && a.ransac_px > 0.0) {
+        bail!(
+            "--ransac-px {}: must be a finite number > 0",
+            Num(a.ransac_px)
+        );
+    }
+    // Beyond 10 the coarse search only grows (1e300 ran for minutes): 64 px patches of frames
+    // ten times apart in scale share no texture to correlate.
+    if !(1.0..=10.0).contains(&a.max_scale) {
+        bail!("--max-scale {}: must be from 1 to 10", Num(a.max_scale));
+    }
+    Ok(())
+}
+
 #[derive(Args)]
 pub struct RegisterArgs {
     /// The frame to register.
@@ -217,16 +237,7 @@ pub fn register_cmd(a: RegisterArgs) -> Result<()> {
         seed: a.seed,
         ..RegisterOptions::default()
     };
-    let ransac_ok = a.ransac_px.is_finite() && a.ransac_px > 0.0;
-    let scale_ok = a.max_scale.is_finite() && a.max_scale >= 1.0;
-    if a.patch < 16 || !ransac_ok || !scale_ok {
-        bail!(
-            "--patch {} (>= 16), --ransac-px {} (> 0) and --max-scale {} (>= 1) are out of range",
-            a.patch,
-            a.ransac_px,
-            a.max_scale
-        );
-    }
+    check_register_ranges(&a)?;
     let image = read_image(&a.input)?;
     let reference = read_image(&a.reference)?;
     let warp = warp_options(a.interp, a.nodata, a.alpha, &image)?;

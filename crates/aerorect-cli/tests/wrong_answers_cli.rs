@@ -503,3 +503,34 @@ fn unreadable_tiffs_say_what_is_wrong() {
         &["bits.tif", "unsupported 1-bit samples"],
     );
 }
+
+#[test]
+fn register_names_only_the_option_out_of_range() {
+    let (_t, d) = fixture();
+    let run = |opt: &str| aerorect(&["register", "frame.png", "scene.jpg", "r.png", opt], &d);
+    // Before: every message listed --patch, --ransac-px and --max-scale together, and a
+    // --max-scale of 1e300 was accepted (and searched for minutes).
+    for (opt, named, others) in [
+        ("--patch=8", "--patch 8", ["--ransac-px", "--max-scale"]),
+        (
+            "--ransac-px=-1",
+            "--ransac-px -1",
+            ["--patch", "--max-scale"],
+        ),
+        (
+            "--max-scale=1e300",
+            "--max-scale 1e300: must be from 1 to 10",
+            ["--patch", "--ransac-px"],
+        ),
+        (
+            "--max-scale=0.5",
+            "--max-scale 0.5",
+            ["--patch", "--ransac-px"],
+        ),
+    ] {
+        let out = run(opt);
+        fails(&out, &[named]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(others.iter().all(|o| !err.contains(o)), "{err}");
+    }
+}
