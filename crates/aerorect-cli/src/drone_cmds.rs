@@ -387,7 +387,7 @@ pub fn batch(a: BatchArgs) -> Result<()> {
                     let Some((k, input)) = next else { break };
                     let outcome = process(&a, input, &opts);
                     let line = match &outcome {
-                        Outcome::Done(r) => result_line(r),
+                        Outcome::Done(r) => with_warnings(result_line(r), r),
                         Outcome::Skipped(why) => format!("{}: skipped: {why}", input.display()),
                         Outcome::Failed(why) => format!("{}: FAILED: {why}", input.display()),
                     };
@@ -459,7 +459,7 @@ fn adjustment_json(a: &BatchArgs) -> PathBuf {
 fn process(a: &BatchArgs, input: &Path, opts: &DroneOptions) -> Outcome {
     let output = match output_for(a, input) {
         Ok(o) => o,
-        Err(e) => return Outcome::Failed(format!("{e:#}")),
+        Err(e) => return failure(input, e),
     };
     if output.exists() && !a.force {
         return Outcome::Skipped(format!(
@@ -470,8 +470,24 @@ fn process(a: &BatchArgs, input: &Path, opts: &DroneOptions) -> Outcome {
     let thumbs = a.report_html.as_ref().map(|_| 320);
     match rectify_photo(input, &output, opts, thumbs) {
         Ok(r) => Outcome::Done(Box::new(r)),
-        Err(e) => Outcome::Failed(format!("{e:#}")),
+        Err(e) => failure(input, format!("{e:#}")),
     }
+}
+
+/// A failed frame; the input's name is said once (the line starts with it), not again from
+/// the error's own context.
+fn failure(input: &Path, e: impl std::fmt::Display) -> Outcome {
+    let text = e.to_string();
+    let name = format!("{}: ", input.display());
+    Outcome::Failed(text.strip_prefix(&name).unwrap_or(&text).to_string())
+}
+
+/// A frame's result line followed by its warnings, one indented line each.
+fn with_warnings(line: String, r: &PhotoResult) -> String {
+    r.info
+        .warnings
+        .iter()
+        .fold(line, |acc, w| format!("{acc}\n  warning: {w}"))
 }
 
 fn summarise(a: &BatchArgs, outcomes: &[(usize, Outcome)], seconds: f64) -> Result<()> {

@@ -79,9 +79,10 @@ pub struct MotionSimArgs {
     snr_db: Vec<f64>,
     #[arg(long, default_value_t = 50)]
     trials: usize,
-    /// Frame side in pixels.
-    #[arg(long, default_value_t = 256)]
-    size: usize,
+    /// Frame side in pixels; default: the largest power of two up to 256 that every scene holds
+    /// with the shift margin.
+    #[arg(long)]
+    size: Option<usize>,
     /// Methods, comma-separated.
     #[arg(
         long,
@@ -106,6 +107,31 @@ pub struct MotionSimArgs {
     /// Write every noisy pair and a manifest here (for bench/shift_vs_peers.py).
     #[arg(long)]
     dump_dir: Option<PathBuf>,
+}
+
+/// The largest power of two (16 to 256) that fits every scene with the margin the displacement
+/// reads around the window (linear: max shift + 2 px on each side; Fourier: twice the side).
+fn default_frame_side(
+    scenes: &[(String, aerorect::raster::Raster<f32>)],
+    max_shift: f64,
+    fourier: bool,
+) -> usize {
+    let smallest = scenes
+        .iter()
+        .map(|(_, s)| s.width().min(s.height()))
+        .min()
+        .unwrap_or(0);
+    let fits = |n: usize| {
+        if fourier {
+            2 * n <= smallest
+        } else {
+            n + 2 * (max_shift.max(0.0).ceil() as usize + 2) <= smallest
+        }
+    };
+    [256, 128, 64, 32, 16]
+        .into_iter()
+        .find(|&n| fits(n))
+        .unwrap_or(16)
 }
 
 pub fn motion_sim_cmd(a: MotionSimArgs) -> Result<()> {
@@ -149,7 +175,9 @@ pub fn motion_sim_cmd(a: MotionSimArgs) -> Result<()> {
             .with_context(|| d.display().to_string())?;
     }
     let cfg = MotionSimConfig {
-        size: a.size,
+        size: a
+            .size
+            .unwrap_or_else(|| default_frame_side(&scenes, a.max_shift, a.fourier)),
         snr_db: a.snr_db.clone(),
         trials: a.trials,
         max_shift: a.max_shift,
@@ -165,8 +193,8 @@ pub fn motion_sim_cmd(a: MotionSimArgs) -> Result<()> {
     let rows = motion_sim(&scenes, &cfg)?;
     println!(
         "{} x {} frames, {} trials per cell, shifts uniform in [-{m}, {m}] px by {}, SNR = 10 log10(var s / var n)",
-        a.size,
-        a.size,
+        cfg.size,
+        cfg.size,
         a.trials,
         if a.fourier {
             "Fourier shift"

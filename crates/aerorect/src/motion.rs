@@ -166,9 +166,10 @@ pub fn motion_sim(
         };
         if scene.width() < need || scene.height() < need {
             return Err(Error::Invalid(format!(
-                "{name}: {} x {} is too small for {} frames",
+                "{name}: {} x {} is too small for {} x {} frames with their shift margin (needs {need} x {need}); give a smaller --size",
                 scene.width(),
                 scene.height(),
+                cfg.size,
                 cfg.size
             )));
         }
