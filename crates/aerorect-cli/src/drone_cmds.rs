@@ -252,6 +252,69 @@ fn result_line(r: &PhotoResult) -> String {
     )
 }
 
+/// The frames of a flight and how to place them on the ground (batch and mosaic).
+#[derive(Args, Clone, Debug)]
+pub struct FlightArgs {
+    /// Ground sample distance, metres; default: each frame's own at nadir (batch), the finest
+    /// frame's (mosaic). Give it to put every frame on one ground grid.
+    #[arg(long)]
+    pub gsd_m: Option<f64>,
+    /// Ground elevation against AbsoluteAltitude (default: height above the take-off point).
+    #[arg(long)]
+    pub ground_height_m: Option<f64>,
+    /// Camera file for every frame (overrides the metadata's camera).
+    #[arg(long)]
+    pub camera: Option<PathBuf>,
+    /// Exterior orientation of the frames: CSV `filename,x,y,z,omega,phi,kappa` (the world CRS
+    /// from --crs or the CSV's .prj sidecar; angles in degrees, PATB omega-phi-kappa).
+    #[arg(long)]
+    pub poses: Option<PathBuf>,
+    #[command(flatten)]
+    pub geo: GeoArgs,
+    /// Make the flight consistent first: tie points from the frames' overlaps, then a joint
+    /// adjustment of attitudes and camera (batch also writes OUT_DIR/adjustment.json and
+    /// rewrites every frame: each depends on the whole flight).
+    #[arg(long)]
+    pub adjust: bool,
+    /// With --adjust: also correct positions, with this prior standard deviation (m; e.g. 5 for
+    /// GPS, 0.05 for RTK).
+    #[arg(long, requires = "adjust")]
+    pub adjust_positions_m: Option<f64>,
+}
+
+impl FlightArgs {
+    /// `files` with every file these options read.
+    pub(crate) fn inputs(&self, files: Files) -> Files {
+        let prj = match (&self.geo.crs, &self.poses) {
+            (None, Some(p)) => Some(p.with_extension("prj")),
+            _ => None,
+        };
+        files
+            .input("--camera", self.camera.as_deref())
+            .input("--poses", self.poses.as_deref())
+            .input("--poses (its .prj)", prj.as_deref())
+            .input("--dem", self.geo.dem.as_deref())
+    }
+
+    /// The options every frame shares.
+    pub(crate) fn options(&self, limits: RectifyLimits, warp: WarpOptions) -> Result<DroneOptions> {
+        ortho_options(
+            &self.geo,
+            (self.gsd_m, self.ground_height_m, self.camera.as_deref()),
+            limits,
+            warp,
+            self.poses.as_deref(),
+        )
+    }
+
+    pub(crate) fn flight_options(&self) -> aerorect::flight::FlightOptions {
+        aerorect::flight::FlightOptions {
+            position_sigma_m: self.adjust_positions_m,
+            ..Default::default()
+        }
+    }
+}
+
 #[derive(Args)]
 pub struct BatchArgs {
     /// Photos of a flight (JPEG with DJI metadata, or any image with --camera and the same tags).
@@ -260,22 +323,8 @@ pub struct BatchArgs {
     /// Where the rectified frames go (NAME.tif, or NAME.png + NAME.pgw with --format png).
     #[arg(long)]
     out_dir: PathBuf,
-    /// Ground sample distance, metres; default: each frame's own at nadir. Give it to put every
-    /// frame on one ground grid.
-    #[arg(long)]
-    gsd_m: Option<f64>,
-    /// Ground elevation against AbsoluteAltitude (default: height above the take-off point).
-    #[arg(long)]
-    ground_height_m: Option<f64>,
-    /// Camera file for every frame (overrides the metadata's camera).
-    #[arg(long)]
-    camera: Option<PathBuf>,
-    /// Exterior orientation of the frames: CSV `filename,x,y,z,omega,phi,kappa` (the world CRS
-    /// from --crs or the CSV's .prj sidecar; angles in degrees, PATB omega-phi-kappa).
-    #[arg(long)]
-    poses: Option<PathBuf>,
     #[command(flatten)]
-    geo: GeoArgs,
+    flight: FlightArgs,
     /// Frames processed at once (each also uses all threads for its warp).
     #[arg(long, default_value_t = 2)]
     jobs: usize,
@@ -295,15 +344,6 @@ pub struct BatchArgs {
     /// height, GSD and warnings.
     #[arg(long)]
     report_html: Option<PathBuf>,
-    /// Make the flight consistent first: tie points from the frames' overlaps, then a joint
-    /// adjustment of attitudes and camera; writes OUT_DIR/adjustment.json (every frame is
-    /// rewritten: each depends on the whole flight).
-    #[arg(long)]
-    adjust: bool,
-    /// With --adjust: also correct positions, with this prior standard deviation (m; e.g. 5 for
-    /// GPS, 0.05 for RTK).
-    #[arg(long, requires = "adjust")]
-    adjust_positions_m: Option<f64>,
     /// Write cloud-optimised GeoTIFFs (tiled, Deflate, internal overviews) instead of strip
     /// GeoTIFFs; needs --format tif.
     #[arg(long)]
@@ -341,9 +381,7 @@ pub fn batch(a: BatchArgs) -> Result<()> {
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("{}: cannot create", a.out_dir.display()))?;
     // One camera file and one set of options for every frame.
-    let mut opts = ortho_options(
-        &a.geo,
-        (a.gsd_m, a.ground_height_m, a.camera.as_deref()),
+    let mut opts = a.flight.options(
         RectifyLimits {
             max_output_px: a.max_output_px,
         },
@@ -352,12 +390,11 @@ pub fn batch(a: BatchArgs) -> Result<()> {
             nodata: a.nodata,
             alpha: false,
         },
-        a.poses.as_deref(),
     )?;
     if a.cog {
         opts.cog = Some(cog_options(false));
     }
-    if a.adjust {
+    if a.flight.adjust {
         return batch_adjusted(&a, &opts);
     }
     let started = std::time::Instant::now();
@@ -428,15 +465,7 @@ fn refuse_collisions(a: &BatchArgs) -> Result<()> {
 /// name collisions between frames are refused.
 fn batch_files(a: &BatchArgs) -> Result<Files> {
     refuse_collisions(a)?;
-    let prj = match (&a.geo.crs, &a.poses) {
-        (None, Some(p)) => Some(p.with_extension("prj")),
-        _ => None,
-    };
-    let mut files = Files::new()
-        .input("--camera", a.camera.as_deref())
-        .input("--poses", a.poses.as_deref())
-        .input("--poses (its .prj)", prj.as_deref())
-        .input("--dem", a.geo.dem.as_deref());
+    let mut files = a.flight.inputs(Files::new());
     for input in &a.inputs {
         files = files.input("PHOTOS", Some(input));
     }
@@ -445,7 +474,7 @@ fn batch_files(a: &BatchArgs) -> Result<Files> {
             files = files.output("--out-dir", Some(&out));
         }
     }
-    let adjustment = a.adjust.then(|| adjustment_json(a));
+    let adjustment = a.flight.adjust.then(|| adjustment_json(a));
     Ok(files
         .output("--report-html", a.report_html.as_deref())
         .output("--adjust (its report)", adjustment.as_deref()))
@@ -632,10 +661,7 @@ pub(crate) fn print_adjustment(r: &aerorect::flight::FlightReport) {
 }
 
 fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
-    let fo = aerorect::flight::FlightOptions {
-        position_sigma_m: a.adjust_positions_m,
-        ..Default::default()
-    };
+    let fo = a.flight.flight_options();
     let flight = aerorect::flight::adjust_flight(&a.inputs, opts, &fo)?;
     let r = &flight.report;
     print_adjustment(r);

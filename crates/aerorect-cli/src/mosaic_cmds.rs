@@ -1,6 +1,6 @@
 //! `mosaic`: many drone photos on one grid, optionally after the flight's joint adjustment.
 
-use crate::drone_cmds::{GeoArgs, cog_options, ortho_options, print_adjustment};
+use crate::drone_cmds::{FlightArgs, cog_options, print_adjustment};
 use crate::outputs::Files;
 use aerorect::core::RectifyLimits;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
@@ -18,27 +18,8 @@ pub struct MosaicArgs {
     /// The mosaic (.tif): a tiled GeoTIFF built tile by tile, or a COG with --cog.
     #[arg(long)]
     out: PathBuf,
-    /// Make the flight consistent first (tie points and joint adjustment, as `batch --adjust`)
-    /// and mosaic the adjusted frames.
-    #[arg(long)]
-    adjust: bool,
-    /// With --adjust: also correct positions, with this prior standard deviation (m).
-    #[arg(long, requires = "adjust")]
-    adjust_positions_m: Option<f64>,
-    /// Ground sample distance, metres; default: the finest frame's own at nadir (to the mm).
-    #[arg(long)]
-    gsd_m: Option<f64>,
-    /// Ground elevation against AbsoluteAltitude (default: height above the take-off point).
-    #[arg(long)]
-    ground_height_m: Option<f64>,
-    /// Camera file for every frame (overrides the metadata's camera).
-    #[arg(long)]
-    camera: Option<PathBuf>,
-    /// Exterior orientation of the frames: CSV `filename,x,y,z,omega,phi,kappa`.
-    #[arg(long)]
-    poses: Option<PathBuf>,
     #[command(flatten)]
-    geo: GeoArgs,
+    flight: FlightArgs,
     /// How frames meet at seamlines: feather (a cross-fade of --feather-px) or none.
     #[arg(long, default_value = "feather")]
     blend: String,
@@ -57,15 +38,7 @@ pub struct MosaicArgs {
 
 /// Everything mosaic reads and writes.
 fn mosaic_files(a: &MosaicArgs) -> Files {
-    let prj = match (&a.geo.crs, &a.poses) {
-        (None, Some(p)) => Some(p.with_extension("prj")),
-        _ => None,
-    };
-    let mut files = Files::new()
-        .input("--camera", a.camera.as_deref())
-        .input("--poses", a.poses.as_deref())
-        .input("--poses (its .prj)", prj.as_deref())
-        .input("--dem", a.geo.dem.as_deref());
+    let mut files = a.flight.inputs(Files::new());
     for input in &a.inputs {
         files = files.input("PHOTOS", Some(input));
     }
@@ -89,9 +62,7 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
         );
     }
     let t0 = std::time::Instant::now();
-    let opts = ortho_options(
-        &a.geo,
-        (a.gsd_m, a.ground_height_m, a.camera.as_deref()),
+    let opts = a.flight.options(
         RectifyLimits {
             max_output_px: a.max_output_px,
         },
@@ -100,14 +71,9 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
             nodata: 0.0,
             alpha: false,
         },
-        a.poses.as_deref(),
     )?;
-    let (frames, crs) = if a.adjust {
-        let fo = aerorect::flight::FlightOptions {
-            position_sigma_m: a.adjust_positions_m,
-            ..Default::default()
-        };
-        let flight = aerorect::flight::adjust_flight(&a.inputs, &opts, &fo)?;
+    let (frames, crs) = if a.flight.adjust {
+        let flight = aerorect::flight::adjust_flight(&a.inputs, &opts, &a.flight.flight_options())?;
         print_adjustment(&flight.report);
         (flight.mosaic_frames(&opts)?, flight.crs().clone())
     } else {
