@@ -560,10 +560,18 @@ pub fn adjust(
         match p.cost(&next) {
             Some(c) if c < cost => {
                 let gain = (cost - c) / cost.max(1e-300);
+                // The largest change of a frame or camera parameter (radians, metres, scale, px).
+                let moved = s
+                    .params
+                    .iter()
+                    .zip(&next.params)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max);
                 s = next;
                 cost = c;
                 lambda = (lambda / 3.0).max(1e-9);
-                if gain < 1e-6 {
+                // 1e-5 of the cost is 5e-6 of the RMS: nothing left to gain.
+                if gain < 1e-5 || moved < 1e-8 {
                     converged = true;
                     break;
                 }
