@@ -590,7 +590,7 @@ fn write_report(
 pub struct OverlapArgs {
     /// A georeferenced frame (GeoTIFF written by rectify or batch).
     a: PathBuf,
-    /// Another on the same grid (same EPSG and GSD).
+    /// Another on the same grid (same CRS and GSD, origins a whole number of pixels apart).
     b: PathBuf,
     /// Side of the matched tiles, pixels.
     #[arg(long, default_value_t = 256)]
