@@ -43,6 +43,15 @@ fn finite_deg(field: &'static str, v: f64, limit: f64) -> Result<f64, GeometryEr
     Ok(v.to_radians())
 }
 
+/// A body frame (x forward, y right, z down) in east-north-up, from NED Z-Y-X angles in
+/// radians (`ned_from_body = Rz(yaw) Ry(pitch) Rx(roll)`, as DJI's gimbal and flight angles).
+pub fn enu_from_body_zyx(yaw: f64, pitch: f64, roll: f64) -> Mat3 {
+    let ned_from_body = rot(Vector3::z(), yaw) * rot(Vector3::y(), pitch) * rot(Vector3::x(), roll);
+    // ENU from NED swaps north and east and flips down.
+    let enu_from_ned = Mat3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0);
+    enu_from_ned * ned_from_body
+}
+
 fn rot(axis: Vector3<f64>, angle: f64) -> Mat3 {
     Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle).into_inner()
 }
@@ -70,13 +79,9 @@ impl CameraRotation {
         let yaw = finite_deg("gimbal yaw (deg)", yaw_deg, 360.0)?;
         let pitch = finite_deg("gimbal pitch (deg)", pitch_deg, 90.0)?;
         let roll = finite_deg("gimbal roll (deg)", roll_deg, 180.0)?;
-        let ned_from_body =
-            rot(Vector3::z(), yaw) * rot(Vector3::y(), pitch) * rot(Vector3::x(), roll);
-        // ENU from NED swaps north and east and flips down.
-        let enu_from_ned = Mat3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0);
         // Camera x (right) = body y, camera y (up) = -body z, camera z (back) = -body x.
         let body_from_camera = Mat3::new(0.0, 0.0, -1.0, 1.0, 0.0, 0.0, 0.0, -1.0, 0.0);
-        Self::from_matrix(enu_from_ned * ned_from_body * body_from_camera)
+        Self::from_matrix(enu_from_body_zyx(yaw, pitch, roll) * body_from_camera)
     }
 
     /// Omega, phi, kappa in degrees: `object_from_image = Rx(omega) Ry(phi) Rz(kappa)` with

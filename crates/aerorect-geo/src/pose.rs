@@ -65,6 +65,16 @@ impl Pose {
         )
     }
 
+    /// Where a world direction from the centre meets the level `z` (world x, y); `None` for a
+    /// direction at or above the horizon. A level above the camera gives the centre.
+    pub fn level_point(&self, dir: Vec3, z: f64) -> Option<[f64; 2]> {
+        let c = self.centre;
+        (dir.z < 0.0).then(|| {
+            let t = ((z - c[2]) / dir.z).max(0.0);
+            [c[0] + t * dir.x, c[1] + t * dir.y]
+        })
+    }
+
     /// A camera-frame direction in the world frame.
     pub fn world_direction(&self, d: Vec3) -> Vec3 {
         self.world_from_camera() * d

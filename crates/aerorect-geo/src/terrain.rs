@@ -62,6 +62,15 @@ impl Dem {
         bilinear(&self.values, self.width, self.height, col, row)
     }
 
+    /// The height at (x, y) of the `world` CRS: projected into the DEM's CRS when it differs.
+    pub fn height_in(&self, world: &Projection, x: f64, y: f64) -> Option<f64> {
+        if *world == self.projection {
+            return self.height_at(x, y);
+        }
+        let p = world.transform(&self.projection, x, y).ok()?;
+        self.height_at(p[0], p[1])
+    }
+
     /// Lowest and highest valid heights.
     pub fn range(&self) -> Option<(f64, f64)> {
         let v = self
@@ -114,7 +123,6 @@ impl HeightGrid {
             )));
         }
         let origin = [bounds[0] - spacing / 2.0, bounds[3] + spacing / 2.0];
-        let same = *world == dem.projection;
         let mut values = Vec::with_capacity(width * height);
         let mut filled = 0;
         for r in 0..height {
@@ -123,12 +131,7 @@ impl HeightGrid {
                     origin[0] + c as f64 * spacing,
                     origin[1] - r as f64 * spacing,
                 );
-                let at = if same {
-                    Some([x, y])
-                } else {
-                    world.transform(&dem.projection, x, y).ok()
-                };
-                let h = at.and_then(|p| dem.height_at(p[0], p[1]));
+                let h = dem.height_in(world, x, y);
                 filled += h.is_none() as usize;
                 values.push(h.unwrap_or(fill) as f32);
             }

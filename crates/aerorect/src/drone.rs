@@ -188,14 +188,11 @@ pub fn rotation_from_metadata(meta: &PhotoMetadata, file: &str) -> Result<Camera
 fn enu_from_body(meta: &PhotoMetadata) -> Option<Mat3> {
     let d = &meta.dji;
     let (y, p, r) = (d.flight_yaw_deg?, d.flight_pitch_deg?, d.flight_roll_deg?);
-    let rot = |a: nalgebra::Unit<aerorect_core::Vec3>, deg: f64| {
-        nalgebra::Rotation3::from_axis_angle(&a, deg.to_radians()).into_inner()
-    };
-    let ned_from_body = rot(aerorect_core::Vec3::z_axis(), y)
-        * rot(aerorect_core::Vec3::y_axis(), p)
-        * rot(aerorect_core::Vec3::x_axis(), r);
-    let enu_from_ned = Mat3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0);
-    Some(enu_from_ned * ned_from_body)
+    Some(aerorect_core::orientation::enu_from_body_zyx(
+        y.to_radians(),
+        p.to_radians(),
+        r.to_radians(),
+    ))
 }
 
 /// The camera's height in the world frame and the ground under it.

@@ -260,12 +260,10 @@ fn match_pair(a: &Frame, b: &Frame, side: usize) -> Result<(Vec<Match>, usize), 
 
 /// Where a frame pixel's ray meets the level `z` (world x, y).
 fn on_level(pose: &Pose, camera: &Camera, px: [f64; 2], z: f64) -> Option<[f64; 2]> {
-    let d = pose.world_direction(camera.ray_from_pixel(px[0], px[1])?);
-    let c = pose.centre;
-    (d.z < 0.0).then(|| {
-        let t = (z - c[2]) / d.z;
-        [c[0] + t * d.x, c[1] + t * d.y]
-    })
+    pose.level_point(
+        pose.world_direction(camera.ray_from_pixel(px[0], px[1])?),
+        z,
+    )
 }
 
 /// Tie points of one pair (frame indices `i`, `j`) and its report.
@@ -348,14 +346,7 @@ fn ground_fn(opts: &DroneOptions, world: &Projection) -> Box<dyn Fn(f64, f64) ->
         let dem = std::sync::Arc::clone(dem);
         let world = world.clone();
         let mid = dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1));
-        return Box::new(move |x, y| {
-            let at = if world == dem.projection {
-                Some([x, y])
-            } else {
-                world.transform(&dem.projection, x, y).ok()
-            };
-            at.and_then(|p| dem.height_at(p[0], p[1])).unwrap_or(mid)
-        });
+        return Box::new(move |x, y| dem.height_in(&world, x, y).unwrap_or(mid));
     }
     let z = opts.ground_height_m.unwrap_or(0.0);
     Box::new(move |_, _| z)

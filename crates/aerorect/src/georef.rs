@@ -75,24 +75,8 @@ pub struct OrthoPlan {
 impl OrthoPlan {
     /// Resamples `input` onto the grid.
     pub fn run(&self, input: &AnyRaster) -> Result<AnyRaster, Error> {
-        let size = self.camera.size;
-        if input.size() != size {
-            return Err(Error::Invalid(format!(
-                "the image is {} x {} but the camera is for {} x {}",
-                input.size().width,
-                input.size().height,
-                size.width,
-                size.height
-            )));
-        }
-        let out = self.grid.size;
-        let lens = LensMap::of_camera(&self.camera, LensDirection::ObservedFromIdeal);
-        match (&self.map, lens) {
-            (OrthoMap::Flat(h), None) => warp_any(input, h, out, &self.warp),
-            (OrthoMap::Flat(h), Some(lens)) => warp_any(input, &Then(*h, lens), out, &self.warp),
-            (OrthoMap::Terrain(m), _) => warp_any(input, m.as_ref(), out, &self.warp),
-            (OrthoMap::Visible(m), _) => warp_any(input, m.as_ref(), out, &self.warp),
-        }
+        crate::check_input_size(input, self.camera.size, "camera")?;
+        self.render_window(input, 0, 0, self.grid.size)
     }
 
     /// Resamples `input` onto the window of the grid whose top-left pixel is (`col0`, `row0`)
@@ -132,12 +116,10 @@ impl OrthoPlan {
         match &self.map {
             OrthoMap::Flat(h) => {
                 let p = h.map(col, row)?;
-                let n = self.camera.intrinsics.normalized_from_pixel(p[0], p[1]);
-                let q = match &self.camera.distortion {
-                    None => n,
-                    Some(d) => d.model().observed_from_ideal(n)?,
-                };
-                Some(self.camera.intrinsics.pixel_from_normalized(q[0], q[1]))
+                match LensMap::of_camera(&self.camera, LensDirection::ObservedFromIdeal) {
+                    None => Some(p),
+                    Some(lens) => lens.source_of(p[0], p[1]),
+                }
             }
             OrthoMap::Terrain(m) => m.source_of(col, row),
             OrthoMap::Visible(m) => m.source_of(col, row),
@@ -337,13 +319,8 @@ fn bounds_of(points: impl IntoIterator<Item = [f64; 2]>) -> [f64; 4] {
 
 /// Where rays from the camera meet the level z.
 fn on_plane(pose: &Pose, rays: &[Vec3], z: f64) -> Vec<[f64; 2]> {
-    let c = pose.centre;
     rays.iter()
-        .filter(|d| d.z < 0.0)
-        .map(|d| {
-            let t = ((z - c[2]) / d.z).max(0.0);
-            [c[0] + t * d.x, c[1] + t * d.y]
-        })
+        .filter_map(|d| pose.level_point(*d, z))
         .collect()
 }
 

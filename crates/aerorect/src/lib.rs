@@ -34,6 +34,22 @@ pub use error::Error;
 use aerorect_core::ImageSize;
 use aerorect_raster::{AnyRaster, PixelMap, WarpOptions, warp};
 
+/// Refuses an image that is not the size a plan (or its camera, `of`) was made for.
+pub(crate) fn check_input_size(
+    input: &AnyRaster,
+    planned: ImageSize,
+    of: &str,
+) -> Result<(), Error> {
+    let got = input.size();
+    if got == planned {
+        return Ok(());
+    }
+    Err(Error::Invalid(format!(
+        "the image is {} x {} but the {of} is for {} x {}",
+        got.width, got.height, planned.width, planned.height
+    )))
+}
+
 /// Warps any sample type with one map (the enum is matched once, the loop is generic).
 pub fn warp_any<M: PixelMap>(
     src: &AnyRaster,

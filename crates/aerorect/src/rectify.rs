@@ -66,16 +66,7 @@ impl RectifyPlan {
 
     /// Resamples `input` onto the output grid; returns the image and the seconds the warp took.
     pub fn run(&self, input: &AnyRaster) -> Result<(AnyRaster, f64), Error> {
-        let planned = self.camera.size;
-        if input.size() != planned {
-            return Err(Error::Invalid(format!(
-                "the image is {} x {} but the plan is for {} x {}",
-                input.size().width,
-                input.size().height,
-                planned.width,
-                planned.height
-            )));
-        }
+        crate::check_input_size(input, self.camera.size, "plan")?;
         let t = Instant::now();
         let (g, size) = (
             &self.geometry.oblique_from_output,
