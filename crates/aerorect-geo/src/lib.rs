@@ -16,6 +16,6 @@ mod terrain;
 pub use crs::{Projection, convergence_deg, grid_from_enu};
 pub use error::GeoError;
 pub use occlusion::{Visible, occlusion_mask};
-pub use ortho::{GroundMap, OrthoGrid, march_to_ground};
+pub use ortho::{GroundMap, OrthoGrid, common_window, march_to_ground};
 pub use pose::{Mounting, Pose};
 pub use terrain::{Dem, HeightGrid, Sampling, Terrain};

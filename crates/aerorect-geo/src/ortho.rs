@@ -39,6 +39,17 @@ impl OrthoGrid {
     }
 }
 
+/// The pixels of A that B also covers, when B's pixel (0, 0) is A's `offset`: [c0, r0, c1, r1)
+/// in A's pixels, empty (c1 <= c0 or r1 <= r0) when they do not overlap.
+pub fn common_window(a: ImageSize, b: ImageSize, offset: [i64; 2]) -> [i64; 4] {
+    [
+        offset[0].max(0),
+        offset[1].max(0),
+        (a.width as i64).min(offset[0] + b.width as i64),
+        (a.height as i64).min(offset[1] + b.height as i64),
+    ]
+}
+
 /// Output pixel -> frame pixel through the terrain and the camera.
 #[derive(Debug, Clone)]
 pub struct GroundMap {

@@ -151,10 +151,7 @@ fn overlap(a: &Frame, b: &Frame) -> Option<([i64; 4], [i64; 2])> {
         ((gb.top_left[0] - ga.top_left[0]) / g).round() as i64,
         ((ga.top_left[1] - gb.top_left[1]) / g).round() as i64,
     ];
-    let c0 = off[0].max(0);
-    let r0 = off[1].max(0);
-    let c1 = (ga.size.width as i64).min(off[0] + gb.size.width as i64);
-    let r1 = (ga.size.height as i64).min(off[1] + gb.size.height as i64);
+    let [c0, r0, c1, r1] = aerorect_geo::common_window(ga.size, gb.size, off);
     (c1 > c0 && r1 > r0).then_some(([c0, r0, c1, r1], off))
 }
 

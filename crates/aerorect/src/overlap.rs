@@ -84,10 +84,7 @@ pub fn overlap_shift(
     let ib = crate::motion::gray(&aerorect_io::read_image(b)?)?;
     let off = grid_offset(a, b, &ga, &gb)?;
     let (sa, sb) = (ia.size(), ib.size());
-    let x0 = off[0].max(0);
-    let y0 = off[1].max(0);
-    let x1 = (sa.width as i64).min(off[0] + sb.width as i64);
-    let y1 = (sa.height as i64).min(off[1] + sb.height as i64);
+    let [x0, y0, x1, y1] = aerorect_geo::common_window(sa, sb, off);
     if x1 - x0 < patch as i64 || y1 - y0 < patch as i64 {
         return Err(Error::Invalid(
             "the frames do not overlap by one patch".into(),
