@@ -19,7 +19,8 @@ pub struct CalibrateArgs {
     /// Image size WxH, e.g. 640x480.
     #[arg(long)]
     image_size: String,
-    /// tsai, brown, improved or opencv.
+    /// tsai, brown, improved, opencv (k1, k2, p1, p2, k3: OpenCV's default), opencv-rational
+    /// (+ k4..k6), opencv-thin-prism (+ s1..s4) or opencv-rational-thin-prism.
     #[arg(long)]
     model: String,
     /// Parameters held at their start, comma-separated (fx, fy, cx, cy, skew, k1, ...).
@@ -67,8 +68,9 @@ pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
     let size = parse_size(&a.image_size)?;
     let model = Distortion::zero(&a.model).with_context(|| {
         format!(
-            "--model '{}': expected tsai, brown, improved or opencv",
-            a.model
+            "--model '{}': expected one of {}",
+            a.model,
+            Distortion::NAMES.join(", ")
         )
     })?;
     if !(a.stop_px.is_finite() && a.stop_px > 0.0) {
@@ -129,7 +131,7 @@ fn print_report(r: &CalibrationReport, n: usize) {
     for h in &r.held_fixed {
         println!("note: {h}");
     }
-    for w in &r.correlation_warnings {
+    for w in r.warnings.iter().chain(&r.correlation_warnings) {
         println!("warning: {w}");
     }
 }

@@ -5,8 +5,9 @@
 //! or intrinsics in pixels: `fx_px`, `fy_px`, optional `cx_px`, `cy_px`, `skew_px`.
 //! Optional `image_size_px = [W, H]`: the size the pixel values are for; an image resampled to
 //! another size of the same aspect ratio gets the camera scaled to it. The principal point
-//! defaults to the image centre ((W-1)/2, (H-1)/2). Optional `[distortion]` table: `model` (tsai, brown, improved, opencv)
-//! and the coefficients by name (missing ones are zero). Unknown keys are an error.
+//! defaults to the image centre ((W-1)/2, (H-1)/2). Optional `[distortion]` table: `model`
+//! (tsai, brown, improved, opencv, opencv-rational, opencv-thin-prism,
+//! opencv-rational-thin-prism) and the coefficients by name (missing ones are zero). Unknown keys are an error.
 
 use crate::error::IoError;
 use aerorect_core::{Camera, GeometryError, ImageSize, Intrinsics};
@@ -25,7 +26,7 @@ pub struct CameraFile {
     pub cx_px: Option<f64>,
     pub cy_px: Option<f64>,
     pub skew_px: Option<f64>,
-    /// `[distortion]` with `model = "tsai" | "brown" | "improved" | "opencv"` and named coefficients.
+    /// `[distortion]` with `model` one of `Distortion::NAMES` and named coefficients.
     pub distortion: Option<aerorect_core::distortion::Distortion>,
     /// Where the file came from, for messages.
     #[serde(skip)]
@@ -192,10 +193,8 @@ mod tests {
         let c = parse("fx_px = 800.0\nfy_px = 800.0\n[distortion]\nmodel = \"opencv\"\nk1 = -0.25\np2 = 0.001\n").expect("ok");
         let d = c.distortion.expect("present");
         assert_eq!(d.kind(), "opencv");
-        assert_eq!(
-            d.model().params(),
-            vec![-0.25, 0.0, 0.0, 0.001, 0.0, 0.0, 0.0, 0.0]
-        );
+        // `opencv` is OpenCV's default five coefficients (k1, k2, p1, p2, k3).
+        assert_eq!(d.model().params(), vec![-0.25, 0.0, 0.0, 0.001, 0.0]);
         let e = parse("fx_px = 800.0\nfy_px = 800.0\n[distortion]\nmodel = \"tsai\"\np1 = 0.1\n")
             .unwrap_err()
             .to_string();

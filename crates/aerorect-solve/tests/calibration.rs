@@ -135,3 +135,56 @@ fn degenerate_inputs_are_refused() {
         CalibrationError::UnknownParameter("k9".into())
     );
 }
+
+/// `opencv` is OpenCV's default five coefficients (issue 14): on OpenCV's chessboard it gives
+/// OpenCV's k (-0.265090, -0.046744, 0.001833, -0.000315, 0.252316) with standard deviations
+/// far below the values' scale, and no warning that a term went undetermined.
+#[test]
+fn opencv_is_opencvs_default_five_coefficients() {
+    let opts = CalibrationOptions::new(
+        Distortion::zero("opencv").unwrap(),
+        ImageSize::new(640, 480),
+    );
+    let r = calibrate(&opencv_corners(), &opts).unwrap();
+    let k = r.distortion.model().params();
+    let want = [-0.265090, -0.046744, 0.001833, -0.000315, 0.252316];
+    assert_eq!(k.len(), 5);
+    for (i, (got, want)) in k.iter().zip(want).enumerate() {
+        // k2 and k3 trade off along a ridge (correlation -0.98): compare them loosely.
+        let tol = [0.002, 0.01, 1e-4, 1e-4, 0.02][i];
+        assert!((got - want).abs() < tol, "k[{i}] {got} vs OpenCV {want}");
+    }
+    assert!((r.rms_px - 0.40869).abs() < 1e-4, "RMS {}", r.rms_px);
+    for p in &r.parameters[5..] {
+        let std = p.std.unwrap();
+        assert!(std < 0.25, "{} std {std}", p.name);
+    }
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+}
+
+/// The rational terms cannot be told from k1..k3 on this single plane (k1 and k4 correlate
+/// +1.000): `opencv-rational` holds them at zero with a warning, and the rest equals `opencv`.
+#[test]
+fn opencv_rational_on_one_plane_holds_the_rational_terms_with_a_warning() {
+    let size = ImageSize::new(640, 480);
+    let five = calibrate(
+        &opencv_corners(),
+        &CalibrationOptions::new(Distortion::zero("opencv").unwrap(), size),
+    )
+    .unwrap();
+    let opts = CalibrationOptions::new(Distortion::zero("opencv-rational").unwrap(), size);
+    let r = calibrate(&opencv_corners(), &opts).unwrap();
+    assert_eq!(r.warnings.len(), 1, "{:?}", r.warnings);
+    assert!(
+        r.warnings[0].contains("k4, k5, k6") && r.warnings[0].contains("k4"),
+        "{}",
+        r.warnings[0]
+    );
+    let k = r.distortion.model().params();
+    assert_eq!(k.len(), 8);
+    assert_eq!(&k[5..], &[0.0, 0.0, 0.0]);
+    for (a, b) in k.iter().zip(five.distortion.model().params()) {
+        assert!((a - b).abs() < 1e-9, "{k:?}");
+    }
+    assert!((r.fx - five.fx).abs() < 1e-6);
+}

@@ -19,7 +19,18 @@ fn models() -> Vec<Distortion> {
     i.set_params(&[-0.18, 0.03, 1.5e-3, -8e-4, 2e-3, -1e-3]);
     out.push(Distortion::Improved(i));
     let mut o = OpenCv::default();
+    o.set_params(&[-0.265, -0.0467, 0.0018, -0.0003, 0.252]);
+    out.push(Distortion::OpenCv(o));
+    let mut o = OpenCv::with_terms(OpenCvTerms::Rational);
     o.set_params(&[-0.265, -0.0467, 0.0018, -0.0003, 0.252, 0.01, -0.02, 0.005]);
+    out.push(Distortion::OpenCv(o));
+    let mut o = OpenCv::with_terms(OpenCvTerms::ThinPrism);
+    o.set_params(&[-0.2, 0.04, 1e-3, -5e-4, 0.01, 2e-3, -1e-3, -1.5e-3, 5e-4]);
+    out.push(Distortion::OpenCv(o));
+    let mut o = OpenCv::with_terms(OpenCvTerms::RationalThinPrism);
+    o.set_params(&[
+        -0.2, 0.04, 1e-3, -5e-4, 0.01, 0.02, -0.01, 0.003, 2e-3, -1e-3, -1.5e-3, 5e-4,
+    ]);
     out.push(Distortion::OpenCv(o));
     out
 }
@@ -141,7 +152,7 @@ fn fast_paths_equal_the_closed_form() {
 
 #[test]
 fn zero_models_are_the_identity() {
-    for kind in ["tsai", "brown", "improved", "opencv"] {
+    for kind in Distortion::NAMES {
         let d = Distortion::zero(kind).expect("known");
         let p = [0.3, -0.2];
         assert_eq!(d.model().ideal_from_observed(p), Some(p));
@@ -157,4 +168,53 @@ fn a_non_invertible_point_gives_none() {
         ..Default::default()
     };
     assert!(o.ideal_from_observed([0.7, 0.0]).is_none());
+}
+
+#[test]
+fn each_opencv_variant_has_opencvs_coefficients_in_opencvs_order() {
+    let names = |kind: &str| {
+        Distortion::zero(kind)
+            .expect("known")
+            .model()
+            .names()
+            .to_vec()
+    };
+    assert_eq!(names("opencv"), ["k1", "k2", "p1", "p2", "k3"]);
+    assert_eq!(
+        names("opencv-rational"),
+        ["k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"]
+    );
+    assert_eq!(
+        names("opencv-thin-prism"),
+        ["k1", "k2", "p1", "p2", "k3", "s1", "s2", "s3", "s4"]
+    );
+    assert_eq!(names("opencv-rational-thin-prism").len(), 12);
+    // The thin prism adds s1 r^2 + s2 r^4 to x and s3 r^2 + s4 r^4 to y (OpenCV's
+    // cvProjectPoints2): at (0.3, 0.4), r^2 = 0.25.
+    let mut o = OpenCv::with_terms(OpenCvTerms::ThinPrism);
+    (o.s1, o.s2, o.s3, o.s4) = (0.1, 0.2, 0.3, 0.4);
+    let v = o.value([0.3, 0.4]);
+    assert!(
+        (v[0] - (0.3 + 0.1 * 0.25 + 0.2 * 0.0625)).abs() < 1e-15,
+        "{v:?}"
+    );
+    assert!(
+        (v[1] - (0.4 + 0.3 * 0.25 + 0.4 * 0.0625)).abs() < 1e-15,
+        "{v:?}"
+    );
+}
+
+#[test]
+fn an_older_opencv_file_with_rational_terms_loads_as_the_rational_model() {
+    let d: Distortion =
+        toml::from_str("model = \"opencv\"\nk1 = -0.2\nk4 = 0.01\nk6 = 0.003\n").expect("parses");
+    assert_eq!(d.kind(), "opencv-rational");
+    let Distortion::OpenCv(o) = &d else {
+        panic!("{d:?}")
+    };
+    assert_eq!((o.k1, o.k4, o.k5, o.k6), (-0.2, 0.01, 0.0, 0.003));
+    assert_eq!(d.model().params().len(), 8);
+    // The default model writes only its five coefficients.
+    let text = toml::to_string(&Distortion::zero("opencv").expect("known")).expect("writes");
+    assert!(!text.contains("k4") && !text.contains("s1"), "{text}");
 }

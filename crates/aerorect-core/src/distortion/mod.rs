@@ -16,7 +16,7 @@
 mod opencv;
 mod paper;
 
-pub use opencv::OpenCv;
+pub use opencv::{OpenCv, OpenCvTerms};
 pub use paper::{Brown, Improved, Tsai};
 
 use serde::{Deserialize, Serialize};
@@ -107,26 +107,109 @@ fn newton_inverse<M: DistortionModel + ?Sized>(m: &M, target: [f64; 2]) -> Optio
 }
 
 /// Any of the models, as stored in camera files (`[distortion]` with `model` and named coefficients).
+/// OpenCV's variants share one struct; the file's `model` names its terms (`opencv`,
+/// `opencv-rational`, `opencv-thin-prism`, `opencv-rational-thin-prism`), and a file naming fewer
+/// terms than its non-zero coefficients need (an older `model = "opencv"` with k4..k6) loads as
+/// the variant that has them.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "model", rename_all = "lowercase", deny_unknown_fields)]
+#[serde(from = "DistortionFile", into = "DistortionFile")]
 pub enum Distortion {
+    Tsai(Tsai),
+    Brown(Brown),
+    Improved(Improved),
+    OpenCv(OpenCv),
+}
+
+/// The file form of [`Distortion`]: one tag per model name.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "model", rename_all = "lowercase", deny_unknown_fields)]
+enum DistortionFile {
     Tsai(Tsai),
     Brown(Brown),
     Improved(Improved),
     #[serde(rename = "opencv")]
     OpenCv(OpenCv),
+    #[serde(rename = "opencv-rational")]
+    OpenCvRational(OpenCv),
+    #[serde(rename = "opencv-thin-prism")]
+    OpenCvThinPrism(OpenCv),
+    #[serde(rename = "opencv-rational-thin-prism")]
+    OpenCvRationalThinPrism(OpenCv),
+}
+
+impl From<DistortionFile> for Distortion {
+    fn from(f: DistortionFile) -> Self {
+        let opencv = |mut m: OpenCv, terms: OpenCvTerms| {
+            m.terms = terms;
+            m.terms = m.effective_terms();
+            Distortion::OpenCv(m)
+        };
+        match f {
+            DistortionFile::Tsai(m) => Distortion::Tsai(m),
+            DistortionFile::Brown(m) => Distortion::Brown(m),
+            DistortionFile::Improved(m) => Distortion::Improved(m),
+            DistortionFile::OpenCv(m) => opencv(m, OpenCvTerms::Standard),
+            DistortionFile::OpenCvRational(m) => opencv(m, OpenCvTerms::Rational),
+            DistortionFile::OpenCvThinPrism(m) => opencv(m, OpenCvTerms::ThinPrism),
+            DistortionFile::OpenCvRationalThinPrism(m) => opencv(m, OpenCvTerms::RationalThinPrism),
+        }
+    }
+}
+
+impl From<Distortion> for DistortionFile {
+    fn from(d: Distortion) -> Self {
+        match d {
+            Distortion::Tsai(m) => DistortionFile::Tsai(m),
+            Distortion::Brown(m) => DistortionFile::Brown(m),
+            Distortion::Improved(m) => DistortionFile::Improved(m),
+            Distortion::OpenCv(m) => match m.effective_terms() {
+                OpenCvTerms::Standard => DistortionFile::OpenCv(m),
+                OpenCvTerms::Rational => DistortionFile::OpenCvRational(m),
+                OpenCvTerms::ThinPrism => DistortionFile::OpenCvThinPrism(m),
+                OpenCvTerms::RationalThinPrism => DistortionFile::OpenCvRationalThinPrism(m),
+            },
+        }
+    }
 }
 
 impl Distortion {
-    /// A zero model of the named kind (tsai, brown, improved, opencv).
+    /// The model names `zero` knows, in the order help texts list them.
+    pub const NAMES: [&'static str; 7] = [
+        "tsai",
+        "brown",
+        "improved",
+        "opencv",
+        "opencv-rational",
+        "opencv-thin-prism",
+        "opencv-rational-thin-prism",
+    ];
+
+    /// A zero model of the named kind (one of [`Distortion::NAMES`]).
     pub fn zero(kind: &str) -> Option<Self> {
         Some(match kind {
             "tsai" => Distortion::Tsai(Tsai::default()),
             "brown" => Distortion::Brown(Brown::default()),
             "improved" => Distortion::Improved(Improved::default()),
-            "opencv" => Distortion::OpenCv(OpenCv::default()),
-            _ => return None,
+            _ => Distortion::OpenCv(OpenCv::with_terms(OpenCvTerms::from_name(kind)?)),
         })
+    }
+
+    /// Every coefficient name the model's family knows (OpenCV's twelve for each of its
+    /// variants; a model's own `names()` otherwise).
+    pub fn all_coefficient_names(&self) -> &'static [&'static str] {
+        match self {
+            Distortion::OpenCv(_) => OpenCvTerms::RationalThinPrism.names(),
+            _ => self.model().names(),
+        }
+    }
+
+    /// Groups of coefficients a calibration may hold at zero when the data cannot determine
+    /// them (OpenCV's rational and thin-prism terms), each with its name.
+    pub fn optional_groups(&self) -> Vec<(&'static str, &'static [&'static str])> {
+        match self {
+            Distortion::OpenCv(m) => m.effective_terms().optional_groups(),
+            _ => vec![],
+        }
     }
 
     pub fn model(&self) -> &dyn DistortionModel {
@@ -173,7 +256,7 @@ impl Distortion {
             Distortion::Tsai(_) => "tsai",
             Distortion::Brown(_) => "brown",
             Distortion::Improved(_) => "improved",
-            Distortion::OpenCv(_) => "opencv",
+            Distortion::OpenCv(m) => m.effective_terms().name(),
         }
     }
 }

@@ -7,12 +7,14 @@
 //! at X_c = R(w) X + t with w a rotation vector. Pixels: u = fx x + skew y + cx, v = fy y + cy
 //! on the distorted normalised point (x, y).
 
+mod identify;
 mod init;
 mod lm;
 mod problem;
 
+pub use identify::calibrate;
 pub use problem::{
-    CalibrationOptions, CalibrationReport, Observation, ParameterValue, ViewReport, calibrate,
+    CalibrationOptions, CalibrationReport, Correlation, Observation, ParameterValue, ViewReport,
 };
 
 use aerorect_core::ImageSize;

@@ -64,6 +64,14 @@ pub struct ViewReport {
     pub translation: [f64; 3],
 }
 
+/// The correlation of two estimated parameters.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Correlation {
+    pub a: String,
+    pub b: String,
+    pub rho: f64,
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct CalibrationReport {
     pub fx: f64,
@@ -75,6 +83,10 @@ pub struct CalibrationReport {
     /// Intrinsics and coefficients with their standard deviations.
     pub parameters: Vec<ParameterValue>,
     pub correlation_warnings: Vec<String>,
+    /// Pairs of free intrinsics or coefficients whose correlation exceeds 0.95 in magnitude.
+    pub correlations: Vec<Correlation>,
+    /// Terms held at zero because the data could not determine them, and other warnings.
+    pub warnings: Vec<String>,
     /// Per observation (input order), pixels. For the OpenCV model: predicted minus measured in
     /// the observed image; for the paper's models: projection minus corrected measurement.
     pub residuals: Vec<[f64; 2]>,
@@ -384,8 +396,8 @@ fn start(
     }
 }
 
-/// Calibrates a camera from control points (see the module documentation).
-pub fn calibrate(
+/// One adjustment with the options as given (`calibrate` adds the identifiability check).
+pub(crate) fn calibrate_once(
     obs: &[Observation],
     opts: &CalibrationOptions,
 ) -> Result<CalibrationReport, CalibrationError> {
@@ -420,7 +432,10 @@ pub fn calibrate(
         full0.extend(p.w.iter().chain(p.t.iter()));
     }
     for f in &opts.fix {
-        if !INTRINSICS.contains(&f.as_str()) && !names.contains(&f.as_str()) {
+        // OpenCV's twelve names are accepted for any of its variants (`--fix k4,k5,k6` on the
+        // five-term model holds terms it does not have).
+        let known = opts.model.all_coefficient_names();
+        if !INTRINSICS.contains(&f.as_str()) && !known.contains(&f.as_str()) {
             return Err(CalibrationError::UnknownParameter(f.clone()));
         }
     }
@@ -494,7 +509,7 @@ fn report(
             std,
         });
     }
-    let mut correlation_warnings = vec![];
+    let mut correlations = vec![];
     let gfree: Vec<(usize, usize)> = p
         .free
         .iter()
@@ -506,10 +521,11 @@ fn report(
         for &(kb, gb) in &gfree[a + 1..] {
             let rho = cov[(ka, kb)] / (cov[(ka, ka)] * cov[(kb, kb)]).sqrt();
             if rho.abs() > 0.95 {
-                correlation_warnings.push(format!(
-                    "{} and {} are strongly correlated ({rho:+.3})",
-                    global[ga], global[gb]
-                ));
+                correlations.push(Correlation {
+                    a: global[ga].to_string(),
+                    b: global[gb].to_string(),
+                    rho,
+                });
             }
         }
     }
@@ -550,7 +566,17 @@ fn report(
         skew: x[4],
         distortion,
         parameters,
-        correlation_warnings,
+        correlation_warnings: correlations
+            .iter()
+            .map(|c| {
+                format!(
+                    "{} and {} are strongly correlated ({:+.3})",
+                    c.a, c.b, c.rho
+                )
+            })
+            .collect(),
+        correlations,
+        warnings: vec![],
         residuals,
         views,
         rms_px: (ssr / n as f64).sqrt(),
