@@ -623,6 +623,21 @@ pub fn rectify_photo_staged(
     staged: &mut aerorect_io::StagedOutputs,
 ) -> Result<PhotoResult, Error> {
     let t = std::time::Instant::now();
+    let (out, mut r) = ortho_photo(input, opts, thumbnail_side)?;
+    stage_output(staged, output, &out, &r.info.geo, opts.cog.as_ref())?;
+    r.output = output.display().to_string();
+    r.seconds = t.elapsed().as_secs_f64();
+    Ok(r)
+}
+
+/// The ortho [`rectify_photo`] writes, in memory: the image (bands on the output grid) and
+/// what was found (`info.geo` is its georeference; `output` is empty). Nothing is written.
+pub fn ortho_photo(
+    input: &std::path::Path,
+    opts: &DroneOptions,
+    thumbnail_side: Option<u32>,
+) -> Result<(aerorect_raster::AnyRaster, PhotoResult), Error> {
+    let t = std::time::Instant::now();
     let file = input.display().to_string();
     let meta = aerorect_io::read_photo_metadata(input)?;
     let image = aerorect_io::read_image(input)?;
@@ -639,7 +654,6 @@ pub fn rectify_photo_staged(
         None => plan_from_metadata(&meta, size, opts, &file)?,
     };
     let out = plan.run(&image)?;
-    stage_output(staged, output, &out, &info.geo, opts.cog.as_ref())?;
     let thumbnails = match thumbnail_side {
         Some(s) => {
             let err = |e: String| Error::Invalid(format!("{file}: thumbnail: {e}"));
@@ -650,16 +664,17 @@ pub fn rectify_photo_staged(
         }
         None => None,
     };
-    Ok(PhotoResult {
+    let r = PhotoResult {
         input: file,
-        output: output.display().to_string(),
+        output: String::new(),
         input_size: [size.width, size.height],
         output_size: [plan.grid.size.width, plan.grid.size.height],
         footprint_en: plan.footprint.clone(),
         info,
         seconds: t.elapsed().as_secs_f64(),
         thumbnails,
-    })
+    };
+    Ok((out, r))
 }
 
 pub use crate::overlap::{OverlapShift, overlap_shift};
