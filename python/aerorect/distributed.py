@@ -1,0 +1,243 @@
+"""Whole flights on a Dask cluster: the files ``aerorect batch`` writes, one task per frame.
+
+    from dask.distributed import Client
+    from aerorect.distributed import rectify_flight
+    client = Client("tcp://scheduler:8786")      # or LocalCluster(), dask-jobqueue, dask-kubernetes
+    written = rectify_flight(photos, "s3://bucket/flight/ortho", gsd_m=0.05, client=client)
+
+Each frame is one task (read the photo, plan its ortho from its metadata, warp, write
+``OUT_DIR/STEM.tif``): the same names, pixels and georeferencing as ``aerorect batch PHOTOS
+--out-dir OUT_DIR``. With ``adjust=True`` the flight's matching and joint adjustment need every
+frame at once: they run as one task on one worker, which then writes every frame with its
+adjusted orientation, ``adjustment.json`` and ``adjusted_poses.csv`` (+ ``.prj``) together
+(``batch --adjust``).
+
+Paths may be fsspec URLs (``s3://``, ``gs://``, ``abfs://``...; ``fsspec`` and the protocol's
+package installed on the workers): a worker copies the photo (and the DEM, camera file or pose
+table) to a local scratch folder, rectifies there and uploads the outputs.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, List, Optional, Sequence, Tuple
+
+from . import AerorectError, _aerorect, _opts
+
+__all__ = ["rectify_flight", "output_paths"]
+
+# Options that name files a worker must be able to read.
+_FILE_OPTIONS = ("dem", "camera", "poses")
+
+
+def _is_url(p: str) -> bool:
+    return "://" in p and not p.startswith("file://")
+
+
+def _join(base: str, name: str) -> str:
+    return base.rstrip("/") + "/" + name if _is_url(base) else os.path.join(base, name)
+
+
+def _stem(p: str) -> str:
+    name = p.rstrip("/").rsplit("/", 1)[-1]
+    name = os.path.basename(name)
+    dot = name.rfind(".")
+    return name[:dot] if dot > 0 else name
+
+
+def _with_extension(name: str, ext: str) -> str:
+    """Rust's Path::with_extension on a file name (batch names its outputs so)."""
+    dot = name.rfind(".")
+    return (name[:dot] if dot > 0 else name) + "." + ext
+
+
+def output_paths(paths: Sequence[str], out_dir: str, format: str = "tif") -> List[str]:
+    """Where ``aerorect batch`` writes each photo: ``OUT_DIR/STEM.FORMAT``; two photos that
+    would share an output are refused (as batch refuses them)."""
+    outs = [_join(out_dir, _with_extension(_stem(os.fspath(p)), format)) for p in paths]
+    first: dict = {}
+    for p, o in zip(paths, outs):
+        key = o if _is_url(o) else os.path.abspath(o)
+        if key in first:
+            raise AerorectError(
+                f"{first[key]} and {p} would both be written to {o}: rename one, or rectify "
+                "them in separate runs; nothing written"
+            )
+        first[key] = p
+    return outs
+
+
+def _sidecars(path: str) -> List[str]:
+    """An output and its sidecars (PNG: world file, .prj, .aux.xml)."""
+    if path.lower().endswith(".png"):
+        base = path[: -len(".png")]
+        return [path, base + ".pgw", base + ".prj", path + ".aux.xml"]
+    return [path]
+
+
+class _Local:
+    """Local copies of URL inputs and a scratch folder for URL outputs (one per task)."""
+
+    def __init__(self) -> None:
+        self.dir: Optional[str] = None
+
+    def scratch(self) -> str:
+        if self.dir is None:
+            self.dir = tempfile.mkdtemp(prefix="aerorect-")
+        return self.dir
+
+    def input(self, p: str) -> str:
+        if not _is_url(p):
+            return p
+        import fsspec
+
+        local = os.path.join(self.scratch(), "in", os.path.basename(p.rstrip("/")))
+        os.makedirs(os.path.dirname(local), exist_ok=True)
+        fs, path = fsspec.core.url_to_fs(p)
+        fs.get(path, local)
+        prj = path.rsplit(".", 1)[0] + ".prj"
+        if fs.exists(prj):  # a pose table's CRS
+            fs.get(prj, local.rsplit(".", 1)[0] + ".prj")
+        return local
+
+    def output(self, p: str) -> str:
+        if not _is_url(p):
+            return p
+        return os.path.join(self.scratch(), "out", os.path.basename(p.rstrip("/")))
+
+    def upload(self, local: str, url: str) -> None:
+        if not _is_url(url):
+            return
+        import fsspec
+
+        fs, path = fsspec.core.url_to_fs(url)
+        for lf, rf in zip(_sidecars(local), _sidecars(path)):
+            if os.path.exists(lf):
+                fs.put(lf, rf)
+
+    def close(self) -> None:
+        if self.dir is not None:
+            shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def _local_options(opts: dict, local: _Local) -> dict:
+    return {k: (local.input(v) if k in _FILE_OPTIONS else v) for k, v in opts.items()}
+
+
+def _exists(p: str) -> bool:
+    if _is_url(p):
+        import fsspec
+
+        fs, path = fsspec.core.url_to_fs(p)
+        return fs.exists(path)
+    return os.path.exists(p)
+
+
+def _rectify_one(photo: str, out: str, opts: dict) -> Tuple[str, Optional[str]]:
+    """One frame (a task): `(out, None)` when written, `(photo, message)` when it failed."""
+    local = _Local()
+    try:
+        o = _local_options(opts, local)
+        lout = local.output(out)
+        if _is_url(out):
+            os.makedirs(os.path.dirname(lout), exist_ok=True)
+        # The pose table is matched by the photo's file name: keep it.
+        _aerorect.rectify_photo_to_file(local.input(photo), lout, o)
+        local.upload(lout, out)
+        return out, None
+    except AerorectError as e:
+        return photo, str(e)
+    finally:
+        local.close()
+
+
+# What `batch --adjust` writes beside the frames.
+ADJUSTMENT_FILES = ("adjustment.json", "adjusted_poses.csv", "adjusted_poses.prj")
+
+
+def _adjusted(photos: List[str], outs: List[str], out_dir: str, opts: dict) -> dict:
+    """The whole adjusted flight (a task on one worker)."""
+    local = _Local()
+    try:
+        o = _local_options(opts, local)
+        lphotos = [local.input(p) for p in photos]
+        louts = [local.output(p) for p in outs]
+        ldir = os.path.join(local.scratch(), "out") if _is_url(out_dir) else out_dir
+        os.makedirs(ldir, exist_ok=True)
+        r = _aerorect.write_adjusted_batch(lphotos, louts, ldir, o)
+        extra = [os.path.join(ldir, f) for f in ADJUSTMENT_FILES]
+        urls = [_join(out_dir, f) for f in ADJUSTMENT_FILES]
+        for lf, url in zip(louts + extra, outs + urls):
+            local.upload(lf, url)
+        return r
+    finally:
+        local.close()
+
+
+def rectify_flight(
+    paths: Sequence[Any],
+    out_dir: Any,
+    gsd_m: Optional[float] = None,
+    dem: Optional[Any] = None,
+    adjust: bool = False,
+    client: Any = None,
+    *,
+    format: str = "tif",
+    force: bool = False,
+    jobs: int = 2,
+    **kwargs: Any,
+) -> List[str]:
+    """Rectify a flight as ``aerorect batch PATHS --out-dir OUT_DIR`` does, on a Dask client.
+
+    One task per frame writes ``OUT_DIR/STEM.tif`` (``format="png"``: PNG + world file);
+    outputs that exist are skipped unless ``force``; frames that fail are listed in the
+    :class:`AerorectError` raised at the end, after every other frame is written. With
+    ``adjust=True`` the matching, the adjustment and the writing of every frame (with
+    ``adjustment.json``, ``adjusted_poses.csv``) run as one task on one worker, and land together or not at all.
+    Without a client the frames run here, ``jobs`` at a time (threads: the GIL is released).
+    Keyword arguments as :func:`aerorect.rectify_photo` (``crs``, ``camera``, ``poses``,
+    ``ground_height_m``, ``interp``, ``nodata``, ``cog``, ``adjust_positions_m``...).
+
+    Returns the paths written (with ``adjust``: the frames, then ``adjustment.json``,
+    ``adjusted_poses.csv`` and its ``.prj``).
+    """
+    if format not in ("tif", "png"):
+        raise AerorectError(f"--format '{format}': expected tif or png")
+    if kwargs.get("cog") and format != "tif":
+        raise AerorectError(
+            f"--cog writes cloud-optimised GeoTIFFs: it needs --format tif, not '{format}'"
+        )
+    if jobs < 1:
+        raise AerorectError(f"--jobs {jobs}: at least one frame must be in flight")
+    photos = [os.fspath(p) for p in paths]
+    out_dir = os.fspath(out_dir)
+    outs = output_paths(photos, out_dir, format)
+    opts = _opts(gsd_m=gsd_m, dem=dem, **kwargs)
+    opts.pop("alpha", None)  # batch writes no alpha band
+    if not _is_url(out_dir):
+        os.makedirs(out_dir, exist_ok=True)
+    if adjust:
+        if client is None:
+            _adjusted(photos, outs, out_dir, opts)
+        else:
+            client.submit(_adjusted, photos, outs, out_dir, opts, pure=False).result()
+        return outs + [_join(out_dir, f) for f in ADJUSTMENT_FILES]
+    todo = [(p, o) for p, o in zip(photos, outs) if force or not _exists(o)]
+    if client is None:
+        with ThreadPoolExecutor(max_workers=jobs) as pool:
+            results = list(pool.map(lambda po: _rectify_one(po[0], po[1], opts), todo))
+    else:
+        futures = [
+            client.submit(_rectify_one, p, o, opts, pure=False) for p, o in todo
+        ]
+        results = client.gather(futures)
+    failed = [(p, why) for p, why in results if why is not None]
+    if failed:
+        lines = "\n".join(f"failed: {p}: {why}" for p, why in failed)
+        raise AerorectError(
+            f"{len(failed)} of {len(photos)} frames failed (listed below)\n{lines}"
+        )
+    return outs

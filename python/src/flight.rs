@@ -1,0 +1,229 @@
+//! A flight: the joint adjustment (`batch --adjust`) and the mosaic.
+
+use crate::options::PhotoArgs;
+use crate::{py_err, to_py};
+use aerorect::drone::DroneOptions;
+use aerorect::io::StagedOutputs;
+use aerorect::mosaic::{Blend, MosaicOptions, frames_from_photos, mosaic as build, mosaic_cog};
+use anyhow::{Result, bail};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::{Path, PathBuf};
+
+/// A flight made consistent from its overlaps: each frame's adjusted pose and camera.
+#[pyclass(module = "aerorect")]
+pub struct AdjustedFlight {
+    flight: aerorect::flight::AdjustedFlight,
+    opts: DroneOptions,
+}
+
+/// Plans, matches and adjusts a flight as `batch --adjust` does.
+#[pyfunction]
+#[pyo3(signature = (paths, opts=None))]
+pub fn adjust_flight(
+    py: Python<'_>,
+    paths: Vec<PathBuf>,
+    opts: Option<&Bound<'_, PyDict>>,
+) -> PyResult<AdjustedFlight> {
+    let args = PhotoArgs::from_dict(opts)?;
+    py.detach(|| -> Result<_> {
+        let o = args.options(None)?;
+        let flight = aerorect::flight::adjust_flight(&paths, &o, &args.flight_options()?)?;
+        Ok(AdjustedFlight { flight, opts: o })
+    })
+    .map_err(py_err)
+}
+
+#[pymethods]
+impl AdjustedFlight {
+    /// The matching and adjustment report (`adjustment.json`).
+    #[getter]
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.flight.report)
+    }
+
+    fn __len__(&self) -> usize {
+        self.flight.len()
+    }
+
+    /// Writes frame `k` with its adjusted orientation to `out` (as `batch --adjust` does);
+    /// returns its report.
+    fn write_frame<'py>(
+        &self,
+        py: Python<'py>,
+        k: usize,
+        out: PathBuf,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        if k >= self.flight.len() {
+            return Err(py_err(anyhow::anyhow!(
+                "frame {k}: the flight has {} frames",
+                self.flight.len()
+            )));
+        }
+        let r = py
+            .detach(|| self.flight.write_frame(k, &out, &self.opts))
+            .map_err(py_err)?;
+        to_py(py, &r)
+    }
+
+    /// The mosaic of the adjusted frames (`mosaic --adjust`); returns its report.
+    #[pyo3(signature = (out, blend="feather", feather_px=16, cog=false))]
+    fn mosaic<'py>(
+        &self,
+        py: Python<'py>,
+        out: PathBuf,
+        blend: &str,
+        feather_px: usize,
+        cog: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let mopts = mosaic_options(blend, feather_px, &out).map_err(py_err)?;
+        let r = py
+            .detach(|| -> Result<_> {
+                let frames = self.flight.mosaic_frames(&self.opts)?;
+                write_mosaic(frames, self.flight.crs().clone(), &out, &mopts, cog)
+            })
+            .map_err(py_err)?;
+        to_py(py, &r)
+    }
+}
+
+/// The files `batch --adjust` writes beside the frames in `out_dir`: the report, the adjusted
+/// poses (as `--poses` reads them) and their CRS.
+pub const ADJUSTMENT_FILES: [&str; 3] = [
+    "adjustment.json",
+    "adjusted_poses.csv",
+    "adjusted_poses.prj",
+];
+
+/// The adjusted poses as `--poses` (and Orthority) read them: `batch --adjust`'s
+/// adjusted_poses.csv.
+fn poses_csv(r: &aerorect::flight::FlightReport) -> String {
+    let mut out = String::from("filename,x,y,z,omega,phi,kappa\n");
+    for p in &r.poses {
+        out += &format!(
+            "{},{:.4},{:.4},{:.4},{:.8},{:.8},{:.8}\n",
+            p.frame, p.x, p.y, p.z, p.omega, p.phi, p.kappa
+        );
+    }
+    out
+}
+
+/// `batch --adjust` without the printing: the flight adjusted, every frame written with its
+/// adjusted orientation to `out_paths` and [`ADJUSTMENT_FILES`] to `out_dir`, all landing
+/// together (none when a frame fails). Returns the adjustment report.
+#[pyfunction]
+#[pyo3(signature = (paths, out_paths, out_dir, opts=None))]
+pub fn write_adjusted_batch<'py>(
+    py: Python<'py>,
+    paths: Vec<PathBuf>,
+    out_paths: Vec<PathBuf>,
+    out_dir: PathBuf,
+    opts: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let args = PhotoArgs::from_dict(opts)?;
+    if paths.len() != out_paths.len() {
+        return Err(py_err(anyhow::anyhow!(
+            "{} photos but {} outputs",
+            paths.len(),
+            out_paths.len()
+        )));
+    }
+    let report = py
+        .detach(|| -> Result<_> {
+            let o = args.options(None)?;
+            let flight = aerorect::flight::adjust_flight(&paths, &o, &args.flight_options()?)?;
+            let json = serde_json::to_string_pretty(&flight.report)?;
+            let mut staged = StagedOutputs::new();
+            let mut failed = vec![];
+            for (k, out) in out_paths.iter().enumerate() {
+                if let Err(e) = flight.write_frame_staged(k, out, &o, &mut staged) {
+                    failed.push(format!("{}: {e:#}", paths[k].display()));
+                }
+            }
+            if !failed.is_empty() {
+                bail!(
+                    "{} of {} frames failed ({}); nothing written: the adjusted frames and adjustment.json land together",
+                    failed.len(),
+                    paths.len(),
+                    failed.join("; ")
+                );
+            }
+            let [report, poses, prj] = ADJUSTMENT_FILES.map(|f| out_dir.join(f));
+            staged.text(&report, &json)?;
+            staged.text(&poses, &poses_csv(&flight.report))?;
+            staged.text(&prj, &flight.crs().to_wkt()?)?;
+            staged.commit()?;
+            Ok(flight.report)
+        })
+        .map_err(py_err)?;
+    to_py(py, &report)
+}
+
+fn mosaic_options(blend: &str, feather_px: usize, out: &Path) -> Result<MosaicOptions> {
+    let blend: Blend = blend.parse().map_err(anyhow::Error::msg)?;
+    let m = MosaicOptions {
+        blend,
+        feather_px,
+        ..MosaicOptions::default()
+    };
+    m.validate()?;
+    let ext = out.extension().and_then(|e| e.to_str());
+    if !ext.is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff")) {
+        bail!(
+            "--out {}: the mosaic is a GeoTIFF: give a .tif or .tiff name",
+            out.display()
+        );
+    }
+    Ok(m)
+}
+
+fn write_mosaic(
+    frames: Vec<aerorect::mosaic::MosaicFrame>,
+    crs: aerorect::io::Crs,
+    out: &Path,
+    mopts: &MosaicOptions,
+    cog: bool,
+) -> Result<aerorect::mosaic::MosaicReport> {
+    Ok(if cog {
+        let c = aerorect::io::CogOptions {
+            mask: aerorect::io::CogMask::AlphaBand,
+            ..Default::default()
+        };
+        mosaic_cog(frames, crs, out, mopts, &c)?
+    } else {
+        build(frames, crs, out, mopts)?
+    })
+}
+
+/// One mosaic of a flight on one grid (`aerorect mosaic`): returns its report.
+#[pyfunction]
+#[pyo3(signature = (paths, out, opts=None, adjust=false, blend="feather", feather_px=16))]
+pub fn mosaic<'py>(
+    py: Python<'py>,
+    paths: Vec<PathBuf>,
+    out: PathBuf,
+    opts: Option<&Bound<'py, PyDict>>,
+    adjust: bool,
+    blend: &str,
+    feather_px: usize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let args = PhotoArgs::from_dict(opts)?;
+    let mopts = mosaic_options(blend, feather_px, &out).map_err(py_err)?;
+    let r = py
+        .detach(|| -> Result<_> {
+            let mut o = args.options(None)?;
+            // The mosaic's frames are planned without nodata; the alpha band marks coverage.
+            o.warp.nodata = 0.0;
+            o.warp.alpha = false;
+            let cog = o.cog.take().is_some();
+            let (frames, crs) = if adjust {
+                let f = aerorect::flight::adjust_flight(&paths, &o, &args.flight_options()?)?;
+                (f.mosaic_frames(&o)?, f.crs().clone())
+            } else {
+                frames_from_photos(&paths, &o)?
+            };
+            write_mosaic(frames, crs, &out, &mopts, cog)
+        })
+        .map_err(py_err)?;
+    to_py(py, &r)
+}

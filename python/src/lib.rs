@@ -1,0 +1,58 @@
+//! `aerorect._aerorect`: the Python face of the aerorect facade. NumPy arrays in and out
+//! (`(bands, rows, cols)`, u8/u16/f32), the GIL released around every heavy call, errors raised
+//! as `aerorect.AerorectError` with the CLI's messages. `aerorect/__init__.py` re-exports it.
+
+mod arrays;
+mod camera;
+mod flight;
+mod options;
+mod photo;
+
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+create_exception!(
+    _aerorect,
+    AerorectError,
+    PyValueError,
+    "An aerorect error: bad input, a file that cannot be read, a geometry with no answer. The message is the CLI's."
+);
+
+/// `e` as the CLI prints it (the context chain joined by ': ').
+pub(crate) fn py_err(e: impl Into<anyhow::Error>) -> PyErr {
+    AerorectError::new_err(format!("{:#}", e.into()))
+}
+
+/// A serialisable value as the Python object `json.loads` makes of it.
+pub(crate) fn to_py<'py>(
+    py: Python<'py>,
+    v: &impl serde::Serialize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_string(v).map_err(py_err)?;
+    py.import("json")?.call_method1("loads", (text,))
+}
+
+#[pymodule]
+fn _aerorect(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("AerorectError", m.py().get_type::<AerorectError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add(
+        "DEFAULT_MAX_OUTPUT_PX",
+        aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX,
+    )?;
+    m.add_class::<camera::Camera>()?;
+    m.add_class::<flight::AdjustedFlight>()?;
+    m.add_function(wrap_pyfunction!(photo::rectify_photo, m)?)?;
+    m.add_function(wrap_pyfunction!(photo::rectify_photo_to_file, m)?)?;
+    m.add_function(wrap_pyfunction!(photo::read_photo_metadata, m)?)?;
+    m.add_function(wrap_pyfunction!(camera::rectify, m)?)?;
+    m.add_function(wrap_pyfunction!(camera::warp, m)?)?;
+    m.add_function(wrap_pyfunction!(camera::undistort, m)?)?;
+    m.add_function(wrap_pyfunction!(camera::shift, m)?)?;
+    m.add_function(wrap_pyfunction!(camera::calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(flight::adjust_flight, m)?)?;
+    m.add_function(wrap_pyfunction!(flight::write_adjusted_batch, m)?)?;
+    m.add_function(wrap_pyfunction!(flight::mosaic, m)?)?;
+    Ok(())
+}
