@@ -6,6 +6,7 @@
 
 pub mod attitude;
 pub mod camera;
+pub mod camera_formats;
 pub mod checkpoints;
 pub mod cog;
 pub mod crs;
@@ -22,6 +23,7 @@ pub mod tiled_tiff;
 
 pub use attitude::read_attitude;
 pub use camera::{CameraFile, camera_toml};
+pub use camera_formats::{CameraFormat, camera_from_text, read_camera_file, text_from_camera};
 pub use checkpoints::{
     ControlPoint, Gcp, PoseRecord, read_checkpoints, read_control_points, read_gcps, read_poses,
     write_checkpoints, write_csv,
