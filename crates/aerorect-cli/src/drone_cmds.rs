@@ -276,10 +276,21 @@ pub struct FlightArgs {
     /// rewrites every frame: each depends on the whole flight).
     #[arg(long)]
     pub adjust: bool,
-    /// With --adjust: also correct positions, with this prior standard deviation (m; e.g. 5 for
-    /// GPS, 0.05 for RTK).
-    #[arg(long, requires = "adjust")]
+    /// With --adjust: correct positions with this prior standard deviation (m) for every frame
+    /// (default: each photo's RTK standard deviations where it has them, else 5 m; positions
+    /// from --poses are held).
+    #[arg(long, requires = "adjust", conflicts_with = "hold_positions")]
     pub adjust_positions_m: Option<f64>,
+    /// With --adjust: keep every recorded position.
+    #[arg(long, requires = "adjust")]
+    pub hold_positions: bool,
+    /// With --adjust: the recorded attitudes' standard deviation (degrees, each axis).
+    #[arg(long, requires = "adjust", default_value_t = 1.0)]
+    pub attitude_sigma_deg: f64,
+    /// With --adjust: the most matching rounds (each renders the frames again with the last
+    /// round's orientation and matches afresh; they stop when no attitude moves 0.005 deg).
+    #[arg(long, requires = "adjust", default_value_t = 8)]
+    pub adjust_passes: usize,
 }
 
 impl FlightArgs {
@@ -307,11 +318,29 @@ impl FlightArgs {
         )
     }
 
-    pub(crate) fn flight_options(&self) -> aerorect::flight::FlightOptions {
-        aerorect::flight::FlightOptions {
-            position_sigma_m: self.adjust_positions_m,
-            ..Default::default()
+    pub(crate) fn flight_options(&self) -> Result<aerorect::flight::FlightOptions> {
+        use aerorect::flight::PositionPrior;
+        for (flag, v) in [
+            ("--adjust-positions-m", self.adjust_positions_m),
+            ("--attitude-sigma-deg", Some(self.attitude_sigma_deg)),
+        ] {
+            if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
+                bail!("{flag} {v}: must be a finite number > 0");
+            }
         }
+        if self.adjust_passes == 0 {
+            bail!("--adjust-passes 0: at least one matching round");
+        }
+        Ok(aerorect::flight::FlightOptions {
+            positions: match (self.hold_positions, self.adjust_positions_m) {
+                (true, _) => PositionPrior::Hold,
+                (false, Some(s)) => PositionPrior::Sigma(s),
+                (false, None) => PositionPrior::Recorded,
+            },
+            attitude_sigma_deg: self.attitude_sigma_deg,
+            passes: self.adjust_passes,
+            ..Default::default()
+        })
     }
 }
 
@@ -475,14 +504,36 @@ fn batch_files(a: &BatchArgs) -> Result<Files> {
         }
     }
     let adjustment = a.flight.adjust.then(|| adjustment_json(a));
+    let poses = a.flight.adjust.then(|| adjusted_poses_csv(a));
+    let prj = poses.as_ref().map(|p| p.with_extension("prj"));
     Ok(files
         .output("--report-html", a.report_html.as_deref())
-        .output("--adjust (its report)", adjustment.as_deref()))
+        .output("--adjust (its report)", adjustment.as_deref())
+        .output("--adjust (the adjusted poses)", poses.as_deref())
+        .output("--adjust (the adjusted poses' CRS)", prj.as_deref()))
 }
 
 /// Where `batch --adjust` writes the adjustment's report.
 fn adjustment_json(a: &BatchArgs) -> PathBuf {
     a.out_dir.join("adjustment.json")
+}
+
+/// Where `batch --adjust` writes the adjusted exterior orientation (`--poses`' format, with
+/// its CRS in a `.prj` beside it).
+fn adjusted_poses_csv(a: &BatchArgs) -> PathBuf {
+    a.out_dir.join("adjusted_poses.csv")
+}
+
+/// The adjusted poses as `--poses` (and Orthority) read them.
+fn poses_csv(r: &aerorect::flight::FlightReport) -> String {
+    let mut out = String::from("filename,x,y,z,omega,phi,kappa\n");
+    for p in &r.poses {
+        out += &format!(
+            "{},{:.4},{:.4},{:.4},{:.8},{:.8},{:.8}\n",
+            p.frame, p.x, p.y, p.z, p.omega, p.phi, p.kappa
+        );
+    }
+    out
 }
 
 fn process(a: &BatchArgs, input: &Path, opts: &DroneOptions) -> Outcome {
@@ -661,7 +712,7 @@ pub(crate) fn print_adjustment(r: &aerorect::flight::FlightReport) {
 }
 
 fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
-    let fo = a.flight.flight_options();
+    let fo = a.flight.flight_options()?;
     let flight = aerorect::flight::adjust_flight(&a.inputs, opts, &fo)?;
     let r = &flight.report;
     print_adjustment(r);
@@ -688,7 +739,14 @@ fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
         );
     }
     staged.text(&adjustment_json(a), &json)?;
+    let poses = adjusted_poses_csv(a);
+    staged.text(&poses, &poses_csv(r))?;
+    staged.text(&poses.with_extension("prj"), &flight.crs().to_wkt()?)?;
     staged.commit()?;
-    println!("adjustment report: {}", adjustment_json(a).display());
+    println!(
+        "adjustment report: {}; adjusted poses: {}",
+        adjustment_json(a).display(),
+        poses.display()
+    );
     Ok(())
 }

@@ -73,7 +73,8 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
         },
     )?;
     let (frames, crs) = if a.flight.adjust {
-        let flight = aerorect::flight::adjust_flight(&a.inputs, &opts, &a.flight.flight_options())?;
+        let flight =
+            aerorect::flight::adjust_flight(&a.inputs, &opts, &a.flight.flight_options()?)?;
         print_adjustment(&flight.report);
         (flight.mosaic_frames(&opts)?, flight.crs().clone())
     } else {

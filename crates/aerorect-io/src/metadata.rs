@@ -50,6 +50,9 @@ pub struct DjiTags {
     pub dewarp_data: Option<String>,
     pub latitude_deg: Option<f64>,
     pub longitude_deg: Option<f64>,
+    /// The RTK receiver's standard deviations (m) east, north and up (`RtkStdLon`,
+    /// `RtkStdLat`, `RtkStdHgt`), on RTK aircraft only.
+    pub rtk_std_m: Option<[f64; 3]>,
 }
 
 /// Reads a photo's EXIF and XMP. A photo with neither gives an empty record; a tag whose value
@@ -295,6 +298,14 @@ fn parse_dji(tags: &BTreeMap<String, String>) -> Result<DjiTags, String> {
         latitude_deg: num(&["GpsLatitude"])?,
         // Older firmware misspells it.
         longitude_deg: num(&["GpsLongitude", "GpsLongtitude"])?,
+        rtk_std_m: match (
+            num(&["RtkStdLon"])?,
+            num(&["RtkStdLat"])?,
+            num(&["RtkStdHgt"])?,
+        ) {
+            (Some(e), Some(n), Some(u)) => Some([e, n, u]),
+            _ => None,
+        },
     })
 }
 
@@ -327,6 +338,18 @@ mod tests {
                 .starts_with("2018-09-04;3678.9")
         );
         assert_eq!(d.flight_yaw_deg, None);
+        assert_eq!(d.rtk_std_m, None);
+    }
+
+    #[test]
+    fn rtk_standard_deviations_east_north_up() {
+        // As a Phantom 4 RTK writes them (metres).
+        let rtk = XMP.replace(
+            "drone-dji:GpsLatitude=",
+            "drone-dji:RtkStdLon=\"0.01352\" drone-dji:RtkStdLat=\"0.01589\" drone-dji:RtkStdHgt=\"0.02937\" drone-dji:GpsLatitude=",
+        );
+        let d = parse_dji(&dji_tags(&rtk).expect("xml")).expect("numbers");
+        assert_eq!(d.rtk_std_m, Some([0.01352, 0.01589, 0.02937]));
     }
 
     #[test]

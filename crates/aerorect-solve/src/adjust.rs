@@ -25,6 +25,9 @@ pub struct AdjustFrame {
     pub camera: usize,
     pub centre: [f64; 3],
     pub world_from_camera: Mat3,
+    /// This frame's position prior (m, per world axis) when positions are adjusted, e.g. the
+    /// receiver's own RTK standard deviations; `None` takes [`AdjustOptions::position_sigma_m`].
+    pub position_sigma_m: Option<[f64; 3]>,
 }
 
 /// A tie point's observation in one frame (observed pixel, with the matcher's confidence as a
@@ -51,7 +54,8 @@ pub type HeightFn<'a> = &'a (dyn Fn(f64, f64) -> f64 + Sync);
 pub struct AdjustOptions<'a> {
     /// Standard deviation of the recorded attitude (each axis), degrees.
     pub attitude_sigma_deg: f64,
-    /// Position corrections with this prior standard deviation (metres); `None` keeps positions.
+    /// Position corrections with this prior standard deviation (metres) where a frame gives
+    /// none of its own; `None` keeps positions.
     pub position_sigma_m: Option<f64>,
     pub refine_focal: bool,
     pub refine_principal_point: bool,
@@ -294,21 +298,25 @@ impl Problem<'_> {
         Some(c)
     }
 
-    fn prior_sigmas(&self) -> Vec<f64> {
-        let l = &self.layout;
-        let mut s = Vec::with_capacity(l.frame);
+    /// Frame `f`'s prior standard deviations, one per frame parameter.
+    fn prior_sigmas(&self, f: usize) -> Vec<f64> {
+        let mut s = Vec::with_capacity(self.layout.frame);
         s.extend([self.opts.attitude_sigma_deg.to_radians(); 3]);
         if let Some(p) = self.opts.position_sigma_m {
-            s.extend([p; 3]);
+            s.extend(self.frames[f].position_sigma_m.unwrap_or([p; 3]));
         }
         s
     }
 
     fn prior_cost(&self, s: &State) -> f64 {
-        let sig = self.prior_sigmas();
         (0..self.layout.frames)
-            .flat_map(|f| (0..self.layout.frame).map(move |k| (f, k)))
-            .map(|(f, k)| (s.params[self.layout.frame_at(f) + k] / sig[k]).powi(2))
+            .flat_map(|f| {
+                let at = self.layout.frame_at(f);
+                self.prior_sigmas(f)
+                    .into_iter()
+                    .enumerate()
+                    .map(move |(k, sig)| (s.params[at + k] / sig).powi(2))
+            })
             .sum()
     }
 }
@@ -429,10 +437,9 @@ fn reduce(p: &Problem<'_>, s: &State, lambda: f64) -> Option<Reduced> {
 }
 
 fn add_priors(p: &Problem<'_>, s: &State, lambda: f64, red: &mut Reduced) {
-    let sig = p.prior_sigmas();
     let l = &p.layout;
     for f in 0..l.frames {
-        for (k, sk) in sig.iter().enumerate() {
+        for (k, sk) in p.prior_sigmas(f).iter().enumerate() {
             let i = l.frame_at(f) + k;
             *red.entries.entry((i, i)).or_insert(0.0) += 1.0 / (sk * sk);
             red.rhs[i] -= s.params[i] / (sk * sk);
@@ -570,8 +577,9 @@ pub fn adjust(
                 s = next;
                 cost = c;
                 lambda = (lambda / 3.0).max(1e-9);
-                // 1e-5 of the cost is 5e-6 of the RMS: nothing left to gain.
-                if gain < 1e-5 || moved < 1e-8 {
+                // 1e-5 of the cost is 5e-6 of the RMS: nothing left to gain; 1e-6 (0.2
+                // arc-seconds, a micrometre, 1e-6 of the focal length) is nothing left to move.
+                if gain < 1e-5 || moved < 1e-6 {
                     converged = true;
                     break;
                 }
@@ -665,6 +673,7 @@ fn finish(
                 fr.centre[2] + dc[2],
             ],
             world_from_camera: Rotation3::new(w).into_inner() * fr.world_from_camera,
+            position_sigma_m: fr.position_sigma_m,
         });
         reports.push(FrameAdjustment {
             rotation_deg: [v[0].to_degrees(), v[1].to_degrees(), v[2].to_degrees()],

@@ -142,6 +142,7 @@ fn ties_that_name_no_frame_are_refused() {
         camera: 0,
         centre: [0.0, 0.0, 100.0],
         world_from_camera: nadir(),
+        position_sigma_m: None,
     };
     assert!(adjust(&[f], &[camera(800.0)], &[t], &AdjustOptions::default()).is_err());
 }

@@ -57,6 +57,7 @@ pub fn flight(
                 camera: 0,
                 centre,
                 world_from_camera: r,
+                position_sigma_m: None,
             });
             let e = Vec3::new(
                 noise.sample(&mut rng),
@@ -67,6 +68,7 @@ pub fn flight(
                 camera: 0,
                 centre,
                 world_from_camera: Rotation3::new(e).into_inner() * r,
+                position_sigma_m: None,
             });
         }
     }

@@ -26,11 +26,17 @@ pub struct FlightOptions {
     pub match_gsd_m: Option<f64>,
     /// Side of the correlated patches (pixels of the matching grid).
     pub patch: usize,
-    /// Prior standard deviation of positions (m); `None` keeps the recorded positions.
-    pub position_sigma_m: Option<f64>,
+    pub positions: PositionPrior,
     pub attitude_sigma_deg: f64,
     pub refine_focal: bool,
     pub refine_principal_point: bool,
+    /// Most matching rounds: after each adjustment every frame is rendered again with its
+    /// adjusted orientation and matched afresh (as the frames come to coincide, patches that
+    /// an attitude error had pushed apart match too, and the correlation's bias from the
+    /// frames' remaining relative rotation and scale fades), and the adjustment is solved
+    /// again; rounds stop when no attitude moves by more than `settled_deg`.
+    pub passes: usize,
+    pub settled_deg: f64,
 }
 
 impl Default for FlightOptions {
@@ -38,12 +44,32 @@ impl Default for FlightOptions {
         Self {
             match_gsd_m: None,
             patch: 64,
-            position_sigma_m: None,
+            positions: PositionPrior::Recorded,
             attitude_sigma_deg: 1.0,
             refine_focal: true,
             refine_principal_point: false,
+            passes: 8,
+            settled_deg: 0.005,
         }
     }
+}
+
+/// Standard deviation (m) of a consumer GPS position, the prior of frames with no RTK tags.
+pub const GPS_SIGMA_M: f64 = 5.0;
+
+/// How the adjustment treats the recorded positions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PositionPrior {
+    /// As recorded (surveyed exterior orientation).
+    Hold,
+    /// Corrected, with this standard deviation (m) for every frame.
+    Sigma(f64),
+    /// Corrected, each frame with its receiver's RTK standard deviations where the photo
+    /// carries them (DJI's `RtkStd*`), else [`GPS_SIGMA_M`]; held when the frames come with a
+    /// pose table. Positions matter: from GPS a few metres apart, two frames' rays meet at
+    /// heights the ground contradicts, and with positions held that error has only the
+    /// attitudes to go to.
+    Recorded,
 }
 
 /// One frame of the flight, planned from its metadata.
@@ -53,6 +79,8 @@ struct Frame {
     /// Its gray ortho on the matching grid (NaN: no data) and that ortho's plan.
     coarse: Raster<f32>,
     coarse_plan: OrthoPlan,
+    /// The photo's RTK standard deviations (m; east, north, up), if it has them.
+    rtk_std_m: Option<[f64; 3]>,
 }
 
 /// What matching a pair of frames found.
@@ -70,15 +98,33 @@ pub struct PairReport {
     pub reliable: bool,
 }
 
+/// A frame's adjusted exterior orientation: the projection centre in the flight's CRS and
+/// omega, phi, kappa (degrees) about that CRS's grid axes, as `--poses` reads them.
+#[derive(Debug, Clone, Serialize)]
+pub struct AdjustedPose {
+    pub frame: String,
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub omega: f64,
+    pub phi: f64,
+    pub kappa: f64,
+    /// The adjusted camera's focal length (px, fx).
+    pub focal_px: f64,
+}
+
 /// The flight's matching and adjustment.
 #[derive(Debug, Clone, Serialize)]
 pub struct FlightReport {
     pub frames: Vec<String>,
+    /// Matching rounds run (see [`FlightOptions::passes`]); the pairs are the last round's.
+    pub passes: usize,
     pub match_gsd_m: f64,
     pub pairs: Vec<PairReport>,
     /// Frames no reliable pair reaches (left as recorded).
     pub unconnected: Vec<String>,
     pub adjustment: AdjustReport,
+    pub poses: Vec<AdjustedPose>,
     pub seconds: f64,
 }
 
@@ -106,6 +152,7 @@ fn coarse_frame(
     gsd: f64,
 ) -> Result<Frame, Error> {
     let file = input.display().to_string();
+    let rtk_std_m = meta.dji.rtk_std_m;
     let image = aerorect_io::read_image(input)?;
     let size = image.size();
     let gray = AnyRaster::F32(crate::motion::gray(&image)?);
@@ -140,6 +187,7 @@ fn coarse_frame(
         info,
         coarse,
         coarse_plan,
+        rtk_std_m,
     })
 }
 
@@ -383,46 +431,165 @@ pub fn adjust_flight(
             g * (short_side as f64 / 600.0).clamp(1.0, 4.0)
         }
     };
-    let frames: Vec<Frame> = metas
+    let mut frames: Vec<Frame> = metas
         .into_par_iter()
         .map(|(p, m)| coarse_frame(&p, m, &opts, gsd))
         .collect::<Result<_, Error>>()?;
     let ground = ground_fn(&opts, &world);
+    let rec = recorded(&frames);
+    let posed = opts.poses.is_some();
+    let mut round = match_and_adjust(
+        &frames,
+        &rec,
+        ground.as_ref(),
+        (opts.dem.is_some(), posed),
+        fo,
+    )?;
+    let (mut poses, mut cameras) = round.orientation(&rec);
+    let mut passes = 1;
+    while passes < fo.passes {
+        frames = frames
+            .into_par_iter()
+            .enumerate()
+            .map(|(k, f)| rerender(f, poses[k], &cameras[k], &opts, &world))
+            .collect::<Result<_, Error>>()?;
+        round = match_and_adjust(
+            &frames,
+            &rec,
+            ground.as_ref(),
+            (opts.dem.is_some(), posed),
+            fo,
+        )?;
+        passes += 1;
+        let (p, c) = round.orientation(&rec);
+        let moved = largest_turn_deg(&poses, &p);
+        (poses, cameras) = (p, c);
+        if moved < fo.settled_deg {
+            break;
+        }
+    }
+    let report = FlightReport {
+        frames: frames
+            .iter()
+            .map(|f| f.input.display().to_string())
+            .collect(),
+        passes,
+        match_gsd_m: gsd,
+        unconnected: unconnected(&frames, &round.reports),
+        pairs: round.reports,
+        adjustment: round.adjusted.report,
+        poses: adjusted_poses(&frames, &poses, &cameras),
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+    Ok(AdjustedFlight {
+        frames,
+        poses,
+        cameras,
+        report,
+        world,
+        crs,
+    })
+}
+
+/// The largest rotation between two sets of poses of the same frames, degrees.
+fn largest_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| {
+            let m = p.world_from_camera().transpose() * q.world_from_camera();
+            ((m.trace() - 1.0) / 2.0)
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The recorded orientation: poses, the distinct cameras and each frame's camera index.
+struct Recorded {
+    poses: Vec<Pose>,
+    cameras: Vec<Camera>,
+    camera_of: Vec<usize>,
+}
+
+/// One round of matching and adjustment.
+struct Round {
+    reports: Vec<PairReport>,
+    adjusted: aerorect_solve::adjust::Adjusted,
+}
+
+impl Round {
+    /// Every frame's adjusted pose and camera.
+    fn orientation(&self, rec: &Recorded) -> (Vec<Pose>, Vec<Camera>) {
+        let poses = self
+            .adjusted
+            .frames
+            .iter()
+            .map(|f| Pose::new(f.centre, &f.world_from_camera))
+            .collect();
+        let cameras = rec
+            .camera_of
+            .iter()
+            .map(|&c| self.adjusted.cameras[c].clone())
+            .collect();
+        (poses, cameras)
+    }
+}
+
+/// Matches every overlapping pair of the frames as rendered and adjusts the recorded
+/// orientation to the tie points (`dem`: the ground is a DEM; `posed`: the frames come from
+/// a pose table).
+fn match_and_adjust(
+    frames: &[Frame],
+    rec: &Recorded,
+    ground: &(dyn Fn(f64, f64) -> f64 + Sync),
+    (dem, posed): (bool, bool),
+    fo: &FlightOptions,
+) -> Result<Round, Error> {
     let pairs: Vec<(usize, usize)> = (0..frames.len())
         .flat_map(|i| (i + 1..frames.len()).map(move |j| (i, j)))
         .filter(|&(i, j)| overlap(&frames[i], &frames[j]).is_some())
         .collect();
     let matched: Vec<(Vec<TiePoint>, PairReport)> = pairs
         .par_iter()
-        .map(|&(i, j)| pair_ties(&frames, i, j, fo.patch, ground.as_ref()))
+        .map(|&(i, j)| pair_ties(frames, i, j, fo.patch, ground))
         .collect::<Result<_, Error>>()?;
-    let (poses, cameras, camera_of) = recorded(&frames);
-    let cams: Vec<&Camera> = camera_of.iter().map(|&c| &cameras[c]).collect();
+    let cams: Vec<&Camera> = rec.camera_of.iter().map(|&c| &rec.cameras[c]).collect();
     let mut reports = Vec::with_capacity(matched.len());
     let mut ties = Vec::new();
     for (t, mut r) in matched {
-        r.misalignment_before_m = misalignment(&t, &poses, &cams);
+        r.misalignment_before_m = misalignment(&t, &rec.poses, &cams);
         ties.extend(t);
         reports.push(r);
     }
-    let adjust_frames: Vec<AdjustFrame> = poses
+    let position_sigma_m = match fo.positions {
+        PositionPrior::Hold => None,
+        PositionPrior::Sigma(s) => Some(s),
+        PositionPrior::Recorded => (!posed).then_some(GPS_SIGMA_M),
+    };
+    let own = fo.positions == PositionPrior::Recorded;
+    let adjust_frames: Vec<AdjustFrame> = rec
+        .poses
         .iter()
-        .zip(&camera_of)
-        .map(|(p, &camera)| AdjustFrame {
+        .zip(&rec.camera_of)
+        .zip(frames)
+        .map(|((p, &camera), f)| AdjustFrame {
             camera,
             centre: p.centre,
             world_from_camera: p.world_from_camera(),
+            // A receiver's claim of a millimetre is held to 5 mm.
+            position_sigma_m: f.rtk_std_m.filter(|_| own).map(|s| s.map(|v| v.max(0.005))),
         })
         .collect();
     let aopts = AdjustOptions {
         attitude_sigma_deg: fo.attitude_sigma_deg,
-        position_sigma_m: fo.position_sigma_m,
+        position_sigma_m,
         refine_focal: fo.refine_focal,
         refine_principal_point: fo.refine_principal_point,
-        terrain: Some((ground.as_ref(), if opts.dem.is_some() { 1.0 } else { 0.1 })),
+        terrain: Some((ground, if dem { 1.0 } else { 0.1 })),
         ..AdjustOptions::default()
     };
-    let adjusted = aerorect_solve::adjust::adjust(&adjust_frames, &cameras, &ties, &aopts)
+    let adjusted = aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &ties, &aopts)
         .map_err(|e| Error::Invalid(format!("flight adjustment: {e}")))?;
     if !adjusted.report.converged {
         return Err(Error::Invalid(format!(
@@ -430,37 +597,90 @@ pub fn adjust_flight(
             adjusted.report.iterations, adjusted.report.rms_after_px
         )));
     }
-    let new_poses: Vec<Pose> = adjusted
-        .frames
-        .iter()
-        .map(|f| Pose::new(f.centre, &f.world_from_camera))
-        .collect();
-    let new_cams: Vec<&Camera> = camera_of.iter().map(|&c| &adjusted.cameras[c]).collect();
-    finish_reports(&mut reports, &ties, &new_poses, &new_cams);
-    let unconnected = unconnected(&frames, &reports);
-    let report = FlightReport {
-        frames: frames
-            .iter()
-            .map(|f| f.input.display().to_string())
-            .collect(),
-        match_gsd_m: gsd,
-        pairs: reports,
-        unconnected,
-        adjustment: adjusted.report,
-        seconds: t0.elapsed().as_secs_f64(),
-    };
-    let cameras = camera_of
-        .iter()
-        .map(|&c| adjusted.cameras[c].clone())
-        .collect();
-    Ok(AdjustedFlight {
-        frames,
-        poses: new_poses,
-        cameras,
-        report,
+    let mut round = Round { reports, adjusted };
+    let (poses, cameras) = round.orientation(rec);
+    let new_cams: Vec<&Camera> = cameras.iter().collect();
+    finish_reports(&mut round.reports, &ties, &poses, &new_cams);
+    Ok(round)
+}
+
+/// Frame `f` rendered again on the matching grid with another pose and camera (its frame
+/// pixels, and so its tie observations, stay those of the photo).
+fn rerender(
+    f: Frame,
+    pose: Pose,
+    camera: &Camera,
+    opts: &DroneOptions,
+    world: &Projection,
+) -> Result<Frame, Error> {
+    let file = f.input.display().to_string();
+    let image = aerorect_io::read_image(&f.input)?;
+    let gray = AnyRaster::F32(crate::motion::gray(&image)?);
+    drop(image);
+    let ground = frame_ground(&f, opts);
+    let req = OrthoRequest {
+        camera,
+        pose,
         world,
-        crs,
+        ground: &ground,
+        gsd_m: f.coarse_plan.grid.gsd,
+        limits: aerorect_core::RectifyLimits {
+            max_output_px: 4_000_000,
+        },
+        occlusion: false,
+    };
+    let warp = WarpOptions {
+        interp: Interp::Bilinear,
+        nodata: f64::NAN,
+        alpha: false,
+    };
+    let coarse_plan = plan_ortho(&req, warp).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+    let AnyRaster::F32(coarse) = coarse_plan.run(&gray)? else {
+        return Err(Error::Invalid(format!("{file}: gray ortho is not f32")));
+    };
+    Ok(Frame {
+        coarse,
+        coarse_plan,
+        ..f
     })
+}
+
+/// The ground a frame is projected on: the DEM, else the level ground under it as planned
+/// from its metadata.
+fn frame_ground(f: &Frame, opts: &DroneOptions) -> Ground {
+    match &opts.dem {
+        Some(dem) => Ground::Dem {
+            dem: std::sync::Arc::clone(dem),
+            fallback: None,
+            strict: opts.strict,
+        },
+        None => Ground::Flat(f.info.pose.centre[2] - f.info.height_m),
+    }
+}
+
+/// Every frame's adjusted pose as `--poses` reads it (omega-phi-kappa about the grid axes).
+fn adjusted_poses(frames: &[Frame], poses: &[Pose], cameras: &[Camera]) -> Vec<AdjustedPose> {
+    frames
+        .iter()
+        .zip(poses.iter().zip(cameras))
+        .map(|(f, (p, c))| {
+            let opk = aerorect_core::CameraRotation::from_matrix(p.world_from_camera())
+                .map_or([f64::NAN; 3], |r| r.to_omega_phi_kappa());
+            AdjustedPose {
+                frame: f
+                    .input
+                    .file_name()
+                    .map_or(String::new(), |n| n.to_string_lossy().into_owned()),
+                x: p.centre[0],
+                y: p.centre[1],
+                z: p.centre[2],
+                omega: opk[0],
+                phi: opk[1],
+                kappa: opk[2],
+                focal_px: c.intrinsics.fx,
+            }
+        })
+        .collect()
 }
 
 /// The finest nadir GSD of the flight's frames (height over the focal length in pixels) and
@@ -506,7 +726,7 @@ fn finest_gsd(
 }
 
 /// The recorded poses, the distinct cameras and each frame's camera index.
-fn recorded(frames: &[Frame]) -> (Vec<Pose>, Vec<Camera>, Vec<usize>) {
+fn recorded(frames: &[Frame]) -> Recorded {
     let mut cameras: Vec<Camera> = Vec::new();
     let mut camera_of = Vec::with_capacity(frames.len());
     for f in frames {
@@ -517,11 +737,11 @@ fn recorded(frames: &[Frame]) -> (Vec<Pose>, Vec<Camera>, Vec<usize>) {
         });
         camera_of.push(k);
     }
-    (
-        frames.iter().map(|f| f.info.pose).collect(),
+    Recorded {
+        poses: frames.iter().map(|f| f.info.pose).collect(),
         cameras,
         camera_of,
-    )
+    }
 }
 
 fn finish_reports(reports: &mut [PairReport], ties: &[TiePoint], poses: &[Pose], cams: &[&Camera]) {
@@ -552,14 +772,7 @@ impl AdjustedFlight {
     pub fn plan(&self, k: usize, opts: &DroneOptions) -> Result<OrthoPlan, Error> {
         let f = &self.frames[k];
         let file = f.input.display().to_string();
-        let ground = match &opts.dem {
-            Some(dem) => Ground::Dem {
-                dem: std::sync::Arc::clone(dem),
-                fallback: None,
-                strict: opts.strict,
-            },
-            None => Ground::Flat(self.ground_z(k)),
-        };
+        let ground = frame_ground(f, opts);
         // `info.gsd_m` is the matching grid's; the frame's own is its height over fx.
         let own_gsd = f.info.height_m / f.info.camera.camera.intrinsics.fx;
         let req = OrthoRequest {
