@@ -124,3 +124,29 @@ def test_read_photo_metadata(tmp_path):
     assert m["dji"]["gimbal_yaw_deg"] == pytest.approx(12.5)
     assert m["dji"]["gimbal_pitch_deg"] == pytest.approx(-45.0)
     assert m["dji"]["relative_altitude_m"] == pytest.approx(55.0)
+
+
+def test_dem_is_the_cli(tmp_path, cli):
+    """Over a sloping DEM (a GeoTIFF rasterio writes, in the photo's UTM zone): the same
+    pixels and grid as `rectify --dem`."""
+    from rasterio.warp import transform
+
+    xs, ys = transform("EPSG:4326", "EPSG:32635", [27.55], [53.9])
+    x0, y0 = xs[0] - 200.0, ys[0] + 200.0
+    col = np.arange(200, dtype=np.float32)
+    heights = (230.0 + 0.05 * 2.0 * col)[None, :].repeat(200, axis=0)[None]
+    dem = tmp_path / "dem.tif"
+    with rasterio.open(dem, "w", driver="GTiff", width=200, height=200, count=1,
+                       dtype="float32", crs="EPSG:32635",
+                       transform=Affine(2.0, 0, x0, 0, -2.0, y0)) as dst:
+        dst.write(heights)
+    p = photo(tmp_path, "frame.jpg", yaw=30.0, pitch=-70.0)
+    array, profile = aerorect.rectify_photo(p, gsd_m=0.25, dem=dem)
+    out = tmp_path / "cli.tif"
+    run(cli, "rectify", p, out, "--gsd-m", "0.25", "--dem", dem)
+    with rasterio.open(out) as src:
+        assert np.array_equal(src.read(), array)
+        assert Affine(*profile["transform"]) == src.transform
+    # Not the level-ground ortho: the terrain moved the grid or the pixels.
+    flat, flat_profile = aerorect.rectify_photo(p, gsd_m=0.25, ground_height_m=230.0)
+    assert flat.shape != array.shape or not np.array_equal(flat, array)
