@@ -45,7 +45,7 @@ pub struct CalibrateArgs {
     camera_out: Option<PathBuf>,
 }
 
-fn parse_size(s: &str) -> Result<ImageSize> {
+pub(crate) fn parse_size(s: &str) -> Result<ImageSize> {
     let parse = || -> Option<ImageSize> {
         let (w, h) = s.split_once(['x', 'X'])?;
         Some(ImageSize::new(

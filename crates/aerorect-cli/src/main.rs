@@ -3,6 +3,7 @@
 
 mod baseline_cmds;
 mod calib_cmds;
+mod camera_cmds;
 mod commands;
 mod drone_cmds;
 mod mosaic_cmds;
@@ -51,6 +52,9 @@ enum Command {
     Calibrate(calib_cmds::CalibrateArgs),
     /// Remove lens distortion with the camera file's [distortion] table.
     Undistort(calib_cmds::UndistortArgs),
+    /// Camera files: `camera convert IN OUT` between aerorect's TOML and OpenCV, COLMAP,
+    /// OpenSfM/ODM, Metashape, DJI DewarpData and Orthority formats.
+    Camera(camera_cmds::CameraArgs),
     /// The paper's comparison of Tsai, Brown and the improved model on a synthetic test field.
     DistortionCompare(calib_cmds::CompareArgs),
     /// Polynomial (or projective) correction from ground control points; residual per GCP.
@@ -115,6 +119,7 @@ fn main() -> ExitCode {
         Command::Track(a) => motion_cmds::track(a),
         Command::Calibrate(a) => calib_cmds::calibrate_cmd(a),
         Command::Undistort(a) => calib_cmds::undistort_cmd(a),
+        Command::Camera(a) => camera_cmds::camera_cmd(a),
         Command::DistortionCompare(a) => calib_cmds::compare_cmd(a),
     };
     match result {
