@@ -14,11 +14,28 @@ use std::path::PathBuf;
 #[derive(Args)]
 pub struct CalibrateArgs {
     /// Control points: CSV `image,X,Y,Z,u,v` (one observation a row; `image` an id).
+    #[arg(long, conflicts_with = "images", required_unless_present = "images")]
+    points: Option<PathBuf>,
+    /// Chessboard photos, all of one size; a photo without the whole board is listed with the
+    /// reason and skipped (at least 3 must remain).
+    #[arg(long, num_args = 1.., required_unless_present = "points", requires_all = ["board", "square_m"])]
+    images: Vec<PathBuf>,
+    /// The chessboard's inner corners COLSxROWS (OpenCV's patternSize), e.g. 9x6.
+    #[arg(long, requires = "images")]
+    board: Option<String>,
+    /// The chessboard's square size in metres.
+    #[arg(long, requires = "images")]
+    square_m: Option<f64>,
+    /// Write the corners found (CSV `image,X,Y,Z,u,v`, the `--points` input).
+    #[arg(long, requires = "images")]
+    save_corners: Option<PathBuf>,
+    /// Refine every corner in a (2 N + 1)-pixel window, as OpenCV's cornerSubPix with
+    /// winSize (N, N) (default: N at most 11, narrowed on small or foreshortened squares).
+    #[arg(long, requires = "images")]
+    corner_window: Option<usize>,
+    /// Image size WxH, e.g. 640x480 (with --images: taken from the photos, and checked if given).
     #[arg(long)]
-    points: PathBuf,
-    /// Image size WxH, e.g. 640x480.
-    #[arg(long)]
-    image_size: String,
+    image_size: Option<String>,
     /// tsai, brown, improved, opencv (k1, k2, p1, p2, k3: OpenCV's default), opencv-rational
     /// (+ k4..k6), opencv-thin-prism (+ s1..s4) or opencv-rational-thin-prism.
     #[arg(long)]
@@ -60,12 +77,17 @@ pub(crate) fn parse_size(s: &str) -> Result<ImageSize> {
 }
 
 pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
-    Files::new()
-        .input("--points", Some(&a.points))
+    let files = a
+        .images
+        .iter()
+        .fold(Files::new(), |f, p| f.input("--images", Some(p)));
+    files
+        .input("--points", a.points.as_deref())
         .output("--json", a.json.as_deref())
         .output("--camera-out", a.camera_out.as_deref())
+        .output("--save-corners", a.save_corners.as_deref())
         .check()?;
-    let size = parse_size(&a.image_size)?;
+    let given = a.image_size.as_deref().map(parse_size).transpose()?;
     let model = Distortion::zero(&a.model).with_context(|| {
         format!(
             "--model '{}': expected one of {}",
@@ -76,7 +98,39 @@ pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
     if !(a.stop_px.is_finite() && a.stop_px > 0.0) {
         bail!("--stop-px {}: must be a finite number > 0", a.stop_px);
     }
-    let obs = aerorect::calibration::read_observations(&a.points)?;
+    let mut staged = StagedOutputs::new();
+    let (obs, size, source) = match &a.points {
+        Some(points) => {
+            let size = given.context("--image-size WxH is required with --points")?;
+            let obs = aerorect::calibration::read_observations(points)?;
+            (obs, size, points.display().to_string())
+        }
+        None => {
+            let found = crate::board_cmds::board_observations(
+                &a.images,
+                &a.board,
+                a.square_m,
+                a.corner_window,
+            )?;
+            if let Some(g) = given.filter(|g| *g != found.size) {
+                bail!(
+                    "--image-size {}x{}: the photos are {}x{}",
+                    g.width,
+                    g.height,
+                    found.size.width,
+                    found.size.height
+                );
+            }
+            if let Some(p) = &a.save_corners {
+                staged.csv(p, &found.control_points())?;
+            }
+            (
+                found.observations,
+                found.size,
+                "the chessboard photos".to_string(),
+            )
+        }
+    };
     let mut opts = CalibrationOptions::new(model, size);
     opts.fix = a
         .fix
@@ -88,9 +142,8 @@ pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
     opts.fixed_aspect = a.fix_aspect.then_some(1.0);
     opts.stop_px = a.stop_px;
     opts.max_iterations = a.max_iterations;
-    let r = calibrate(&obs, &opts).with_context(|| a.points.display().to_string())?;
+    let r = calibrate(&obs, &opts).with_context(|| source.clone())?;
     print_report(&r, obs.len());
-    let mut staged = StagedOutputs::new();
     if let Some(j) = &a.json {
         staged.text(j, &serde_json::to_string_pretty(&report_json(&r)?)?)?;
     }

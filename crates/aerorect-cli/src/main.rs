@@ -2,6 +2,7 @@
 //! `aerorect` library.
 
 mod baseline_cmds;
+mod board_cmds;
 mod calib_cmds;
 mod camera_cmds;
 mod commands;

@@ -198,7 +198,7 @@ mod tests {
 }
 
 /// One control point of a calibration: image id, world X, Y, Z, measured pixel u, v.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControlPoint {
     pub image: String,

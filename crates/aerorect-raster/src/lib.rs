@@ -4,6 +4,7 @@
 //! destination pixel to a source position through a [`PixelMap`] (exact f64 coordinates, no
 //! fixed-point tables) and samples it with a kernel chosen once per call.
 
+pub mod chessboard;
 pub mod error;
 pub mod map;
 pub mod pyramid;
