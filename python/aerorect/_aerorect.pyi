@@ -127,3 +127,20 @@ def mosaic(
     blend: str = "feather",
     feather_px: int = 16,
 ) -> Dict[str, Any]: ...
+
+class MosaicTiles:
+    """A planned mosaic: its grid and its output tiles (row-major)."""
+
+    @property
+    def size(self) -> Tuple[int, int]: ...
+    @property
+    def windows(self) -> List[Tuple[int, int, int, int]]: ...
+    def render(self, indices: Sequence[int]) -> Tuple[List[_Array], List[int]]: ...
+    def write(self, out: _Path, fetch: Any, cells: Sequence[int]) -> Dict[str, Any]: ...
+
+def plan_mosaic(
+    paths: Sequence[_Path],
+    opts: Optional[Mapping[str, Any]] = None,
+    blend: str = "feather",
+    feather_px: int = 16,
+) -> MosaicTiles: ...

@@ -19,6 +19,7 @@ table) to a local scratch folder, rectifies there and uploads the outputs.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import tempfile
@@ -27,7 +28,7 @@ from typing import Any, List, Optional, Sequence, Tuple
 
 from . import AerorectError, _aerorect, _opts
 
-__all__ = ["rectify_flight", "output_paths"]
+__all__ = ["rectify_flight", "mosaic", "output_paths"]
 
 # Options that name files a worker must be able to read.
 _FILE_OPTIONS = ("dem", "camera", "poses")
@@ -241,3 +242,106 @@ def rectify_flight(
             f"{len(failed)} of {len(photos)} frames failed (listed below)\n{lines}"
         )
     return outs
+
+
+# Each worker plans a mosaic once (every photo is read for its size) and renders its tiles.
+_PLANS: dict = {}
+
+
+def _plan(photos: Tuple[str, ...], opts_json: str, blend: str, feather_px: int):
+    key = (photos, opts_json, blend, feather_px)
+    if key not in _PLANS:
+        _PLANS.clear()  # one mosaic at a time per worker
+        _PLANS[key] = _aerorect.plan_mosaic(list(photos), json.loads(opts_json), blend,
+                                            feather_px)
+    return _PLANS[key]
+
+
+def _render(photos: Tuple[str, ...], opts_json: str, blend: str, feather_px: int,
+            indices: List[int]):
+    """Tiles `indices` of the mosaic (a task): (arrays, cells per frame)."""
+    return _plan(photos, opts_json, blend, feather_px).render(indices)
+
+
+def _mosaic_whole(photos, out, opts, blend, feather_px, cog):
+    from . import mosaic as whole
+
+    return whole(photos, out, adjust=True, blend=blend, feather_px=feather_px, cog=cog, **opts)
+
+
+def mosaic(
+    paths: Sequence[Any],
+    out: Any,
+    gsd_m: Optional[float] = None,
+    dem: Optional[Any] = None,
+    adjust: bool = False,
+    client: Any = None,
+    *,
+    blend: str = "feather",
+    feather_px: int = 16,
+    tiles_per_task: int = 4,
+    jobs: int = 2,
+    **kwargs: Any,
+) -> dict:
+    """``aerorect mosaic PATHS --out OUT`` on a Dask client, one task per ``tiles_per_task``
+    output tiles (512 px, row-major: neighbours share decoded frames); the tiled GeoTIFF is
+    written here as the tiles arrive, the same file the CLI writes. Each worker plans the
+    mosaic once from the photos (they must be readable there, by the same paths). With
+    ``adjust=True`` the adjustment and the whole mosaic are one task on one worker. Without a
+    client the tiles are rendered here, ``jobs`` tasks at a time. Returns the report (frames'
+    ``cells`` summed over the tasks). Local paths only."""
+    photos = tuple(os.fspath(p) for p in paths)
+    out = os.fspath(out)
+    if _is_url(out) or any(_is_url(p) for p in photos):
+        raise AerorectError("the distributed mosaic reads and writes local (or shared) paths")
+    if tiles_per_task < 1:
+        raise AerorectError(f"tiles_per_task {tiles_per_task}: at least one tile per task")
+    opts = _opts(gsd_m=gsd_m, dem=dem, **kwargs)
+    cog = bool(opts.pop("cog", False))
+    if adjust or cog:
+        # The adjustment needs every frame at once; a COG is composited in memory.
+        if client is None:
+            return _mosaic_whole(photos, out, opts, blend, feather_px, cog)
+        return client.submit(_mosaic_whole, photos, out, opts, blend, feather_px, cog,
+                             pure=False).result()
+    opts_json = json.dumps(opts, sort_keys=True)
+    plan = _aerorect.plan_mosaic(list(photos), opts, blend, feather_px)
+    n = len(plan.windows)
+    groups = [list(range(i, min(i + tiles_per_task, n))) for i in range(0, n, tiles_per_task)]
+    if client is None:
+        pool = ThreadPoolExecutor(max_workers=jobs)
+        _PLANS[(photos, opts_json, blend, feather_px)] = plan
+        futures = [pool.submit(_render, photos, opts_json, blend, feather_px, g)
+                   for g in groups]
+    else:
+        pool = None
+        futures = [client.submit(_render, photos, opts_json, blend, feather_px, g, pure=False)
+                   for g in groups]
+    where = {i: (j, k) for j, g in enumerate(groups) for k, i in enumerate(g)}
+    cells = [0] * len(photos)
+    done: dict = {}
+    left = [len(g) for g in groups]
+
+    def fetch(i: int):
+        j, k = where[i]
+        if j not in done:
+            arrays, c = futures[j].result()
+            done[j] = arrays
+            for f, v in enumerate(c):
+                cells[f] += v
+            futures[j] = None  # let the task's result go
+        array = done[j][k]
+        left[j] -= 1
+        if left[j] == 0:
+            del done[j]
+        return array
+
+    try:
+        fetched = plan.write(out, fetch, [])
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+            _PLANS.clear()
+    fetched["frames"] = [dict(f, cells=c) for f, c in zip(fetched["frames"], cells)]
+    fetched["covered_cells"] = sum(cells)
+    return fetched

@@ -76,7 +76,7 @@ impl AdjustedFlight {
         feather_px: usize,
         cog: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let mopts = mosaic_options(blend, feather_px, &out).map_err(py_err)?;
+        let mopts = mosaic_options(blend, feather_px, Some(&out)).map_err(py_err)?;
         let r = py
             .detach(|| -> Result<_> {
                 let frames = self.flight.mosaic_frames(&self.opts)?;
@@ -159,7 +159,12 @@ pub fn write_adjusted_batch<'py>(
     to_py(py, &report)
 }
 
-fn mosaic_options(blend: &str, feather_px: usize, out: &Path) -> Result<MosaicOptions> {
+/// The mosaic's options, and (given) its output's name checked: a .tif or .tiff.
+pub(crate) fn mosaic_options(
+    blend: &str,
+    feather_px: usize,
+    out: Option<&Path>,
+) -> Result<MosaicOptions> {
     let blend: Blend = blend.parse().map_err(anyhow::Error::msg)?;
     let m = MosaicOptions {
         blend,
@@ -167,6 +172,7 @@ fn mosaic_options(blend: &str, feather_px: usize, out: &Path) -> Result<MosaicOp
         ..MosaicOptions::default()
     };
     m.validate()?;
+    let Some(out) = out else { return Ok(m) };
     let ext = out.extension().and_then(|e| e.to_str());
     if !ext.is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff")) {
         bail!(
@@ -208,7 +214,7 @@ pub fn mosaic<'py>(
     feather_px: usize,
 ) -> PyResult<Bound<'py, PyAny>> {
     let args = PhotoArgs::from_dict(opts)?;
-    let mopts = mosaic_options(blend, feather_px, &out).map_err(py_err)?;
+    let mopts = mosaic_options(blend, feather_px, Some(&out)).map_err(py_err)?;
     let r = py
         .detach(|| -> Result<_> {
             let mut o = args.options(None)?;

@@ -5,6 +5,7 @@
 mod arrays;
 mod camera;
 mod flight;
+mod mosaic;
 mod options;
 mod photo;
 
@@ -43,6 +44,7 @@ fn _aerorect(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add_class::<camera::Camera>()?;
     m.add_class::<flight::AdjustedFlight>()?;
+    m.add_class::<mosaic::MosaicTiles>()?;
     m.add_function(wrap_pyfunction!(photo::rectify_photo, m)?)?;
     m.add_function(wrap_pyfunction!(photo::rectify_photo_to_file, m)?)?;
     m.add_function(wrap_pyfunction!(photo::read_photo_metadata, m)?)?;
@@ -54,5 +56,6 @@ fn _aerorect(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(flight::adjust_flight, m)?)?;
     m.add_function(wrap_pyfunction!(flight::write_adjusted_batch, m)?)?;
     m.add_function(wrap_pyfunction!(flight::mosaic, m)?)?;
+    m.add_function(wrap_pyfunction!(mosaic::plan_mosaic, m)?)?;
     Ok(())
 }

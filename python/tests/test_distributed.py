@@ -155,3 +155,18 @@ def test_fsspec_urls_round_trip(tmp_path, cli):
     for w in written:
         name = w.rsplit("/", 1)[1]
         assert fs.cat(w.replace("memory://", "/")) == (tmp_path / "cli" / name).read_bytes()
+
+
+@pytest.mark.parametrize("use_client", [True, False])
+def test_mosaic_tile_by_tile_is_the_cli(tmp_path, cli, client, use_client):
+    from aerorect.distributed import mosaic
+
+    photos = flight_photos(tmp_path, 6, cols=3)
+    r = mosaic(photos, tmp_path / "py.tif", gsd_m=0.2, client=client if use_client else None,
+               tiles_per_task=1)
+    run(cli, "mosaic", *photos, "--out", tmp_path / "cli.tif", "--gsd-m", "0.2")
+    assert (tmp_path / "py.tif").read_bytes() == (tmp_path / "cli.tif").read_bytes()
+    assert r["tiles"] >= 2  # several tasks
+    whole = aerorect.mosaic(photos, tmp_path / "whole.tif", gsd_m=0.2)
+    assert [f["cells"] for f in r["frames"]] == [f["cells"] for f in whole["frames"]]
+    assert r["covered_cells"] == whole["covered_cells"] > 0
