@@ -2,6 +2,7 @@
 //! from the textbook formulas (independent of the optimised kernels), and image metrics.
 #![allow(clippy::unwrap_used)]
 
+pub mod chessboard;
 pub mod flight;
 
 use aerorect_core::ImageSize;
