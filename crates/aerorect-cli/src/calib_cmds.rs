@@ -60,6 +60,10 @@ pub struct CalibrateArgs {
     /// A camera file (intrinsics in pixels and `[distortion]`) for undistort and rectify.
     #[arg(long)]
     camera_out: Option<PathBuf>,
+    /// The points' coverage of the image as an SVG heat map (8 x 6 cells; the JSON report has
+    /// the counts as `coverage`).
+    #[arg(long)]
+    coverage_svg: Option<PathBuf>,
 }
 
 pub(crate) fn parse_size(s: &str) -> Result<ImageSize> {
@@ -85,6 +89,7 @@ pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
         .input("--points", a.points.as_deref())
         .output("--json", a.json.as_deref())
         .output("--camera-out", a.camera_out.as_deref())
+        .output("--coverage-svg", a.coverage_svg.as_deref())
         .output("--save-corners", a.save_corners.as_deref())
         .check()?;
     let given = a.image_size.as_deref().map(parse_size).transpose()?;
@@ -151,6 +156,9 @@ pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
         let text = camera_toml(&r.camera(size)?)?;
         let header = format!("# written by aerorect calibrate (RMS {:.4} px)\n", r.rms_px);
         staged.text(c, &(header + &text))?;
+    }
+    if let Some(p) = &a.coverage_svg {
+        staged.text(p, &crate::plot::coverage_svg(p, &r.coverage, size)?)?;
     }
     staged.commit()?;
     Ok(())

@@ -104,3 +104,65 @@ fn draw(path: &Path, rows: &[MotionSimRow], text: &mut String) -> Result<()> {
     svg.present().map_err(|e| err(&e))?;
     Ok(())
 }
+
+/// The calibration's coverage heat map: one cell per grid cell of the image, shaded by its
+/// point count (white = none), the count written in it, the image's 3 x 3 split dashed.
+pub fn coverage_svg(
+    path: &Path,
+    cov: &aerorect_solve::calib::Coverage,
+    size: aerorect::core::ImageSize,
+) -> Result<String> {
+    let err = |e: &dyn std::fmt::Display| anyhow!("{}: {e}", path.display());
+    let scale = 800.0 / size.width.max(size.height) as f64;
+    let (w, h) = (
+        (size.width as f64 * scale).round() as i32,
+        (size.height as f64 * scale).round() as i32,
+    );
+    let mut text = String::new();
+    {
+        let svg =
+            SVGBackend::with_string(&mut text, (w as u32 + 20, h as u32 + 50)).into_drawing_area();
+        svg.fill(&WHITE).map_err(|e| err(&e))?;
+        let max = cov.counts.iter().copied().max().unwrap_or(0).max(1) as f64;
+        let (cw, ch) = (w as f64 / cov.cols as f64, h as f64 / cov.rows as f64);
+        let at = |c: f64, r: f64| (10 + (c * cw).round() as i32, 40 + (r * ch).round() as i32);
+        for r in 0..cov.rows {
+            for c in 0..cov.cols {
+                let n = cov.counts[r * cov.cols + c];
+                let t = n as f64 / max;
+                let shade = RGBColor(
+                    (255.0 * (1.0 - 0.85 * t)) as u8,
+                    (255.0 * (1.0 - 0.55 * t)) as u8,
+                    255,
+                );
+                let (a, b) = (at(c as f64, r as f64), at(c as f64 + 1.0, r as f64 + 1.0));
+                svg.draw(&Rectangle::new([a, b], shade.filled()))
+                    .map_err(|e| err(&e))?;
+                svg.draw(&Rectangle::new([a, b], BLACK.stroke_width(1)))
+                    .map_err(|e| err(&e))?;
+                let centre = ((a.0 + b.0) / 2 - 8, (a.1 + b.1) / 2 - 7);
+                svg.draw(&Text::new(n.to_string(), centre, ("sans-serif", 14)))
+                    .map_err(|e| err(&e))?;
+            }
+        }
+        for k in 1..3 {
+            let x = 10 + (w as f64 * k as f64 / 3.0).round() as i32;
+            let y = 40 + (h as f64 * k as f64 / 3.0).round() as i32;
+            for line in [[(x, 40), (x, 40 + h)], [(10, y), (10 + w, y)]] {
+                svg.draw(&PathElement::new(line, RED.stroke_width(2)))
+                    .map_err(|e| err(&e))?;
+            }
+        }
+        let title = match cov.empty_corners.is_empty() {
+            true => format!("control points per cell ({} x {})", cov.cols, cov.rows),
+            false => format!(
+                "control points per cell; empty corners: {}",
+                cov.empty_corners.join(", ")
+            ),
+        };
+        svg.draw(&Text::new(title, (10, 12), ("sans-serif", 16)))
+            .map_err(|e| err(&e))?;
+        svg.present().map_err(|e| err(&e))?;
+    }
+    Ok(text)
+}

@@ -7,11 +7,13 @@
 //! at X_c = R(w) X + t with w a rotation vector. Pixels: u = fx x + skew y + cx, v = fy y + cy
 //! on the distorted normalised point (x, y).
 
+mod coverage;
 mod identify;
 mod init;
 mod lm;
 mod problem;
 
+pub use coverage::{COVERAGE_GRID, Coverage, coverage};
 pub use identify::calibrate;
 pub use problem::{
     CalibrationOptions, CalibrationReport, Correlation, Observation, ParameterValue, ViewReport,

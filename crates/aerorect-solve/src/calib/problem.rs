@@ -87,6 +87,8 @@ pub struct CalibrationReport {
     pub correlations: Vec<Correlation>,
     /// Terms held at zero because the data could not determine them, and other warnings.
     pub warnings: Vec<String>,
+    /// The points' coverage of the image (an 8 x 6 heat map and the empty corner ninths).
+    pub coverage: super::Coverage,
     /// Per observation (input order), pixels. For the OpenCV model: predicted minus measured in
     /// the observed image; for the paper's models: projection minus corrected measurement.
     pub residuals: Vec<[f64; 2]>,
@@ -558,6 +560,8 @@ fn report(
         / n as f64;
     let mut distortion = opts.model.clone();
     distortion.model_mut().set_params(&x[5..global_n]);
+    let (cols, rows) = super::COVERAGE_GRID;
+    let coverage = super::coverage(p.obs, opts.image_size, cols, rows);
     Ok(CalibrationReport {
         fx: x[0],
         fy: x[1],
@@ -576,7 +580,8 @@ fn report(
             })
             .collect(),
         correlations,
-        warnings: vec![],
+        warnings: coverage.warning().into_iter().collect(),
+        coverage,
         residuals,
         views,
         rms_px: (ssr / n as f64).sqrt(),
