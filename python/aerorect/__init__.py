@@ -42,6 +42,7 @@ __all__ = [
     "Camera",
     "DEFAULT_MAX_OUTPUT_PX",
     "adjust_flight",
+    "distributed",
     "calibrate",
     "mosaic",
     "read_photo_metadata",
@@ -173,3 +174,6 @@ def mosaic(
     return _aerorect.mosaic(
         [os.fspath(p) for p in paths], os.fspath(out), o, adjust, blend, feather_px
     )
+
+
+from . import distributed  # noqa: E402  (stdlib only; dask is imported by the caller's client)
