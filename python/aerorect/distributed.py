@@ -202,8 +202,9 @@ def rectify_flight(
     Keyword arguments as :func:`aerorect.rectify_photo` (``crs``, ``camera``, ``poses``,
     ``ground_height_m``, ``interp``, ``nodata``, ``cog``, ``adjust_positions_m``...).
 
-    Returns the paths written (with ``adjust``: the frames, then ``adjustment.json``,
-    ``adjusted_poses.csv`` and its ``.prj``).
+    Returns every frame's output path, in the order of ``paths`` (those skipped because they
+    existed included; with ``adjust``: then ``adjustment.json``, ``adjusted_poses.csv`` and
+    its ``.prj``).
     """
     if format not in ("tif", "png"):
         raise AerorectError(f"--format '{format}': expected tif or png")
