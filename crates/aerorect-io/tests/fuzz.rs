@@ -1,6 +1,6 @@
 //! Fuzzing of every reader in aerorect-io with seeded byte mutation of real files (see
 //! `fuzz_support`): images (PNG, JPEG, TIFF, BigTIFF, GeoTIFF tags, JPEG-in-TIFF), EXIF and XMP,
-//! camera and attitude TOML, the CSV tables and CRS strings. Properties: no panic, an error
+//! camera and attitude TOML, the other tools' camera files, the CSV tables and CRS strings. Properties: no panic, an error
 //! names its file, no allocation beyond the readers' limits.
 //!
 //! `cargo test` runs a short pass (a few thousand inputs). A longer one, as .ci/run runs it:

@@ -188,3 +188,77 @@ fn opencv_rational_on_one_plane_holds_the_rational_terms_with_a_warning() {
     }
     assert!((r.fx - five.fx).abs() < 1e-6);
 }
+
+/// The hold is decided by the data, not the model: a wide lens (r up to 1.1) with a rational
+/// denominator, seen as a 3-D field in several views, determines k4..k6, and `opencv-rational`
+/// frees them (no warning) and recovers the truth.
+#[test]
+fn opencv_rational_is_fitted_when_the_points_determine_it() {
+    use aerorect_core::distortion::{DistortionModel, OpenCv, OpenCvTerms};
+    use nalgebra::{Rotation3, Vector3};
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut truth = OpenCv::with_terms(OpenCvTerms::Rational);
+    (truth.k1, truth.k2, truth.k4, truth.k5) = (-0.05, 0.01, 0.35, 0.05);
+    let (f, cx, cy) = (400.0, 321.0, 238.0);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let noise = Normal::new(0.0, 0.05).unwrap();
+    let mut obs = vec![];
+    for (v, (w, t)) in [
+        ([0.02, -0.03, 0.01], [0.0, 0.0, 0.0]),
+        ([0.15, 0.1, -0.2], [0.2, -0.1, 0.3]),
+        ([-0.12, 0.18, 0.4], [-0.2, 0.15, 0.2]),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let rot = Rotation3::from_scaled_axis(Vector3::from(*w));
+        for i in 0..15 {
+            for j in 0..11 {
+                let z = [3.0, 3.6, 4.3][(i + j) % 3];
+                let world = [-3.3 + i as f64 * 0.47, -2.4 + j as f64 * 0.48, z];
+                let xc = rot * Vector3::from(world) + Vector3::from(*t);
+                let q = truth.value([xc.x / xc.z, xc.y / xc.z]);
+                let px = [
+                    f * q[0] + cx + noise.sample(&mut rng),
+                    f * q[1] + cy + noise.sample(&mut rng),
+                ];
+                if (0.0..639.0).contains(&px[0]) && (0.0..479.0).contains(&px[1]) {
+                    obs.push(Observation {
+                        image: format!("view{v}"),
+                        world,
+                        pixel: px,
+                    });
+                }
+            }
+        }
+    }
+    let mut opts = CalibrationOptions::new(
+        Distortion::zero("opencv-rational").unwrap(),
+        ImageSize::new(640, 480),
+    );
+    opts.fix = vec!["k3".into(), "k6".into(), "p1".into(), "p2".into()];
+    let r = calibrate(&obs, &opts).unwrap();
+    assert!(
+        r.warnings.is_empty(),
+        "{:?} {:?}",
+        r.warnings,
+        r.correlations
+    );
+    let k = r.distortion.model().params();
+    for (i, name) in [(0, "k1"), (1, "k2"), (5, "k4"), (6, "k5")] {
+        let std = r
+            .parameters
+            .iter()
+            .find(|p| p.name == name)
+            .unwrap()
+            .std
+            .unwrap();
+        let want = truth.params()[i];
+        assert!(
+            (k[i] - want).abs() < 5.0 * std,
+            "{name} {} vs {want} (std {std})",
+            k[i]
+        );
+    }
+}

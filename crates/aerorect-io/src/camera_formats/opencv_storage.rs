@@ -90,7 +90,8 @@ fn check_shape(
     data: Vec<f64>,
     src: &Src,
 ) -> Result<Vec<f64>, IoError> {
-    if rows < 0 || cols < 0 || (rows * cols) as usize != data.len() {
+    let fits = rows.checked_mul(cols).and_then(|n| usize::try_from(n).ok()) == Some(data.len());
+    if rows < 0 || cols < 0 || !fits {
         return Err(src.err(format!(
             "{key} is {rows} x {cols} but holds {} numbers",
             data.len()

@@ -18,6 +18,8 @@ pub enum Kind {
     Image,
     Xmp,
     CameraToml,
+    /// Other tools' camera files (OpenCV, COLMAP, OpenSfM, Metashape, DJI, Orthority).
+    CameraFormat,
     AttitudeToml,
     AttitudeInline,
     Checkpoints,
@@ -470,6 +472,8 @@ fn text_seeds() -> Vec<Seed> {
     let poses = std::fs::read_to_string(repo("../shared/data/ngi/ngi_xyz_opk.csv")).unwrap_or_else(|_| {
         "filename,x,y,z,omega,phi,kappa\n3324c_2015_1004_05_0182_RGB,-55094.504,-3727407.037,5258.308,-0.349,0.298,-179.087\n3324c_2015_1004_05_0184_RGB,-57710.435,-3727433.893,5256.765,0.27,-0.282,-179.028\n".into()
     });
+    let opencv_yml = std::fs::read_to_string(repo("data/calib/left_intrinsics.yml"))
+        .expect("left_intrinsics.yml");
     vec![
         t("dji.xmp", Kind::Xmp, DJI_XMP),
         t(
@@ -517,5 +521,36 @@ fn text_seeds() -> Vec<Seed> {
             "+proj=utm +zone=34 +south +ellps=GRS80 +units=m",
         ),
         t("epsg", Kind::Crs, "EPSG:32635"),
+        t("opencv.yml", Kind::CameraFormat, &opencv_yml),
+        t(
+            "opencv.xml",
+            Kind::CameraFormat,
+            "<?xml version=\"1.0\"?>\n<opencv_storage>\n<image_width>640</image_width>\n<image_height>480</image_height>\n<camera_matrix type_id=\"opencv-matrix\">\n  <rows>3</rows>\n  <cols>3</cols>\n  <dt>d</dt>\n  <data>\n    536.07 0. 342.37 0. 536.01 235.53 0. 0. 1.</data></camera_matrix>\n<distortion_coefficients type_id=\"opencv-matrix\">\n  <rows>8</rows>\n  <cols>1</cols>\n  <dt>d</dt>\n  <data>\n    -0.265 -0.0467 1.8e-3 -3.1e-4 0.252 0.01 -0.02 0.005</data></distortion_coefficients>\n</opencv_storage>\n",
+        ),
+        t(
+            "cameras.txt",
+            Kind::CameraFormat,
+            "# Camera list with one line of data per camera:\n1 FULL_OPENCV 640 480 536.07 536.01 342.87 236.03 -0.265 -0.0467 1.8e-3 -3.1e-4 0.252 0.01 -0.02 0.005\n",
+        ),
+        t(
+            "cameras.json",
+            Kind::CameraFormat,
+            "{\"v2 dji fc6310 5472 3648 brown 0.6666\": {\"projection_type\": \"brown\", \"width\": 5472, \"height\": 3648, \"focal_x\": 0.6672, \"focal_y\": 0.6669, \"c_x\": 0.0012, \"c_y\": -0.0021, \"k1\": -0.0031, \"k2\": 0.0102, \"k3\": -0.0098, \"p1\": 0.0003, \"p2\": -0.0002}}",
+        ),
+        t(
+            "metashape.xml",
+            Kind::CameraFormat,
+            "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<calibration>\n  <projection>frame</projection>\n  <width>5472</width>\n  <height>3648</height>\n  <f>3684.12</f>\n  <cx>-11.25</cx>\n  <cy>25.5</cy>\n  <b1>-1.5</b1>\n  <b2>0.75</b2>\n  <k1>-0.0059</k1>\n  <p1>-0.0021</p1>\n</calibration>\n",
+        ),
+        t(
+            "dewarp.txt",
+            Kind::CameraFormat,
+            "2018-09-04;3678.9,3671.5,10.5,-17.2,-0.26,0.11,0.001,-0.0003,-0.23",
+        ),
+        t(
+            "orthority.yaml",
+            Kind::CameraFormat,
+            "cam:\n  type: opencv\n  im_size: [640, 1152]\n  focal_len: [120.0, 120.5]\n  sensor_size: [92.16, 165.888]\n  cx: 0.001\n  cy: -0.002\n  k1: -0.1\n  s1: 0.001\n",
+        ),
     ]
 }

@@ -189,6 +189,17 @@ pub fn run(kind: Kind, bytes: &[u8], dir: &Path) -> Vec<Call> {
                 || CameraFile::read(&p),
             );
         }
+        Kind::CameraFormat => {
+            // Every format's reader on every camera-file input (most see a foreign layout).
+            for f in aerorect_io::CameraFormat::ALL {
+                call(&mut out, f.name(), Some("camera.fmt"), || {
+                    // Only DewarpData needs the size (another would resize the camera).
+                    let size = (f == aerorect_io::CameraFormat::DjiDewarp)
+                        .then_some(ImageSize::new(640, 480));
+                    aerorect_io::camera_from_text(&text, f, size, "camera.fmt")
+                });
+            }
+        }
         Kind::AttitudeToml => {
             let p = file("attitude.toml");
             let arg = p.display().to_string();
