@@ -9,7 +9,7 @@ use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo, rectify_photo_st
 use aerorect::geo::{Mounting, Projection};
 use aerorect::georef::load_dem;
 use aerorect::io::{CameraFile, CogMask, CogOptions, Crs, PoseRecord, StagedOutputs, image_files};
-use aerorect::raster::{Interp, WarpOptions};
+use aerorect::raster::{AnyRaster, Interp, WarpOptions};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -288,7 +288,7 @@ pub struct FlightArgs {
     #[arg(long, requires = "adjust", default_value_t = 1.0)]
     pub attitude_sigma_deg: f64,
     /// With --adjust: the most matching rounds (each renders the frames again with the last
-    /// round's orientation and matches afresh; they stop when no attitude moves 0.005 deg).
+    /// round's orientation and matches afresh; they stop when the median frame's attitude moves less than 0.005 deg).
     #[arg(long, requires = "adjust", default_value_t = 8)]
     pub adjust_passes: usize,
 }
@@ -631,7 +631,7 @@ fn write_report(
         );
         return Ok(());
     }
-    let html = aerorect::report_html::render(done, skipped, failed, seconds);
+    let html = aerorect::report_html::render(done, skipped, failed, seconds, None);
     write_text(path, &html)?;
     println!("report: {}", path.display());
     Ok(())
@@ -721,11 +721,15 @@ fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
     // together, or (when a frame fails) none of them does.
     let mut staged = StagedOutputs::new();
     let mut failed = 0;
+    let mut done = Vec::with_capacity(a.inputs.len());
     for (k, input) in a.inputs.iter().enumerate() {
         let res = output_for(a, input)
             .and_then(|out| Ok(flight.write_frame_staged(k, &out, opts, &mut staged)?));
         match res {
-            Ok(p) => println!("{}", result_line(&p)),
+            Ok(p) => {
+                println!("{}", result_line(&p));
+                done.push(p);
+            }
             Err(e) => {
                 failed += 1;
                 eprintln!("failed: {}: {e:#}", input.display());
@@ -742,6 +746,21 @@ fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
     let poses = adjusted_poses_csv(a);
     staged.text(&poses, &poses_csv(r))?;
     staged.text(&poses.with_extension("prj"), &flight.crs().to_wkt()?)?;
+    if let Some(p) = &a.report_html {
+        let overview = flight.overview()?;
+        let section = aerorect::report_html::FlightSection {
+            report: r,
+            ties: &flight.ties,
+            overview_png: Some(
+                aerorect::io::thumbnail_png(&AnyRaster::U8(overview), 800)
+                    .map_err(anyhow::Error::msg)?,
+            ),
+        };
+        let done: Vec<&PhotoResult> = done.iter().collect();
+        let seconds = r.seconds + done.iter().map(|d| d.seconds).sum::<f64>();
+        let html = aerorect::report_html::render(&done, &[], &[], seconds, Some(&section));
+        staged.text(p, &html)?;
+    }
     staged.commit()?;
     println!(
         "adjustment report: {}; adjusted poses: {}",

@@ -17,7 +17,7 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMat, Triplet};
 use nalgebra::{Matrix3, Rotation3, SMatrix, SVector};
 use serde::Serialize;
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 
 /// One frame's recorded exterior orientation and its camera.
 #[derive(Debug, Clone)]
@@ -332,7 +332,7 @@ fn indices(p: &Problem<'_>, o: &Observation) -> Vec<usize> {
 
 /// The reduced normal equations (points eliminated) and what back-substitution needs.
 struct Reduced {
-    entries: HashMap<(usize, usize), f64>,
+    entries: BTreeMap<(usize, usize), f64>,
     rhs: Vec<f64>,
     /// Per tie point: H_pp^-1 (damped), b_p and the (index, H_pc row block) list.
     points: Vec<Option<PointBlock>>,
@@ -366,14 +366,14 @@ fn jac_row(lin: &Linearised, l: &Layout) -> SMatrix<f64, 2, 9> {
 fn reduce(p: &Problem<'_>, s: &State, lambda: f64) -> Option<Reduced> {
     let n = p.layout.frames * p.layout.frame + p.cameras.len() * p.layout.camera;
     let mut red = Reduced {
-        entries: HashMap::new(),
+        entries: BTreeMap::new(),
         rhs: vec![0.0; n],
         points: Vec::with_capacity(p.ties.len()),
     };
     for (tie, x) in p.ties.iter().zip(&s.points) {
         let mut hpp = Matrix3::<f64>::zeros();
         let mut bp = Vec3::zeros();
-        let mut hpc: HashMap<usize, Vec3> = HashMap::new();
+        let mut hpc: BTreeMap<usize, Vec3> = BTreeMap::new();
         let mut local: Vec<LocalObservation> = Vec::new();
         for o in &tie.observations {
             let lin = p.linearise(s, o, x)?;
@@ -468,7 +468,7 @@ fn add_priors(p: &Problem<'_>, s: &State, lambda: f64, red: &mut Reduced) {
 /// Factorises the reduced system; solves for the step of the frames and cameras.
 fn factor(
     n: usize,
-    entries: &HashMap<(usize, usize), f64>,
+    entries: &BTreeMap<(usize, usize), f64>,
 ) -> Option<faer::sparse::linalg::solvers::Llt<usize, f64>> {
     let triplets: Vec<Triplet<usize, usize, f64>> = entries
         .iter()

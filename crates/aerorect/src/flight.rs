@@ -34,7 +34,9 @@ pub struct FlightOptions {
     /// adjusted orientation and matched afresh (as the frames come to coincide, patches that
     /// an attitude error had pushed apart match too, and the correlation's bias from the
     /// frames' remaining relative rotation and scale fades), and the adjustment is solved
-    /// again; rounds stop when no attitude moves by more than `settled_deg`.
+    /// again; rounds stop when the median frame's attitude moves by less than `settled_deg`
+    /// (one weakly held frame at the edge of a block can wander by a hundredth of a degree
+    /// from round to round without the others moving).
     pub passes: usize,
     pub settled_deg: f64,
 }
@@ -113,12 +115,28 @@ pub struct AdjustedPose {
     pub focal_px: f64,
 }
 
+/// What one matching round found.
+#[derive(Debug, Clone, Serialize)]
+pub struct RoundSummary {
+    pub tie_points: usize,
+    pub reliable_pairs: usize,
+    pub rms_after_px: f64,
+    /// The largest and the median attitude change from the previous round's (degrees; the
+    /// first round's from the recorded attitudes).
+    pub largest_turn_deg: f64,
+    pub median_turn_deg: f64,
+    pub seconds: f64,
+}
+
 /// The flight's matching and adjustment.
 #[derive(Debug, Clone, Serialize)]
 pub struct FlightReport {
     pub frames: Vec<String>,
     /// Matching rounds run (see [`FlightOptions::passes`]); the pairs are the last round's.
     pub passes: usize,
+    /// Each round: its tie points, residual RMS and the largest attitude change from the
+    /// round before.
+    pub rounds: Vec<RoundSummary>,
     pub match_gsd_m: f64,
     pub pairs: Vec<PairReport>,
     /// Frames no reliable pair reaches (left as recorded).
@@ -373,12 +391,7 @@ fn pair_ties(
 fn misalignment(ties: &[TiePoint], poses: &[Pose], cameras: &[&Camera]) -> f64 {
     let mut d: Vec<f64> = ties
         .iter()
-        .filter_map(|t| {
-            let [a, b] = [t.observations[0], t.observations[1]];
-            let pa = on_level(&poses[a.frame], cameras[a.frame], a.pixel, t.ground[2])?;
-            let pb = on_level(&poses[b.frame], cameras[b.frame], b.pixel, t.ground[2])?;
-            Some((pa[0] - pb[0]).hypot(pa[1] - pb[1]))
-        })
+        .filter_map(|t| tie_gap(t, poses, cameras).map(|g| g[0].hypot(g[1])))
         .collect();
     d.sort_by(f64::total_cmp);
     d.get(d.len() / 2).copied().unwrap_or(f64::NAN)
@@ -400,6 +413,8 @@ fn ground_fn(opts: &DroneOptions, world: &Projection) -> Box<dyn Fn(f64, f64) ->
 /// The flight after adjustment: every frame's corrected pose and camera.
 pub struct AdjustedFlight {
     frames: Vec<Frame>,
+    /// The last round's tie points, with their gaps before and after.
+    pub ties: Vec<TieVector>,
     pub poses: Vec<Pose>,
     pub cameras: Vec<Camera>,
     pub report: FlightReport,
@@ -438,33 +453,23 @@ pub fn adjust_flight(
     let ground = ground_fn(&opts, &world);
     let rec = recorded(&frames);
     let posed = opts.poses.is_some();
-    let mut round = match_and_adjust(
-        &frames,
-        &rec,
-        ground.as_ref(),
-        (opts.dem.is_some(), posed),
-        fo,
-    )?;
+    let mode = (opts.dem.is_some(), posed);
+    let mut t = std::time::Instant::now();
+    let mut round = match_and_adjust(&frames, &rec, ground.as_ref(), mode, fo)?;
     let (mut poses, mut cameras) = round.orientation(&rec);
-    let mut passes = 1;
-    while passes < fo.passes {
+    let mut rounds = vec![round.summary((&rec.poses, &poses), &mut t)];
+    while rounds.len() < fo.passes {
         frames = frames
             .into_par_iter()
             .enumerate()
             .map(|(k, f)| rerender(f, poses[k], &cameras[k], &opts, &world))
             .collect::<Result<_, Error>>()?;
-        round = match_and_adjust(
-            &frames,
-            &rec,
-            ground.as_ref(),
-            (opts.dem.is_some(), posed),
-            fo,
-        )?;
-        passes += 1;
+        round = match_and_adjust(&frames, &rec, ground.as_ref(), mode, fo)?;
         let (p, c) = round.orientation(&rec);
-        let moved = largest_turn_deg(&poses, &p);
+        let typical = median_turn_deg(&poses, &p);
+        rounds.push(round.summary((&poses, &p), &mut t));
         (poses, cameras) = (p, c);
-        if moved < fo.settled_deg {
+        if typical < fo.settled_deg {
             break;
         }
     }
@@ -473,7 +478,8 @@ pub fn adjust_flight(
             .iter()
             .map(|f| f.input.display().to_string())
             .collect(),
-        passes,
+        passes: rounds.len(),
+        rounds,
         match_gsd_m: gsd,
         unconnected: unconnected(&frames, &round.reports),
         pairs: round.reports,
@@ -483,6 +489,7 @@ pub fn adjust_flight(
     };
     Ok(AdjustedFlight {
         frames,
+        ties: round.ties,
         poses,
         cameras,
         report,
@@ -491,8 +498,8 @@ pub fn adjust_flight(
     })
 }
 
-/// The largest rotation between two sets of poses of the same frames, degrees.
-fn largest_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
+/// The rotation between each pair of poses of the same frames, degrees.
+fn turns_deg(a: &[Pose], b: &[Pose]) -> Vec<f64> {
     a.iter()
         .zip(b)
         .map(|(p, q)| {
@@ -502,7 +509,17 @@ fn largest_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
                 .acos()
                 .to_degrees()
         })
-        .fold(0.0, f64::max)
+        .collect()
+}
+
+fn largest_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
+    turns_deg(a, b).into_iter().fold(0.0, f64::max)
+}
+
+fn median_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
+    let mut t = turns_deg(a, b);
+    t.sort_by(f64::total_cmp);
+    t.get(t.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// The recorded orientation: poses, the distinct cameras and each frame's camera index.
@@ -516,9 +533,46 @@ struct Recorded {
 struct Round {
     reports: Vec<PairReport>,
     adjusted: aerorect_solve::adjust::Adjusted,
+    ties: Vec<TieVector>,
+}
+
+/// A tie point on the ground and how far apart its two frames put it (frame b's ground point
+/// to frame a's, metres east and north, at the tie's height) with the recorded and with the
+/// adjusted orientation.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct TieVector {
+    pub ground: [f64; 2],
+    pub before_m: [f64; 2],
+    pub after_m: [f64; 2],
+}
+
+/// The two frames' ground points of a two-frame tie, b to a.
+fn tie_gap(t: &TiePoint, poses: &[Pose], cameras: &[&Camera]) -> Option<[f64; 2]> {
+    let [a, b] = [t.observations.first()?, t.observations.get(1)?];
+    let pa = on_level(&poses[a.frame], cameras[a.frame], a.pixel, t.ground[2])?;
+    let pb = on_level(&poses[b.frame], cameras[b.frame], b.pixel, t.ground[2])?;
+    Some([pa[0] - pb[0], pa[1] - pb[1]])
 }
 
 impl Round {
+    /// The round's summary; restarts the clock `t`.
+    fn summary(
+        &self,
+        (before, after): (&[Pose], &[Pose]),
+        t: &mut std::time::Instant,
+    ) -> RoundSummary {
+        let s = RoundSummary {
+            largest_turn_deg: largest_turn_deg(before, after),
+            median_turn_deg: median_turn_deg(before, after),
+            tie_points: self.adjusted.report.tie_points,
+            reliable_pairs: self.reports.iter().filter(|r| r.reliable).count(),
+            rms_after_px: self.adjusted.report.rms_after_px,
+            seconds: t.elapsed().as_secs_f64(),
+        };
+        *t = std::time::Instant::now();
+        s
+    }
+
     /// Every frame's adjusted pose and camera.
     fn orientation(&self, rec: &Recorded) -> (Vec<Pose>, Vec<Camera>) {
         let poses = self
@@ -597,10 +651,24 @@ fn match_and_adjust(
             adjusted.report.iterations, adjusted.report.rms_after_px
         )));
     }
-    let mut round = Round { reports, adjusted };
+    let mut round = Round {
+        reports,
+        adjusted,
+        ties: Vec::new(),
+    };
     let (poses, cameras) = round.orientation(rec);
     let new_cams: Vec<&Camera> = cameras.iter().collect();
     finish_reports(&mut round.reports, &ties, &poses, &new_cams);
+    round.ties = ties
+        .iter()
+        .filter_map(|t| {
+            Some(TieVector {
+                ground: [t.ground[0], t.ground[1]],
+                before_m: tie_gap(t, &rec.poses, &cams)?,
+                after_m: tie_gap(t, &poses, &new_cams)?,
+            })
+        })
+        .collect();
     Ok(round)
 }
 
@@ -711,10 +779,12 @@ fn finest_gsd(
                 crate::drone::camera_from_metadata(m, size, &p.display().to_string())?.camera
             }
         };
-        let pose = opts
-            .poses
-            .as_deref()
-            .and_then(|t| crate::drone::pose_for(t, p));
+        let pose = match opts.poses.as_deref() {
+            Some(t) => Some(crate::drone::pose_for(t, p).ok_or_else(|| {
+                Error::Invalid(format!("{}: not in the pose table", p.display()))
+            })?),
+            None => None,
+        };
         let h = match pose {
             Some(pose) => pose.z - ground,
             None => m.dji.relative_altitude_m.unwrap_or(100.0),
@@ -870,6 +940,72 @@ impl AdjustedFlight {
             seconds: t.elapsed().as_secs_f64(),
             thumbnails: None,
         })
+    }
+
+    /// A gray overview of the flight on the matching grid, each cell the mean of the frames
+    /// that see it (as rendered for the last matching round), stretched to 8 bits between its
+    /// 1st and 99th percentiles; cells no frame sees are black.
+    pub fn overview(&self) -> Result<Raster<u8>, Error> {
+        let grids: Vec<_> = self.frames.iter().map(|f| f.coarse_plan.grid).collect();
+        let Some(g0) = grids.first() else {
+            return Err(Error::Invalid("a flight of no frames".into()));
+        };
+        let gsd = g0.gsd;
+        let left = grids
+            .iter()
+            .map(|g| g.top_left[0])
+            .fold(f64::INFINITY, f64::min);
+        let top = grids
+            .iter()
+            .map(|g| g.top_left[1])
+            .fold(f64::NEG_INFINITY, f64::max);
+        let at = |g: &aerorect_geo::OrthoGrid| {
+            (
+                ((g.top_left[0] - left) / gsd).round() as usize,
+                ((top - g.top_left[1]) / gsd).round() as usize,
+            )
+        };
+        let (w, h) = grids.iter().fold((0, 0), |(w, h), g| {
+            let (c, r) = at(g);
+            (w.max(c + g.size.width), h.max(r + g.size.height))
+        });
+        if w * h > 64_000_000 {
+            return Err(Error::Invalid(format!(
+                "the flight's overview would be {w} x {h} px"
+            )));
+        }
+        let (mut sum, mut n) = (vec![0f64; w * h], vec![0u32; w * h]);
+        for (f, g) in self.frames.iter().zip(&grids) {
+            let (c0, r0) = at(g);
+            for (i, v) in f.coarse.plane(0).iter().enumerate() {
+                if v.is_finite() {
+                    let j = (r0 + i / g.size.width) * w + c0 + i % g.size.width;
+                    sum[j] += *v as f64;
+                    n[j] += 1;
+                }
+            }
+        }
+        let mean: Vec<Option<f64>> = sum
+            .iter()
+            .zip(&n)
+            .map(|(s, &k)| (k > 0).then(|| s / k as f64))
+            .collect();
+        let mut seen: Vec<f64> = mean.iter().flatten().copied().collect();
+        seen.sort_by(f64::total_cmp);
+        let q = |p: f64| {
+            seen.get((p * (seen.len().max(1) - 1) as f64) as usize)
+                .copied()
+        };
+        let (lo, hi) = (q(0.01).unwrap_or(0.0), q(0.99).unwrap_or(1.0));
+        let px = mean
+            .iter()
+            .map(|m| {
+                m.map_or(0, |v| {
+                    (1.0 + 254.0 * ((v - lo) / (hi - lo).max(1e-9)).clamp(0.0, 1.0)) as u8
+                })
+            })
+            .collect();
+        Ok(Raster::from_planes(ImageSize::new(w, h), vec![px])?)
     }
 
     pub fn len(&self) -> usize {

@@ -1,7 +1,140 @@
 //! The batch report: one self-contained HTML page (inline SVG map, base64 PNG thumbnails).
 
 use crate::drone::PhotoResult;
+use crate::flight::{FlightReport, TieVector};
 use base64::Engine;
+
+/// What `batch --adjust` adds to the page: the adjustment, its tie points and an overview.
+pub struct FlightSection<'a> {
+    pub report: &'a FlightReport,
+    pub ties: &'a [TieVector],
+    /// A PNG of the adjusted flight's overview.
+    pub overview_png: Option<Vec<u8>>,
+}
+
+/// At most this many tie points are drawn (every k-th).
+const MAX_DRAWN_TIES: usize = 4000;
+
+/// The tie points on the ground, each with its gap between the two frames before (red) and
+/// after (blue) the adjustment, both exaggerated by one factor so the median gap before is
+/// about 20 px on the map.
+fn tie_map(ties: &[TieVector]) -> String {
+    if ties.is_empty() {
+        return "<p>No tie points.</p>".into();
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for t in ties {
+        for d in 0..2 {
+            lo[d] = lo[d].min(t.ground[d]);
+            hi[d] = hi[d].max(t.ground[d]);
+        }
+    }
+    let (w, h, pad) = (800.0, 600.0, 30.0);
+    let span = ((hi[0] - lo[0]) / (w - 2.0 * pad))
+        .max((hi[1] - lo[1]) / (h - 2.0 * pad))
+        .max(1e-9);
+    let xy = |p: [f64; 2]| (pad + (p[0] - lo[0]) / span, h - pad - (p[1] - lo[1]) / span);
+    let mut gaps: Vec<f64> = ties
+        .iter()
+        .map(|t| t.before_m[0].hypot(t.before_m[1]))
+        .collect();
+    gaps.sort_by(f64::total_cmp);
+    let median = gaps[gaps.len() / 2].max(1e-6);
+    let exaggerate = 20.0 * span / median;
+    let step = ties.len().div_ceil(MAX_DRAWN_TIES);
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" style=\"background:#f4f4f0;border:1px solid #999\">"
+    );
+    let line = |x: f64, y: f64, v: [f64; 2], colour: &str| {
+        format!(
+            "<line x1=\"{x:.1}\" y1=\"{y:.1}\" x2=\"{:.1}\" y2=\"{:.1}\" stroke=\"{colour}\" stroke-width=\"1\"/>",
+            x + v[0] * exaggerate / span,
+            y - v[1] * exaggerate / span
+        )
+    };
+    for t in ties.iter().step_by(step) {
+        let (x, y) = xy(t.ground);
+        svg += &line(x, y, t.before_m, "#d62728");
+        svg += &line(x, y, t.after_m, "#1f77b4");
+        svg += &format!("<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"1.2\" fill=\"black\"/>");
+    }
+    svg += &format!(
+        "<text x=\"{pad}\" y=\"{:.0}\" font-size=\"12\">{} of {} tie points; gaps x{exaggerate:.0}: <tspan fill=\"#d62728\">before</tspan> (median {median:.3} m), <tspan fill=\"#1f77b4\">after</tspan></text></svg>",
+        h - 10.0,
+        ties.len().div_ceil(step),
+        ties.len()
+    );
+    svg
+}
+
+fn flight_section(f: &FlightSection) -> String {
+    let r = f.report;
+    let a = &r.adjustment;
+    let rounds: String = r
+        .rounds
+        .iter()
+        .enumerate()
+        .map(|(k, x)| {
+            format!(
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.4}</td><td>{:.4}</td><td>{:.1}</td></tr>",
+                k + 1,
+                x.tie_points,
+                x.reliable_pairs,
+                x.rms_after_px,
+                x.median_turn_deg,
+                x.largest_turn_deg,
+                x.seconds
+            )
+        })
+        .collect();
+    let pairs: String = r
+        .pairs
+        .iter()
+        .map(|p| {
+            format!(
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{}</td></tr>",
+                esc(&name(&p.a)),
+                esc(&name(&p.b)),
+                p.patches,
+                p.inliers,
+                if p.reliable { "yes" } else { "no: not used" },
+                p.misalignment_before_m,
+                p.misalignment_after_m
+                    .map_or("-".to_string(), |m| format!("{m:.3}"))
+            )
+        })
+        .collect();
+    let overview = f
+        .overview_png
+        .as_deref()
+        .map_or(String::new(), |png| {
+            format!(
+                "<h3>Overview of the adjusted flight</h3><img src=\"data:image/png;base64,{}\" style=\"max-width:800px\">",
+                base64::engine::general_purpose::STANDARD.encode(png)
+            )
+        });
+    let unconnected: String = r
+        .unconnected
+        .iter()
+        .map(|u| {
+            format!(
+                "<li>{}: overlaps no frame reliably; left as recorded</li>",
+                esc(&name(u))
+            )
+        })
+        .collect();
+    format!(
+        "<h2>Flight adjustment</h2><p>{} frames, {} tie points, {} observations; residual RMS {:.2} &rarr; {:.3} px; {} matching rounds; {:.1} s.</p><ul>{unconnected}</ul>         <table><tr><th>round</th><th>tie points</th><th>reliable pairs</th><th>RMS after (px)</th><th>median turn (&deg;)</th><th>largest turn (&deg;)</th><th>s</th></tr>{rounds}</table>         <h3>Tie points and their gaps between frames</h3>{}         <h3>Pairs: misalignment on the ground (median over the tie points, m)</h3>         <table><tr><th>a</th><th>b</th><th>patches</th><th>tie points</th><th>reliable</th><th>before</th><th>after</th></tr>{pairs}</table>{overview}",
+        r.frames.len(),
+        a.tie_points,
+        a.observations,
+        a.rms_before_px,
+        a.rms_after_px,
+        r.passes,
+        r.seconds,
+        tie_map(f.ties),
+    )
+}
 
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -140,6 +273,7 @@ pub fn render(
     skipped: &[(String, String)],
     failed: &[(String, String)],
     seconds: f64,
+    flight: Option<&FlightSection>,
 ) -> String {
     let list = |items: &[(String, String)]| -> String {
         items
@@ -152,7 +286,7 @@ pub fn render(
         "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>aerorect batch report</title>\
          <style>body{{font-family:sans-serif;margin:20px}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:6px;vertical-align:top}}</style></head><body>\
          <h1>aerorect batch report</h1><p>{} rectified, {} skipped, {} failed in {:.1} s.</p>\
-         <h2>Footprints on the ground</h2>{}\
+         <h2>Footprints on the ground</h2>{}{}\
          <h2>Frames</h2><table><tr><th>frame</th><th>before</th><th>after (north up)</th><th>attitude</th><th>height</th><th>GSD</th><th>warnings</th></tr>{rows}</table>\
          <h2>Failed</h2><ul>{}</ul><h2>Skipped</h2><ul>{}</ul></body></html>",
         done.len(),
@@ -160,7 +294,56 @@ pub fn render(
         failed.len(),
         seconds,
         footprint_map(done),
+        flight.map_or(String::new(), flight_section),
         list(failed),
         list(skipped),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The drawn lines of a colour: (x1, y1, x2, y2).
+    fn lines(svg: &str, colour: &str) -> Vec<[f64; 4]> {
+        svg.split("<line ")
+            .skip(1)
+            .map(|l| &l[..l.find("/>").unwrap()])
+            .filter(|l| l.contains(colour))
+            .map(|l| {
+                let v = |k: &str| -> f64 {
+                    let at = l.find(&format!("{k}=\"")).unwrap() + k.len() + 2;
+                    l[at..at + l[at..].find('"').unwrap()].parse().unwrap()
+                };
+                [v("x1"), v("y1"), v("x2"), v("y2")]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn tie_gaps_are_drawn_east_and_north_at_one_scale() {
+        let ties = [
+            TieVector {
+                ground: [0.0, 0.0],
+                before_m: [2.0, 0.0],
+                after_m: [0.1, 0.0],
+            },
+            TieVector {
+                ground: [100.0, 50.0],
+                before_m: [0.0, 2.0],
+                after_m: [0.0, -0.2],
+            },
+        ];
+        let svg = tie_map(&ties);
+        let (red, blue) = (lines(&svg, "#d62728"), lines(&svg, "#1f77b4"));
+        assert_eq!((red.len(), blue.len()), (2, 2));
+        // East is +x on the page, north is -y; one exaggeration for before and after.
+        let d = |l: [f64; 4]| [l[2] - l[0], l[3] - l[1]];
+        let (r0, b0, r1, b1) = (d(red[0]), d(blue[0]), d(red[1]), d(blue[1]));
+        assert!(r0[0] > 0.0 && r0[1].abs() < 0.2 && r1[1] < 0.0 && r1[0].abs() < 0.2);
+        assert!((b0[0] / r0[0] - 0.05).abs() < 0.01, "{b0:?} {r0:?}");
+        assert!((b1[1] / r1[1] + 0.1).abs() < 0.01, "{b1:?} {r1:?}");
+        // The median gap before (2 m) is drawn about 20 px long.
+        assert!((r0[0] - 20.0).abs() < 0.2, "{r0:?}");
+    }
 }
