@@ -95,19 +95,6 @@ pub const ADJUSTMENT_FILES: [&str; 3] = [
     "adjusted_poses.prj",
 ];
 
-/// The adjusted poses as `--poses` (and Orthority) read them: `batch --adjust`'s
-/// adjusted_poses.csv.
-fn poses_csv(r: &aerorect::flight::FlightReport) -> String {
-    let mut out = String::from("filename,x,y,z,omega,phi,kappa\n");
-    for p in &r.poses {
-        out += &format!(
-            "{},{:.4},{:.4},{:.4},{:.8},{:.8},{:.8}\n",
-            p.frame, p.x, p.y, p.z, p.omega, p.phi, p.kappa
-        );
-    }
-    out
-}
-
 /// `batch --adjust` without the printing: the flight adjusted, every frame written with its
 /// adjusted orientation to `out_paths` and [`ADJUSTMENT_FILES`] to `out_dir`, all landing
 /// together (none when a frame fails). Returns the adjustment report.
@@ -150,7 +137,7 @@ pub fn write_adjusted_batch<'py>(
             }
             let [report, poses, prj] = ADJUSTMENT_FILES.map(|f| out_dir.join(f));
             staged.text(&report, &json)?;
-            staged.text(&poses, &poses_csv(&flight.report))?;
+            staged.text(&poses, &flight.report.poses_csv())?;
             staged.text(&prj, &flight.crs().to_wkt()?)?;
             staged.commit()?;
             Ok(flight.report)

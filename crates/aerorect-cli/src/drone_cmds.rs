@@ -524,18 +524,6 @@ fn adjusted_poses_csv(a: &BatchArgs) -> PathBuf {
     a.out_dir.join("adjusted_poses.csv")
 }
 
-/// The adjusted poses as `--poses` (and Orthority) read them.
-fn poses_csv(r: &aerorect::flight::FlightReport) -> String {
-    let mut out = String::from("filename,x,y,z,omega,phi,kappa\n");
-    for p in &r.poses {
-        out += &format!(
-            "{},{:.4},{:.4},{:.4},{:.8},{:.8},{:.8}\n",
-            p.frame, p.x, p.y, p.z, p.omega, p.phi, p.kappa
-        );
-    }
-    out
-}
-
 fn process(a: &BatchArgs, input: &Path, opts: &DroneOptions) -> Outcome {
     let output = match output_for(a, input) {
         Ok(o) => o,
@@ -744,7 +732,7 @@ fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
     }
     staged.text(&adjustment_json(a), &json)?;
     let poses = adjusted_poses_csv(a);
-    staged.text(&poses, &poses_csv(r))?;
+    staged.text(&poses, &r.poses_csv())?;
     staged.text(&poses.with_extension("prj"), &flight.crs().to_wkt()?)?;
     if let Some(p) = &a.report_html {
         let overview = flight.overview()?;

@@ -115,6 +115,21 @@ pub struct AdjustedPose {
     pub focal_px: f64,
 }
 
+impl FlightReport {
+    /// The adjusted poses as `--poses` (and Orthority) read them:
+    /// `filename,x,y,z,omega,phi,kappa`.
+    pub fn poses_csv(&self) -> String {
+        let mut out = String::from("filename,x,y,z,omega,phi,kappa\n");
+        for p in &self.poses {
+            out += &format!(
+                "{},{:.4},{:.4},{:.4},{:.8},{:.8},{:.8}\n",
+                p.frame, p.x, p.y, p.z, p.omega, p.phi, p.kappa
+            );
+        }
+        out
+    }
+}
+
 /// What one matching round found.
 #[derive(Debug, Clone, Serialize)]
 pub struct RoundSummary {
