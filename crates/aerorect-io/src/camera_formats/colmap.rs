@@ -94,11 +94,9 @@ fn read_line(line: &str, src: &Src) -> Result<(String, Camera), IoError> {
         Some(f) => (*f, *f),
         None => (get("fx"), get("fy")),
     };
-    let mut lens = OpenCv::with_terms(if model == "FULL_OPENCV" {
-        OpenCvTerms::Rational
-    } else {
-        OpenCvTerms::Standard
-    });
+    // The model is the smallest that holds the non-zero terms (FULL_OPENCV is also COLMAP's
+    // only model with k3).
+    let mut lens = OpenCv::with_terms(OpenCvTerms::Standard);
     let order = ["k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"];
     let mut c = [0.0; 12];
     for (slot, n) in c.iter_mut().zip(order) {

@@ -121,11 +121,8 @@ fn read_one(name: &str, v: &Yaml, src: &Src) -> Result<Camera, IoError> {
     for (slot, k) in c.iter_mut().zip(COEFFICIENTS) {
         *slot = opt(k)?;
     }
-    let mut lens = OpenCv::with_terms(if kind == "opencv" {
-        OpenCvTerms::Rational
-    } else {
-        OpenCvTerms::Standard
-    });
+    // The model is the smallest that holds the non-zero terms.
+    let mut lens = OpenCv::with_terms(OpenCvTerms::Standard);
     lens.set_coefficients(c);
     let [cx0, cy0] = size.centre();
     let k = [
