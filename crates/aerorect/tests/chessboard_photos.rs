@@ -90,24 +90,37 @@ fn with_opencvs_window_corners_and_calibration_are_opencvs() {
     assert!((r.rms_px - 0.40869).abs() < 0.002, "RMS {}", r.rms_px);
 }
 
-/// The default window stays inside the four squares about a corner. It agrees with OpenCV to
-/// 0.01 px in 12 photos; in left02 the board is nearly edge-on and OpenCV's 23 x 23 window
-/// reaches the board's edge at corners of its first two columns, which move by up to 3.6 px
-/// (bench/chessboard_vs_opencv.py shows ours lie closer to a pose fitted to the other corners).
+/// OpenCV 4.14.0 calibrateCamera (5 coefficients, no flags) on OpenCV's stored corners of the
+/// 12 photos other than left02 (bench/chessboard_vs_opencv.py prints them): RMS 0.23410,
+/// fx 534.1319, fy 534.1865, cx 342.8440, cy 233.7184.
+const OPENCV_WITHOUT_LEFT02: [f64; 4] = [534.1319, 534.1865, 342.8440, 233.7184];
+
+/// The default window stays clear of edges that do not pass through the corner. It agrees with
+/// OpenCV to 0.01 px in 12 photos; in left02 the board is nearly edge-on and OpenCV's 23 x 23
+/// window reaches past the squares about some corners, which move by up to 6.3 px. Ours are
+/// the consistent ones: left02's reprojection RMS falls from OpenCV's 1.18 px (its own
+/// left_intrinsics.yml) to under 0.5, and the 13-view calibration lands within 1 px of OpenCV's
+/// calibration without left02 (while OpenCV's 13-view one is 2 px away in fx).
 #[test]
-fn default_corners_agree_with_opencvs_except_on_foreshortened_squares() {
+fn default_corners_agree_with_opencvs_except_where_its_window_is_too_wide() {
     let found = find(None);
     for (image, d) in distances(&found) {
-        let far: Vec<usize> = (0..d.len()).filter(|&k| d[k] > 0.01).collect();
         if image == "left02.jpg" {
-            assert!(far.iter().all(|k| k % 9 <= 1), "{image}: {far:?} {d:?}");
-            assert!(d.iter().all(|&x| x < 4.0), "{image}: {d:?}");
+            assert!(d.iter().all(|&x| x < 7.0), "{image}: {d:?}");
         } else {
+            let far: Vec<usize> = (0..d.len()).filter(|&k| d[k] > 0.01).collect();
             assert!(far.is_empty(), "{image}: corners {far:?} differ by {d:?}");
         }
     }
     let r = calibrated(&found);
-    assert!((r.cx - 342.3705).abs() < 1.0 && (r.cy - 235.5369).abs() < 1.0);
-    assert!((r.fx - 536.0734).abs() < 1.5 && (r.fy - 536.0163).abs() < 1.5);
+    for (got, want) in [r.fx, r.fy, r.cx, r.cy].iter().zip(OPENCV_WITHOUT_LEFT02) {
+        assert!(
+            (got - want).abs() < 1.0,
+            "{got} vs {want}: {:?}",
+            [r.fx, r.fy, r.cx, r.cy]
+        );
+    }
+    let left02 = r.views.iter().find(|v| v.image == "left02.jpg").unwrap();
+    assert!(left02.rms_px < 0.5, "left02 RMS {}", left02.rms_px);
     assert!(r.rms_px < 0.40869, "RMS {} not below OpenCV's", r.rms_px);
 }

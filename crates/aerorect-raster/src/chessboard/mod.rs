@@ -198,35 +198,99 @@ impl ChessboardFinder {
         }
     }
 
-    /// Every corner refined in `img`, with a half window below 0.45 of its shortest grid step.
+    /// Every corner refined in `img`. The window's half size is at most 0.75 of the corner's
+    /// distance to the nearest edge that does not pass through it (the far sides of its four
+    /// squares); when that result moves more than 0.25 px from the one in a window of 0.45 of
+    /// the distance, something else reached into the larger window and the smaller one is kept.
     fn refined(&self, img: Gray<'_>, coarse: &[[f64; 2]]) -> Vec<[f64; 2]> {
-        let (cols, rows) = (self.cols, self.rows);
+        let refine = |p: [f64; 2], half: usize| {
+            let settings = subpix::Refine {
+                half,
+                max_iterations: 40,
+                eps_px: 1e-4,
+            };
+            subpix::refine(img, p, settings)
+        };
         (0..coarse.len())
             .map(|k| {
-                let (c, r) = (k % cols, k / cols);
                 let p = coarse[k];
-                let step = [
-                    (c > 0).then(|| k - 1),
-                    (c + 1 < cols).then_some(k + 1),
-                    (r > 0).then(|| k - cols),
-                    (r + 1 < rows).then_some(k + cols),
-                ]
-                .into_iter()
-                .flatten()
-                .map(|n| (coarse[n][0] - p[0]).hypot(coarse[n][1] - p[1]))
-                .fold(f64::MAX, f64::min);
-                let half = if self.fixed_half_window {
-                    self.max_half_window
+                if self.fixed_half_window {
+                    return refine(p, self.max_half_window);
+                }
+                let free = clear_distance(coarse, self.cols, self.rows, k);
+                let half = |f: f64| ((f * free) as usize).clamp(2, self.max_half_window);
+                let (wide, narrow) = (half(WIDE), half(NARROW));
+                let a = refine(p, wide);
+                if wide == narrow {
+                    return a;
+                }
+                let b = refine(p, narrow);
+                if (a[0] - b[0]).hypot(a[1] - b[1]) > WINDOW_DISAGREEMENT_PX {
+                    b
                 } else {
-                    ((0.45 * step) as usize).clamp(2, self.max_half_window)
-                };
-                let settings = subpix::Refine {
-                    half,
-                    max_iterations: 40,
-                    eps_px: 1e-4,
-                };
-                subpix::refine(img, p, settings)
+                    a
+                }
             })
             .collect()
     }
+}
+
+/// Refinement half windows as fractions of the distance to the nearest foreign edge.
+const WIDE: f64 = 0.75;
+const NARROW: f64 = 0.45;
+/// Wide and narrow windows that disagree by more than this (pixels) mean a foreign edge.
+const WINDOW_DISAGREEMENT_PX: f64 = 0.25;
+
+/// Corner (c, r) of the grid, extended one square past the board's edge by straight steps.
+fn grid_at(p: &[[f64; 2]], cols: usize, rows: usize, c: isize, r: isize) -> [f64; 2] {
+    let (cc, rc) = (c.clamp(0, cols as isize - 1), r.clamp(0, rows as isize - 1));
+    let idx = |c: isize, r: isize| p[r as usize * cols + c as usize];
+    let base = idx(cc, rc);
+    let mut out = base;
+    for (d, inward) in [
+        (
+            c - cc,
+            idx((cc - (c - cc).signum()).clamp(0, cols as isize - 1), rc),
+        ),
+        (
+            r - rc,
+            idx(cc, (rc - (r - rc).signum()).clamp(0, rows as isize - 1)),
+        ),
+    ] {
+        if d != 0 {
+            let k = d.abs() as f64;
+            out = [
+                out[0] + k * (base[0] - inward[0]),
+                out[1] + k * (base[1] - inward[1]),
+            ];
+        }
+    }
+    out
+}
+
+/// The distance from corner `k` to the nearest grid line that does not pass through it: the
+/// eight far sides of the four squares about it.
+fn clear_distance(p: &[[f64; 2]], cols: usize, rows: usize, k: usize) -> f64 {
+    let (c, r) = ((k % cols) as isize, (k / cols) as isize);
+    let at = |dc: isize, dr: isize| grid_at(p, cols, rows, c + dc, r + dr);
+    let o = p[k];
+    let sides = [
+        ((1, -1), (1, 0)),
+        ((1, 0), (1, 1)),
+        ((-1, -1), (-1, 0)),
+        ((-1, 0), (-1, 1)),
+        ((-1, 1), (0, 1)),
+        ((0, 1), (1, 1)),
+        ((-1, -1), (0, -1)),
+        ((0, -1), (1, -1)),
+    ];
+    sides
+        .iter()
+        .map(|&(a, b)| {
+            let (a, b) = (at(a.0, a.1), at(b.0, b.1));
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let len = dx.hypot(dy).max(1e-9);
+            ((o[0] - a[0]) * dy - (o[1] - a[1]) * dx).abs() / len
+        })
+        .fold(f64::MAX, f64::min)
 }
