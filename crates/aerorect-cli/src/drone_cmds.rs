@@ -284,6 +284,13 @@ pub struct FlightArgs {
     /// With --adjust: keep every recorded position.
     #[arg(long, requires = "adjust")]
     pub hold_positions: bool,
+    /// With --adjust: also solve each camera's radial distortion k1, k2 (added to its lens;
+    /// cameras with a rational or non-OpenCV lens keep theirs).
+    #[arg(long, requires = "adjust")]
+    pub adjust_lens: bool,
+    /// With --adjust: also solve a boresight rotation per camera.
+    #[arg(long, requires = "adjust")]
+    pub adjust_boresight: bool,
     /// With --adjust: the recorded attitudes' standard deviation (degrees, each axis).
     #[arg(long, requires = "adjust", default_value_t = 1.0)]
     pub attitude_sigma_deg: f64,
@@ -339,6 +346,8 @@ impl FlightArgs {
             },
             attitude_sigma_deg: self.attitude_sigma_deg,
             passes: self.adjust_passes,
+            refine_radial: self.adjust_lens,
+            refine_boresight: self.adjust_boresight,
             ..Default::default()
         })
     }

@@ -7,8 +7,11 @@
 //! system over frames and cameras, sparse because frames only meet their neighbours, is solved
 //! with faer's sparse Cholesky: it scales to thousands of frames.
 //!
-//! Frame model: `world_from_camera = Rot(w) * R0` (w a rotation vector in world axes),
-//! `centre = C0 + dc`; camera: fx, fy scaled by (1 + s), principal point moved by (du, dv).
+//! Frame model: `world_from_camera = Rot(w) * R0 * Rot(b)` (w a rotation vector in world
+//! axes, b the camera's boresight rotation in its own axes), `centre = C0 + dc`; camera: fx,
+//! fy scaled by (1 + s), principal point moved by (du, dv), and radial terms dk1, dk2 added to
+//! the lens's own (`q + n (dk1 r^2 + dk2 r^4)` for ideal normalised `n`, `r = |n|`: exactly
+//! OpenCV's k1, k2 moved by dk1, dk2 when the lens has no rational terms).
 //! Camera frame as in `aerorect_core::camera` (x right, y up, z back).
 
 use crate::SolveError;
@@ -59,6 +62,12 @@ pub struct AdjustOptions<'a> {
     pub position_sigma_m: Option<f64>,
     pub refine_focal: bool,
     pub refine_principal_point: bool,
+    /// Radial distortion k1, k2 per camera (only for a camera with no lens model or OpenCV's
+    /// without rational terms; others keep their lens as it is).
+    pub refine_radial: bool,
+    /// A boresight rotation per camera (the attitude priors hold each frame's own correction
+    /// near zero, so what all frames of a camera share goes here).
+    pub refine_boresight: bool,
     /// Standard deviation of a tie point's image position, pixels.
     pub pixel_sigma: f64,
     /// Huber threshold, in units of `pixel_sigma`.
@@ -75,6 +84,8 @@ impl Default for AdjustOptions<'_> {
             position_sigma_m: None,
             refine_focal: true,
             refine_principal_point: true,
+            refine_radial: false,
+            refine_boresight: false,
             pixel_sigma: 0.5,
             huber: 3.0,
             terrain: None,
@@ -105,6 +116,12 @@ pub struct CameraAdjustment {
     pub focal_scale_sigma: f64,
     pub principal_point_shift_px: [f64; 2],
     pub principal_point_sigma_px: [f64; 2],
+    /// What was added to the lens's k1, k2.
+    pub radial_k1_k2: [f64; 2],
+    pub radial_sigma: [f64; 2],
+    /// The boresight rotation (camera axes), degrees.
+    pub boresight_deg: [f64; 3],
+    pub boresight_sigma_deg: [f64; 3],
 }
 
 /// The result of an adjustment.
@@ -153,8 +170,22 @@ struct State {
     points: Vec<Vec3>,
 }
 
+/// Parameters per camera: focal scale, principal point shift (2), dk1, dk2, boresight (3).
+const CAMERA_PARAMS: usize = 8;
+
+/// Whether the adjustment can add radial terms to this camera's lens.
+pub fn radial_refinable(camera: &Camera) -> bool {
+    match &camera.distortion {
+        None => true,
+        Some(aerorect_core::distortion::Distortion::OpenCv(o)) => {
+            o.k4 == 0.0 && o.k5 == 0.0 && o.k6 == 0.0
+        }
+        Some(_) => false,
+    }
+}
+
 /// The pixel of `x` in frame `f` for the parameter values `frame_p` (rotation vector, position
-/// offset) and `cam_p` (focal scale, principal point shift).
+/// offset) and `cam_p` (focal scale, principal point shift, dk1, dk2, boresight).
 fn project(
     frame: &AdjustFrame,
     camera: &Camera,
@@ -163,7 +194,9 @@ fn project(
     x: &Vec3,
 ) -> Option<[f64; 2]> {
     let w = Vec3::new(frame_p[0], frame_p[1], frame_p[2]);
-    let r = Rotation3::new(w).into_inner() * frame.world_from_camera;
+    let b = Vec3::new(cam_p[5], cam_p[6], cam_p[7]);
+    let r =
+        Rotation3::new(w).into_inner() * frame.world_from_camera * Rotation3::new(b).into_inner();
     let c = Vec3::from(frame.centre)
         + frame_p
             .get(3..6)
@@ -177,6 +210,9 @@ fn project(
         None => n,
         Some(m) => m.model().observed_from_ideal(n)?,
     };
+    let r2 = n[0] * n[0] + n[1] * n[1];
+    let radial = cam_p[3] * r2 + cam_p[4] * r2 * r2;
+    let q = [q[0] + n[0] * radial, q[1] + n[1] * radial];
     let k = &camera.intrinsics;
     let s = 1.0 + cam_p.first().copied().unwrap_or(0.0);
     let (du, dv) = (
@@ -203,7 +239,7 @@ struct Problem<'a> {
 struct Linearised {
     r: SVector<f64, 2>,
     j_frame: SMatrix<f64, 2, 6>,
-    j_cam: SMatrix<f64, 2, 3>,
+    j_cam: SMatrix<f64, 2, CAMERA_PARAMS>,
     j_point: SMatrix<f64, 2, 3>,
 }
 
@@ -254,7 +290,8 @@ impl Problem<'_> {
             fp[k] = fp0[k];
             lin.j_frame.set_column(k, &((plus - minus) / (2.0 * h)));
         }
-        for k in 0..cp.len() {
+        let camera = self.frames[o.frame].camera;
+        for k in (0..cp.len()).filter(|&k| self.camera_free(camera, k)) {
             let h = 1e-6;
             cp[k] = cp0[k] + h;
             let plus = self.residual_with(&fp, &cp, o, x)?;
@@ -296,6 +333,16 @@ impl Problem<'_> {
             }
         }
         Some(c)
+    }
+
+    /// Whether camera `c`'s parameter `k` is solved for (else it is pinned at zero).
+    fn camera_free(&self, c: usize, k: usize) -> bool {
+        match k {
+            0 => self.opts.refine_focal,
+            1 | 2 => self.opts.refine_principal_point,
+            3 | 4 => self.opts.refine_radial && radial_refinable(&self.cameras[c]),
+            _ => self.opts.refine_boresight,
+        }
     }
 
     /// Frame `f`'s prior standard deviations, one per frame parameter.
@@ -341,7 +388,7 @@ struct Reduced {
 /// One observation's reduced-parameter indices, Jacobian, residual and weight.
 struct LocalObservation {
     idx: Vec<usize>,
-    jc: SMatrix<f64, 2, 9>,
+    jc: SMatrix<f64, 2, { 6 + CAMERA_PARAMS }>,
     r: SVector<f64, 2>,
     w: f64,
 }
@@ -352,8 +399,8 @@ struct PointBlock {
     hpc: Vec<(usize, Vec3)>,
 }
 
-fn jac_row(lin: &Linearised, l: &Layout) -> SMatrix<f64, 2, 9> {
-    let mut j = SMatrix::<f64, 2, 9>::zeros();
+fn jac_row(lin: &Linearised, l: &Layout) -> SMatrix<f64, 2, { 6 + CAMERA_PARAMS }> {
+    let mut j = SMatrix::<f64, 2, { 6 + CAMERA_PARAMS }>::zeros();
     for k in 0..l.frame {
         j.set_column(k, &lin.j_frame.column(k));
     }
@@ -450,9 +497,13 @@ fn add_priors(p: &Problem<'_>, s: &State, lambda: f64, red: &mut Reduced) {
     for c in 0..p.cameras.len() {
         for k in 0..l.camera {
             let i = l.camera_at(c) + k;
-            let fixed =
-                (k == 0 && !p.opts.refine_focal) || (k > 0 && !p.opts.refine_principal_point);
-            let sigma: f64 = if k == 0 { 0.05 } else { 100.0 };
+            let sigma: f64 = match k {
+                0 => 0.05,
+                1 | 2 => 100.0,
+                3 | 4 => 0.5,
+                _ => 10f64.to_radians(),
+            };
+            let fixed = !p.camera_free(c, k);
             let w = if fixed { 1e12 } else { 1.0 / (sigma * sigma) };
             *red.entries.entry((i, i)).or_insert(0.0) += w;
             red.rhs[i] -= w * s.params[i];
@@ -540,7 +591,7 @@ pub fn adjust(
         } else {
             3
         },
-        camera: 3,
+        camera: CAMERA_PARAMS,
         frames: frames.len(),
     };
     let p = Problem {
@@ -665,6 +716,8 @@ fn finish(
         let sd = &sig[l.frame_at(f)..l.frame_at(f) + l.frame];
         let w = Vec3::new(v[0], v[1], v[2]);
         let dc = v.get(3..6).map_or([0.0; 3], |d| [d[0], d[1], d[2]]);
+        let b = &s.params[l.camera_at(fr.camera) + 5..l.camera_at(fr.camera) + 8];
+        let boresight = Rotation3::new(Vec3::new(b[0], b[1], b[2])).into_inner();
         frames.push(AdjustFrame {
             camera: fr.camera,
             centre: [
@@ -672,7 +725,7 @@ fn finish(
                 fr.centre[1] + dc[1],
                 fr.centre[2] + dc[2],
             ],
-            world_from_camera: Rotation3::new(w).into_inner() * fr.world_from_camera,
+            world_from_camera: Rotation3::new(w).into_inner() * fr.world_from_camera * boresight,
             position_sigma_m: fr.position_sigma_m,
         });
         reports.push(FrameAdjustment {
@@ -689,9 +742,17 @@ fn finish(
     let mut cameras = Vec::with_capacity(p.cameras.len());
     let mut cam_reports = Vec::with_capacity(p.cameras.len());
     for (c, cam) in p.cameras.iter().enumerate() {
-        let v = &s.params[l.camera_at(c)..l.camera_at(c) + 3];
-        let sd = &sig[l.camera_at(c)..l.camera_at(c) + 3];
+        let v = &s.params[l.camera_at(c)..l.camera_at(c) + CAMERA_PARAMS];
+        let sd = &sig[l.camera_at(c)..l.camera_at(c) + CAMERA_PARAMS];
         let mut out = cam.clone();
+        if v[3] != 0.0 || v[4] != 0.0 {
+            let mut lens = match &cam.distortion {
+                Some(aerorect_core::distortion::Distortion::OpenCv(o)) => *o,
+                _ => aerorect_core::distortion::OpenCv::default(),
+            };
+            (lens.k1, lens.k2) = (lens.k1 + v[3], lens.k2 + v[4]);
+            out.distortion = Some(aerorect_core::distortion::Distortion::OpenCv(lens));
+        }
         let k = &mut out.intrinsics;
         (k.fx, k.fy, k.skew) = (
             k.fx * (1.0 + v[0]),
@@ -705,6 +766,10 @@ fn finish(
             focal_scale_sigma: sd[0],
             principal_point_shift_px: [v[1], v[2]],
             principal_point_sigma_px: [sd[1], sd[2]],
+            radial_k1_k2: [v[3], v[4]],
+            radial_sigma: [sd[3], sd[4]],
+            boresight_deg: [v[5].to_degrees(), v[6].to_degrees(), v[7].to_degrees()],
+            boresight_sigma_deg: [sd[5].to_degrees(), sd[6].to_degrees(), sd[7].to_degrees()],
         });
     }
     let report = AdjustReport {

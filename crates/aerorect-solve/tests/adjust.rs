@@ -6,7 +6,7 @@
 use aerorect_core::Vec3;
 use aerorect_solve::adjust::{AdjustFrame, AdjustOptions, Observation, TiePoint, adjust};
 use aerorect_testkit::flight::{camera, flight, nadir};
-use nalgebra::Rotation3;
+use nalgebra::{Rotation3, Vector3};
 
 /// Remaining rotation error of each adjusted frame against the truth, degrees.
 fn errors(truth: &[AdjustFrame], got: &[AdjustFrame]) -> Vec<Vec3> {
@@ -145,4 +145,58 @@ fn ties_that_name_no_frame_are_refused() {
         position_sigma_m: None,
     };
     assert!(adjust(&[f], &[camera(800.0)], &[t], &AdjustOptions::default()).is_err());
+}
+
+#[test]
+fn a_wrong_radial_lens_is_corrected_with_the_attitudes() {
+    let hills = |x: f64, y: f64| 30.0 * (x / 45.0).sin() * (y / 30.0).cos();
+    let fl = flight(5, 4, 1.0, &hills, 13);
+    let opts = AdjustOptions {
+        refine_focal: true,
+        refine_principal_point: false,
+        refine_radial: true,
+        terrain: Some((&hills, 0.05)),
+        ..Default::default()
+    };
+    // The ties were seen through a pinhole; the camera is recorded with k1 = 0.05.
+    let mut wrong = camera(800.0);
+    wrong.distortion = Some(aerorect_core::distortion::Distortion::OpenCv(
+        aerorect_core::distortion::OpenCv {
+            k1: 0.05,
+            ..Default::default()
+        },
+    ));
+    let out = adjust(&fl.recorded, &[wrong], &fl.ties, &opts).unwrap();
+    let Some(aerorect_core::distortion::Distortion::OpenCv(lens)) = &out.cameras[0].distortion
+    else {
+        panic!("no OpenCV lens")
+    };
+    assert!(lens.k1.abs() < 0.005 && lens.k2.abs() < 0.02, "{lens:?}");
+    assert!(max_norm(&errors(&fl.truth, &out.frames)) < 0.05);
+}
+
+#[test]
+fn a_common_boresight_error_goes_to_the_camera() {
+    let hills = |x: f64, y: f64| 30.0 * (x / 45.0).sin() * (y / 30.0).cos();
+    let mut fl = flight(6, 5, 0.3, &hills, 17);
+    // Every frame's camera turned by the same 2 degrees about its own x and y.
+    let b = Rotation3::new(Vector3::new(2f64.to_radians(), -1.5f64.to_radians(), 0.0));
+    for f in &mut fl.recorded {
+        f.world_from_camera *= b.into_inner();
+    }
+    let opts = AdjustOptions {
+        refine_focal: false,
+        refine_principal_point: false,
+        refine_boresight: true,
+        attitude_sigma_deg: 0.3,
+        terrain: Some((&hills, 0.05)),
+        ..Default::default()
+    };
+    let out = adjust(&fl.recorded, &[camera(800.0)], &fl.ties, &opts).unwrap();
+    let got = out.report.cameras[0].boresight_deg;
+    assert!(
+        (got[0] + 2.0).abs() < 0.1 && (got[1] - 1.5).abs() < 0.1,
+        "{got:?}"
+    );
+    assert!(max_norm(&errors(&fl.truth, &out.frames)) < 0.1);
 }

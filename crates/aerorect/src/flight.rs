@@ -30,6 +30,10 @@ pub struct FlightOptions {
     pub attitude_sigma_deg: f64,
     pub refine_focal: bool,
     pub refine_principal_point: bool,
+    /// Radial distortion k1, k2 per camera (a camera with no lens model or OpenCV's).
+    pub refine_radial: bool,
+    /// A boresight rotation per camera.
+    pub refine_boresight: bool,
     /// Most matching rounds: after each adjustment every frame is rendered again with its
     /// adjusted orientation and matched afresh (as the frames come to coincide, patches that
     /// an attitude error had pushed apart match too, and the correlation's bias from the
@@ -50,6 +54,8 @@ impl Default for FlightOptions {
             attitude_sigma_deg: 1.0,
             refine_focal: true,
             refine_principal_point: false,
+            refine_radial: false,
+            refine_boresight: false,
             passes: 8,
             settled_deg: 0.005,
         }
@@ -655,6 +661,8 @@ fn match_and_adjust(
         position_sigma_m,
         refine_focal: fo.refine_focal,
         refine_principal_point: fo.refine_principal_point,
+        refine_radial: fo.refine_radial,
+        refine_boresight: fo.refine_boresight,
         terrain: Some((ground, if dem { 1.0 } else { 0.1 })),
         ..AdjustOptions::default()
     };
