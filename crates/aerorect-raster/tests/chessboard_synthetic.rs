@@ -76,3 +76,13 @@ fn a_board_cut_by_the_image_edge_is_refused_as_partial() {
     let miss = ChessboardFinder::new(9, 6).unwrap().find(&img).unwrap_err();
     assert!(matches!(miss, BoardMiss::Partial { .. }), "{miss}");
 }
+
+#[test]
+fn a_larger_board_than_asked_for_is_refused_not_renumbered() {
+    let mut s = shot([0.05, -0.05, 0.02], [-0.14, -0.1, 0.6], 2.0, 3);
+    (s.cols, s.rows) = (10, 7);
+    let (img, _) = render_board(ImageSize::new(640, 480), &LENS, &s);
+    assert!(ChessboardFinder::new(10, 7).unwrap().find(&img).is_ok());
+    let miss = ChessboardFinder::new(9, 6).unwrap().find(&img).unwrap_err();
+    assert!(matches!(miss, BoardMiss::Larger { .. }), "{miss}");
+}

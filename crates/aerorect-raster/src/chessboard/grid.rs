@@ -99,6 +99,32 @@ impl Grid {
         best.map(|b| b.1)
     }
 
+    /// Whether this grid holds most (80 %) of a row or column just outside `window` in corners
+    /// of at least half the window's median contrast: a larger board than the one asked for,
+    /// rather than a few junctions on the board's border.
+    pub fn extends_past(&self, window: &Grid, cands: &[Candidate]) -> bool {
+        let (i0, j0, nx, ny) = window.bounds();
+        let (i1, j1) = (i0 + nx as i32 - 1, j0 + ny as i32 - 1);
+        let mut c: Vec<f64> = window.cells.values().map(|&k| cands[k].contrast).collect();
+        c.sort_by(f64::total_cmp);
+        let strong = 0.5 * c.get(c.len() / 2).copied().unwrap_or(0.0);
+        let count = |keys: &mut dyn Iterator<Item = (i32, i32)>| {
+            keys.filter(|k| {
+                self.cells
+                    .get(k)
+                    .is_some_and(|&v| cands[v].contrast >= strong)
+            })
+            .count()
+        };
+        let cols_out = [i0 - 1, i1 + 1]
+            .iter()
+            .any(|&i| 5 * count(&mut (j0..=j1).map(|j| (i, j))) >= 4 * ny);
+        let rows_out = [j0 - 1, j1 + 1]
+            .iter()
+            .any(|&j| 5 * count(&mut (i0..=i1).map(|i| (i, j))) >= 4 * nx);
+        cols_out || rows_out
+    }
+
     /// Whether every cell of the bounding box holds a corner.
     pub fn is_full(&self) -> bool {
         let (_, _, n, m) = self.bounds();

@@ -166,6 +166,9 @@ impl ChessboardFinder {
     ) -> Option<Vec<[f64; 2]>> {
         let board = (self.cols, self.rows);
         let w = g.board_window(cands, board)?;
+        if g.extends_past(&w, cands) {
+            return None;
+        }
         let (i0, j0, nx, ny) = w.bounds();
         let at = |i: usize, j: usize| {
             let k = (i0 + i as i32, j0 + j as i32);
