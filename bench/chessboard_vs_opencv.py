@@ -89,7 +89,7 @@ def left02(ref, ours):
     bad = d > 0.1
     _, rv, tv = cv2.solvePnP(np.ascontiguousarray(a[~bad, :3]), np.ascontiguousarray(a[~bad, 3:]), K, D)
     proj = cv2.projectPoints(np.ascontiguousarray(a[:, :3]), rv, tv, K, D)[0].reshape(-1, 2)
-    print(f"left02: {bad.sum()} corners differ by more than 0.1 px (ids {list(np.where(bad)[0])}); against the pose "
+    print(f"left02: {bad.sum()} corners differ by more than 0.1 px (ids {[int(i) for i in np.where(bad)[0]]}); against the pose "
           f"fitted to the other {(~bad).sum()} with a camera from the other 12 views (fx {K[0, 0]:.2f}):")
     for name, s in (("OpenCV", a), ("aerorect", b)):
         e = np.linalg.norm(s[bad, 3:] - proj[bad], axis=1)
