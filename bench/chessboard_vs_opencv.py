@@ -9,7 +9,8 @@
 2. Synthetic boards rendered here in numpy (pinhole + radial k1, k2; 4 x 4 sub-samples a pixel,
    Gaussian blur, Gaussian noise, 8-bit PNG) at known poses: corner error against the truth,
    aerorect's (through the CLI's --save-corners) and OpenCV's (findChessboardCorners +
-   cornerSubPix 11 x 11, eps 0.001, 30 iterations), per noise level; detection times.
+   cornerSubPix winSize 11 x 11, eps 0.001, 30 iterations; and winSize 5 x 5), per noise level,
+   for moderate poses and for steep, distant ones (small foreshortened squares).
 Creates its own venv (bench/.venv) with opencv-python-headless and numpy.
 usage: python3 bench/chessboard_vs_opencv.py [--views N]
 """
@@ -45,12 +46,12 @@ def run_ours(images, board, square, out_csv, extra=()):
     return vals, ms
 
 
-def opencv_corners(path, board):
+def opencv_corners(path, board, win=11):
     g = cv2.imread(path, cv2.IMREAD_GRAYSCALE)
     t = time.perf_counter()
     ok, c = cv2.findChessboardCorners(g, board)
     if ok:
-        c = cv2.cornerSubPix(g, c, (11, 11), (-1, -1), CRIT)
+        c = cv2.cornerSubPix(g, c, (win, win), (-1, -1), CRIT)
     return (c.reshape(-1, 2) if ok else None), time.perf_counter() - t
 
 
@@ -135,21 +136,21 @@ def render(size, K, k, R, t, cols, rows, sq, blur, noise, rng, sub=4):
     return np.clip(np.rint(img), 0, 255).astype(np.uint8), np.array(truth)
 
 
-def synthetic_section(views):
+def synthetic_section(views, tilt=0.6, zrange=(0.5, 0.8)):
     K = np.array([[620.0, 0, 319.5], [0, 620.0, 239.5], [0, 0, 1]])
     k = (-0.2, 0.05)
     cols, rows, sq = 9, 6, 0.03
     rng = np.random.default_rng(1)
-    print(f"\nsynthetic 640 x 480, 9 x 6 board, f 620 px, k1 -0.2, k2 0.05, {views} poses a row, 8-bit PNG;"
-          " corner error against the truth (px)")
-    print(f"{'blur':>5}{'noise':>6} | {'ours found':>10}{'mean':>8}{'rms':>8}{'max':>8} | {'OpenCV found':>12}{'mean':>8}{'rms':>8}{'max':>8} | both-found mean ours/OpenCV")
+    print(f"\nsynthetic 640 x 480, 9 x 6 board, f 620 px, k1 -0.2, k2 0.05, {views} poses a row (tilts up to {tilt} rad,"
+          f" distance {zrange[0]}-{zrange[1]} m), 8-bit PNG; corner error against the truth (px)")
+    print(f"{'blur':>5}{'noise':>6} | {'ours found':>10}{'mean':>8}{'rms':>8}{'max':>8} | {'OpenCV found':>12}{'mean':>8}{'rms':>8}{'max':>8} | both-found mean ours/OpenCV | OpenCV winSize 5x5 mean, max")
     for blur, noise in ((0.8, 0.0), (0.8, 2.0), (0.8, 5.0), (1.5, 5.0), (1.5, 10.0)):
         with tempfile.TemporaryDirectory() as tmp:
             paths, truths = [], {}
             while len(paths) < views:
-                rv = rng.uniform(-0.6, 0.6, 3) * np.array([1, 1, 0.5])
+                rv = rng.uniform(-tilt, tilt, 3) * np.array([1, 1, 0.5])
                 R = rodrigues(rv)
-                z = rng.uniform(0.5, 0.8)
+                z = rng.uniform(*zrange)
                 centre = np.array([(cols - 1) * sq / 2, (rows - 1) * sq / 2, 0])
                 t = np.array([rng.uniform(-0.05, 0.05), rng.uniform(-0.04, 0.04), z]) - R @ centre
                 img, truth = render((640, 480), K, k, R, t, cols, rows, sq, blur, noise, rng)
@@ -166,22 +167,26 @@ def synthetic_section(views):
             except subprocess.CalledProcessError as e:
                 print("aerorect failed:", e.stdout[-300:], e.stderr[-300:])
                 ours = {}
-            theirs = {}
+            theirs, small = {}, {}
             for p in paths:
                 c, _ = opencv_corners(p, (cols, rows))
                 if c is not None:
                     theirs[os.path.basename(p)] = c
+                c, _ = opencv_corners(p, (cols, rows), win=5)
+                if c is not None:
+                    small[os.path.basename(p)] = c
 
             def err(found):
                 e = [np.linalg.norm(found[n] - truths[n], axis=1) for n in found]
                 return np.concatenate(e) if e else np.array([np.nan])
-            eo, ec = err(ours), err(theirs)
+            eo, ec, es = err(ours), err(theirs), err(small)
             both = [n for n in ours if n in theirs]
             bo = np.concatenate([np.linalg.norm(ours[n] - truths[n], axis=1) for n in both]) if both else np.array([np.nan])
             bc = np.concatenate([np.linalg.norm(theirs[n] - truths[n], axis=1) for n in both]) if both else np.array([np.nan])
             rms = lambda e: np.sqrt(np.nanmean(e ** 2))  # noqa: E731
             print(f"{blur:>5}{noise:>6} | {len(ours):>6}/{views:<3}{np.nanmean(eo):>8.4f}{rms(eo):>8.4f}{np.nanmax(eo):>8.4f} | "
-                  f"{len(theirs):>8}/{views:<3}{np.nanmean(ec):>8.4f}{rms(ec):>8.4f}{np.nanmax(ec):>8.4f} | {np.nanmean(bo):.4f} / {np.nanmean(bc):.4f}")
+                  f"{len(theirs):>8}/{views:<3}{np.nanmean(ec):>8.4f}{rms(ec):>8.4f}{np.nanmax(ec):>8.4f} | {np.nanmean(bo):.4f} / {np.nanmean(bc):.4f}"
+                  f" | {np.nanmean(es):>8.4f}{np.nanmax(es):>8.4f}")
 
 
 def main():
@@ -191,6 +196,7 @@ def main():
     subprocess.check_call(["cargo", "build", "-q", "--release", "-p", "aerorect-cli"], cwd=ROOT)
     photos_section()
     synthetic_section(args.views)
+    synthetic_section(args.views, tilt=1.0, zrange=(0.8, 1.3))
 
 
 if __name__ == "__main__":
