@@ -209,8 +209,8 @@ impl ChessboardFinder {
         let refine = |p: [f64; 2], half: usize| {
             let settings = subpix::Refine {
                 half,
-                max_iterations: 40,
-                eps_px: 1e-4,
+                max_iterations: 30,
+                eps_px: 1e-3,
             };
             subpix::refine(img, p, settings)
         };

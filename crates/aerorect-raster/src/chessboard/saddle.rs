@@ -120,12 +120,10 @@ fn x_junction(g: Gray<'_>, p: [f64; 2], min_contrast: f64) -> Option<([f64; 2], 
 
 fn x_on_ring(g: Gray<'_>, p: [f64; 2], radius: f64, min_contrast: f64) -> Option<([f64; 2], f64)> {
     let step = 2.0 * PI / RING as f64;
-    let ring: Vec<f64> = (0..RING)
-        .map(|k| {
-            let a = k as f64 * step;
-            g.bilinear(p[0] + radius * a.cos(), p[1] + radius * a.sin())
-        })
-        .collect();
+    let mut ring = [0f64; RING];
+    for (v, (c, s)) in ring.iter_mut().zip(unit_ring()) {
+        *v = g.bilinear(p[0] + radius * c, p[1] + radius * s);
+    }
     let (lo, hi) = ring
         .iter()
         .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
@@ -176,6 +174,17 @@ fn x_on_ring(g: Gray<'_>, p: [f64; 2], radius: f64, min_contrast: f64) -> Option
         line(crossings[1], crossings[3]),
     ];
     Some((lines, hi - lo))
+}
+
+/// (cos, sin) of the ring's sample angles, 2 pi k / RING.
+fn unit_ring() -> &'static [(f64, f64); RING] {
+    static RING_XY: std::sync::OnceLock<[(f64, f64); RING]> = std::sync::OnceLock::new();
+    RING_XY.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let a = 2.0 * PI * k as f64 / RING as f64;
+            (a.cos(), a.sin())
+        })
+    })
 }
 
 /// An angle wrapped into (-pi, pi].
