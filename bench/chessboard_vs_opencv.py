@@ -2,7 +2,7 @@
 """Chessboard corners, aerorect beside OpenCV on the same photos.
 
 1. OpenCV's own left01..14 photos (data/calib-opencv): `aerorect calibrate --images
-   --save-corners` (default window, and --corner-window 11 = OpenCV's cornerSubPix winSize)
+   --save-corners` (the default window, 11 = OpenCV's cornerSubPix winSize, and --corner-window auto)
    against OpenCV's stored corners (data/calib/left_corners.csv) and calibrateCamera numbers;
    then left02 (nearly edge-on board): a camera from the other 12 views and a pose from the
    corners both tools agree on, and each tool's disputed corners against that pose.
@@ -63,7 +63,7 @@ def photos_section():
     print(f"{'window':<22}{'found':>6}{'mean px':>10}{'max px':>9}{'fx':>10}{'fy':>10}{'cx':>10}{'cy':>10}{'RMS':>9}{'ms/img':>8}")
     ours_default = None
     with tempfile.TemporaryDirectory() as tmp:
-        for label, extra in (("aerorect default", ()), ("aerorect --corner-window 11", ("--corner-window", "11"))):
+        for label, extra in (("aerorect --corner-window auto", ("--corner-window", "auto")), ("aerorect default (11, OpenCV's)", ())):
             out = os.path.join(tmp, "c.csv")
             vals, ms = run_ours(imgs, "9x6", 0.025, out, extra)
             ours = load_corners(out)

@@ -30,9 +30,12 @@ pub struct CalibrateArgs {
     #[arg(long, requires = "images")]
     save_corners: Option<PathBuf>,
     /// Refine every corner in a (2 N + 1)-pixel window, as OpenCV's cornerSubPix with
-    /// winSize (N, N) (default: N at most 11, narrowed on small or foreshortened squares).
-    #[arg(long, requires = "images")]
-    corner_window: Option<usize>,
+    /// winSize (N, N): the default 11 is what OpenCV's calibration sample uses, so corners and
+    /// calibration agree with OpenCV's; `auto` narrows the window (N at most 11) where it would
+    /// reach past the corner's four squares (small or foreshortened squares: more accurate on
+    /// steep boards, where OpenCV's fixed window takes in other squares' edges).
+    #[arg(long, requires = "images", default_value = "11", value_parser = parse_corner_window)]
+    corner_window: CornerWindow,
     /// Image size WxH, e.g. 640x480 (with --images: taken from the photos, and checked if given).
     #[arg(long)]
     image_size: Option<String>,
@@ -64,6 +67,25 @@ pub struct CalibrateArgs {
     /// the counts as `coverage`).
     #[arg(long)]
     coverage_svg: Option<PathBuf>,
+}
+
+/// `--corner-window`: OpenCV's fixed half-window, or sized per corner.
+#[derive(Debug, Clone, Copy)]
+enum CornerWindow {
+    Fixed(usize),
+    Auto,
+}
+
+fn parse_corner_window(s: &str) -> Result<CornerWindow, String> {
+    match s.trim() {
+        "auto" => Ok(CornerWindow::Auto),
+        t => match t.parse::<usize>() {
+            Ok(n) if n > 0 => Ok(CornerWindow::Fixed(n)),
+            _ => Err(format!(
+                "'{s}': expected a half-window N > 0 (pixels) or auto"
+            )),
+        },
+    }
 }
 
 pub(crate) fn parse_size(s: &str) -> Result<ImageSize> {
@@ -115,7 +137,10 @@ pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
                 &a.images,
                 &a.board,
                 a.square_m,
-                a.corner_window,
+                match a.corner_window {
+                    CornerWindow::Fixed(n) => Some(n),
+                    CornerWindow::Auto => None,
+                },
             )?;
             if let Some(g) = given.filter(|g| *g != found.size) {
                 bail!(
