@@ -8,9 +8,13 @@
 Each frame is one task (read the photo, plan its ortho from its metadata, warp, write
 ``OUT_DIR/STEM.tif``): the same names, pixels and georeferencing as ``aerorect batch PHOTOS
 --out-dir OUT_DIR``. With ``adjust=True`` the flight's matching and joint adjustment need every
-frame at once: they run as one task on one worker, which then writes every frame with its
-adjusted orientation, ``adjustment.json`` and ``adjusted_poses.csv`` (+ ``.prj``) together
-(``batch --adjust``).
+frame's tie points: each round (as ``batch --adjust`` runs them) is one task per overlapping
+pair (render both frames on the matching grid, match them), then the adjustment as one task;
+then one task per frame writes it with its adjusted orientation to a staging folder in
+``OUT_DIR``, and when every frame is written they are moved into ``OUT_DIR`` with
+``adjustment.json`` and ``adjusted_poses.csv`` (+ ``.prj``), the same files as ``batch
+--adjust`` (tie points and poses to the bit: every step is a pure function of the photos, the
+options and the round's orientation, which travel between workers exactly).
 
 Paths may be fsspec URLs (``s3://``, ``gs://``, ``abfs://``...; ``fsspec`` and the protocol's
 package installed on the workers): a worker copies the photo (and the DEM, camera file or pose
@@ -23,6 +27,8 @@ import json
 import os
 import shutil
 import tempfile
+import threading
+import uuid
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, List, Optional, Sequence, Tuple
 
@@ -178,6 +184,147 @@ def _adjusted(photos: List[str], outs: List[str], out_dir: str, opts: dict) -> d
         local.close()
 
 
+# Each worker plans an adjusted flight once (every photo is read) and runs its steps.
+_FLIGHTS: dict = {}
+_FLIGHTS_LOCK = threading.Lock()
+
+
+def _flight(photos: Tuple[str, ...], opts_json: str):
+    key = (photos, opts_json)
+    with _FLIGHTS_LOCK:
+        if key not in _FLIGHTS:
+            for _, old in _FLIGHTS.values():
+                old.close()
+            _FLIGHTS.clear()  # one flight at a time per worker
+            local = _Local()
+            try:
+                o = _local_options(json.loads(opts_json), local)
+                plan = _aerorect.FlightPlan([local.input(p) for p in photos], o)
+            except BaseException:
+                local.close()
+                raise
+            _FLIGHTS[key] = (plan, local)
+        return _FLIGHTS[key][0]
+
+
+def _flight_pairs(photos, opts_json, progress):
+    """The overlapping pairs of a round (a task)."""
+    return _flight(photos, opts_json).pairs(progress)
+
+
+def _flight_pair(pair, photos, opts_json, progress):
+    """One pair rendered and matched (a task): its tie points, exact JSON."""
+    return _flight(photos, opts_json).pair_match(pair[0], pair[1], progress)
+
+
+def _flight_adjust(photos, opts_json, progress, matches):
+    """A round's adjustment (a task on one worker): (progress, done, report, poses CSV)."""
+    return _flight(photos, opts_json).adjust(progress, list(matches))
+
+
+def _flight_write(k, out, photos, opts_json, progress):
+    """Frame k with the adjusted orientation (a task): `(k, None)`, or `(k, message)`."""
+    local = _Local()
+    try:
+        lout = local.output(out)
+        if _is_url(out):
+            os.makedirs(os.path.dirname(lout), exist_ok=True)
+        _flight(photos, opts_json).write_frame(k, progress, lout)
+        local.upload(lout, out)
+        return k, None
+    except AerorectError as e:
+        return k, str(e)
+    finally:
+        local.close()
+
+
+def _put_text(path: str, text: str) -> None:
+    if _is_url(path):
+        import fsspec
+
+        fs, p = fsspec.core.url_to_fs(path)
+        fs.pipe(p, text.encode())
+    else:
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+
+
+def _move(src: str, dst: str) -> bool:
+    if _is_url(src):
+        import fsspec
+
+        fs, s = fsspec.core.url_to_fs(src)
+        if not fs.exists(s):
+            return False
+        fs.mv(s, fsspec.core.url_to_fs(dst)[1])
+        return True
+    if not os.path.exists(src):
+        return False
+    os.replace(src, dst)
+    return True
+
+
+def _remove_tree(path: str) -> None:
+    if _is_url(path):
+        import fsspec
+
+        fs, p = fsspec.core.url_to_fs(path)
+        if fs.exists(p):
+            fs.rm(p, recursive=True)
+    else:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts: dict) -> dict:
+    """The adjusted flight as tasks: per round one per pair and the adjustment, then one per
+    frame written to a staging folder; everything moved into `out_dir` when all succeeded.
+    Returns the report, with `tasks`: the pair and frame tasks run."""
+    key = (tuple(photos), json.dumps(opts, sort_keys=True))
+    progress, done, pair_tasks = None, False, 0
+    while not done:
+        pairs = client.submit(_flight_pairs, *key, progress, pure=False).result()
+        matches = client.map(_flight_pair, [tuple(p) for p in pairs], photos=key[0],
+                             opts_json=key[1], progress=progress, pure=False)
+        pair_tasks += len(matches)
+        step = client.submit(_flight_adjust, *key, progress, matches, pure=False)
+        progress, done, report_json, poses_csv = step.result()
+        del matches, step
+    stage = _join(out_dir, ".aerorect-staging-" + uuid.uuid4().hex)
+    if not _is_url(stage):
+        os.makedirs(stage)
+    try:
+        staged = [_join(stage, o.rstrip("/").rsplit("/", 1)[-1].rsplit(os.sep, 1)[-1])
+                  for o in outs]
+        written = client.gather(client.map(_flight_write, range(len(photos)), staged,
+                                           photos=key[0], opts_json=key[1],
+                                           progress=progress, pure=False))
+        failed = [(photos[k], why) for k, why in written if why is not None]
+        if failed:
+            lines = "\n".join(f"failed: {p}: {why}" for p, why in failed)
+            raise AerorectError(
+                f"{len(failed)} of {len(photos)} frames failed (listed below); nothing "
+                f"written: the adjusted frames and adjustment.json land together\n{lines}"
+            )
+        wkt = client.submit(_flight_crs, *key, pure=False).result()
+        texts = dict(zip(ADJUSTMENT_FILES, (report_json, poses_csv, wkt)))
+        for name, text in texts.items():
+            _put_text(_join(stage, name), text)
+        for s, o in zip(staged, outs):
+            for ss, oo in zip(_sidecars(s), _sidecars(o)):
+                _move(ss, oo)
+        for name in ADJUSTMENT_FILES:
+            _move(_join(stage, name), _join(out_dir, name))
+    finally:
+        _remove_tree(stage)
+    report = json.loads(report_json)
+    report["tasks"] = {"pairs": pair_tasks, "frames": len(photos)}
+    return report
+
+
+def _flight_crs(photos, opts_json):
+    return _flight(photos, opts_json).crs_wkt()
+
+
 def rectify_flight(
     paths: Sequence[Any],
     out_dir: Any,
@@ -196,8 +343,9 @@ def rectify_flight(
     One task per frame writes ``OUT_DIR/STEM.tif`` (``format="png"``: PNG + world file);
     outputs that exist are skipped unless ``force``; frames that fail are listed in the
     :class:`AerorectError` raised at the end, after every other frame is written. With
-    ``adjust=True`` the matching, the adjustment and the writing of every frame (with
-    ``adjustment.json``, ``adjusted_poses.csv``) run as one task on one worker, and land together or not at all.
+    ``adjust=True`` (``batch --adjust``) each matching round is one task per overlapping pair
+    and the adjustment one task, then every frame one task; the frames, ``adjustment.json``
+    and ``adjusted_poses.csv`` land together or not at all.
     Without a client the frames run here, ``jobs`` at a time (threads: the GIL is released).
     Keyword arguments as :func:`aerorect.rectify_photo` (``crs``, ``camera``, ``poses``,
     ``ground_height_m``, ``interp``, ``nodata``, ``cog``, ``adjust_positions_m``...).
@@ -225,7 +373,7 @@ def rectify_flight(
         if client is None:
             _adjusted(photos, outs, out_dir, opts)
         else:
-            client.submit(_adjusted, photos, outs, out_dir, opts, pure=False).result()
+            _adjusted_on(client, photos, outs, out_dir, opts)
         return outs + [_join(out_dir, f) for f in ADJUSTMENT_FILES]
     todo = [(p, o) for p, o in zip(photos, outs) if force or not _exists(o)]
     if client is None:

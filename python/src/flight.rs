@@ -87,6 +87,120 @@ impl AdjustedFlight {
     }
 }
 
+/// A flight planned for matching, its adjustment in steps that can run apart (a pair on each
+/// worker: `aerorect.distributed`): every step gives what `adjust_flight` gives. A round's
+/// progress (orientation, summaries) and a pair's matches travel as exact JSON strings.
+#[pyclass(module = "aerorect", frozen)]
+pub struct FlightPlan {
+    plan: aerorect::flight::FlightPlan,
+    opts: DroneOptions,
+}
+
+fn progress_from(json: Option<&str>) -> Result<aerorect::flight::FlightProgress> {
+    Ok(match json {
+        Some(j) => aerorect::flight::FlightProgress::from_json(j)?,
+        None => aerorect::flight::FlightProgress::default(),
+    })
+}
+
+#[pymethods]
+impl FlightPlan {
+    /// Reads every frame's metadata and plans it on the matching grid (`opts`: as
+    /// `adjust_flight`'s).
+    #[new]
+    #[pyo3(signature = (paths, opts=None))]
+    fn new(
+        py: Python<'_>,
+        paths: Vec<PathBuf>,
+        opts: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let args = PhotoArgs::from_dict(opts)?;
+        py.detach(|| -> Result<_> {
+            let o = args.options(None)?;
+            let plan = aerorect::flight::FlightPlan::new(&paths, &o, &args.flight_options()?)?;
+            Ok(Self { plan, opts: o })
+        })
+        .map_err(py_err)
+    }
+
+    fn __len__(&self) -> usize {
+        self.plan.len()
+    }
+
+    /// The pairs (i, j) whose matching grids overlap with the progress' orientation (none:
+    /// the recorded one), in the order `adjust` takes their matches.
+    #[pyo3(signature = (progress=None))]
+    fn pairs(&self, py: Python<'_>, progress: Option<&str>) -> PyResult<Vec<(usize, usize)>> {
+        py.detach(|| -> Result<_> {
+            let p = progress_from(progress)?;
+            Ok(self.plan.pairs(p.orientation.as_ref())?)
+        })
+        .map_err(py_err)
+    }
+
+    /// Frames i and j rendered with the progress' orientation and matched: the tie points
+    /// (exact JSON).
+    #[pyo3(signature = (i, j, progress=None))]
+    fn pair_match(
+        &self,
+        py: Python<'_>,
+        i: usize,
+        j: usize,
+        progress: Option<&str>,
+    ) -> PyResult<String> {
+        py.detach(|| -> Result<_> {
+            let p = progress_from(progress)?;
+            let m = self.plan.pair_match(i, j, p.orientation.as_ref())?;
+            Ok(aerorect::flight::exact_json(&m)?)
+        })
+        .map_err(py_err)
+    }
+
+    /// One round's adjustment from every pair's matches (in `pairs`' order): (the new
+    /// progress, whether the rounds are done, the report as `adjustment.json` holds it, the
+    /// adjusted poses as `adjusted_poses.csv`).
+    #[pyo3(signature = (progress, matches))]
+    fn adjust(
+        &self,
+        py: Python<'_>,
+        progress: Option<&str>,
+        matches: Vec<String>,
+    ) -> PyResult<(String, bool, String, String)> {
+        py.detach(|| -> Result<_> {
+            let mut p = progress_from(progress)?;
+            let matched = matches
+                .iter()
+                .map(|m| aerorect::flight::from_exact_json(m))
+                .collect::<Result<Vec<_>, _>>()?;
+            let report = self.plan.adjust(&mut p, matched)?;
+            let json = serde_json::to_string_pretty(&report)?;
+            Ok((p.to_json()?, p.done, json, report.poses_csv()))
+        })
+        .map_err(py_err)
+    }
+
+    /// Frame k rectified with the progress' orientation to `out` (written atomically).
+    fn write_frame(&self, py: Python<'_>, k: usize, progress: &str, out: PathBuf) -> PyResult<()> {
+        py.detach(|| -> Result<_> {
+            let p = progress_from(Some(progress))?;
+            let Some(o) = &p.orientation else {
+                bail!("the progress has no adjusted orientation yet");
+            };
+            let mut staged = StagedOutputs::new();
+            self.plan
+                .write_frame_staged(k, o, &out, &self.opts, &mut staged)?;
+            staged.commit()?;
+            Ok(())
+        })
+        .map_err(py_err)
+    }
+
+    /// The flight's CRS as WKT (`adjusted_poses.prj`).
+    fn crs_wkt(&self) -> PyResult<String> {
+        self.plan.crs().to_wkt().map_err(py_err)
+    }
+}
+
 /// The files `batch --adjust` writes beside the frames in `out_dir`: the report, the adjusted
 /// poses (as `--poses` reads them) and their CRS.
 pub const ADJUSTMENT_FILES: [&str; 3] = [

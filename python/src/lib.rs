@@ -44,6 +44,7 @@ fn _aerorect(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add_class::<camera::Camera>()?;
     m.add_class::<flight::AdjustedFlight>()?;
+    m.add_class::<flight::FlightPlan>()?;
     m.add_class::<mosaic::MosaicTiles>()?;
     m.add_function(wrap_pyfunction!(photo::rectify_photo, m)?)?;
     m.add_function(wrap_pyfunction!(photo::rectify_photo_to_file, m)?)?;

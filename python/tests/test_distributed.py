@@ -170,3 +170,35 @@ def test_mosaic_tile_by_tile_is_the_cli(tmp_path, cli, client, use_client):
     whole = aerorect.mosaic(photos, tmp_path / "whole.tif", gsd_m=0.2)
     assert [f["cells"] for f in r["frames"]] == [f["cells"] for f in whole["frames"]]
     assert r["covered_cells"] == whole["covered_cells"] > 0
+
+
+def test_adjusted_flight_pair_by_pair_is_batch_adjust_to_the_bit(tmp_path, cli, client):
+    # Three crops of one photo, 120 px (19.2 m at 0.16 m/px) apart east: three overlapping
+    # pairs, each matched by its own task; two crops recorded with attitude errors.
+    distributed = pytest.importorskip("dask.distributed")
+    east = 120 * 0.16 / (111320 * np.cos(np.radians(53.9)))
+    photos = [
+        crop_photo(tmp_path, "a.jpg", 0, 400),
+        crop_photo(tmp_path, "b.jpg", 120, 400, lon=27.55 + east, roll=0.5),
+        crop_photo(tmp_path, "c.jpg", 240, 400, lon=27.55 + 2 * east, pitch=-89.6),
+    ]
+    ours, theirs = tmp_path / "py", tmp_path / "cli"
+    run(cli, "batch", *photos, "--out-dir", theirs, "--gsd-m", "0.2", "--adjust")
+    with distributed.get_task_stream(client) as ts:
+        written = rectify_flight(photos, ours, gsd_m=0.2, adjust=True, client=client)
+    prefixes = [t["key"][0] if isinstance(t["key"], tuple) else t["key"] for t in ts.data]
+    pair_tasks = [k for k in prefixes if str(k).startswith("_flight_pair-")]
+    frame_tasks = [k for k in prefixes if str(k).startswith("_flight_write-")]
+    assert [Path(w).name for w in written] == ["a.tif", "b.tif", "c.tif", "adjustment.json",
+                                               "adjusted_poses.csv", "adjusted_poses.prj"]
+    assert sorted(os.listdir(ours)) == sorted(os.listdir(theirs))  # no staging folder left
+    for name in ["a.tif", "b.tif", "c.tif", "adjusted_poses.csv", "adjusted_poses.prj"]:
+        assert (ours / name).read_bytes() == (theirs / name).read_bytes(), name
+    mine = json.loads((ours / "adjustment.json").read_text())
+    cli_report = json.loads((theirs / "adjustment.json").read_text())
+    # Everything but the timings to the bit: tie points, residuals, adjusted poses.
+    assert without_seconds(mine) == without_seconds(cli_report)
+    passes = mine["passes"]
+    assert mine["adjustment"]["tie_points"] > 20 and len(mine["pairs"]) == 3
+    # Every round matched its three pairs in three tasks; every frame had its own task.
+    assert len(pair_tasks) == 3 * passes and len(frame_tasks) == 3

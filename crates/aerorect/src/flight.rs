@@ -9,14 +9,14 @@ use crate::Error;
 use crate::drone::{DroneOptions, DronePlanInfo, georeference, plan_from_metadata};
 use crate::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
 use aerorect_core::{Camera, ImageSize};
-use aerorect_geo::{Pose, Projection};
+use aerorect_geo::{OrthoGrid, Pose, Projection};
 use aerorect_io::{Crs, PhotoMetadata};
 use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
 use aerorect_raster::{AnyRaster, Interp, Raster, WarpOptions};
 use aerorect_solve::adjust::{AdjustFrame, AdjustOptions, AdjustReport, Observation, TiePoint};
 use aerorect_solve::ransac::{RansacOptions, ransac_homography};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// How frames are matched and what the adjustment solves for.
@@ -84,11 +84,16 @@ pub enum PositionPrior {
 struct Frame {
     input: PathBuf,
     info: DronePlanInfo,
-    /// Its gray ortho on the matching grid (NaN: no data) and that ortho's plan.
-    coarse: Raster<f32>,
+    /// Its ortho plan on the matching grid with the recorded orientation.
     coarse_plan: OrthoPlan,
     /// The photo's RTK standard deviations (m; east, north, up), if it has them.
     rtk_std_m: Option<[f64; 3]>,
+}
+
+/// A frame's gray ortho on the matching grid (NaN: no data) and that ortho's plan.
+struct Rendered {
+    coarse: Raster<f32>,
+    coarse_plan: OrthoPlan,
 }
 
 /// What matching a pair of frames found.
@@ -137,7 +142,7 @@ impl FlightReport {
 }
 
 /// What one matching round found.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RoundSummary {
     pub tie_points: usize,
     pub reliable_pairs: usize,
@@ -183,8 +188,8 @@ fn flight_crs(
     Ok((Crs::Epsg(epsg), p))
 }
 
-/// Plans a frame on the matching grid and renders its gray ortho there.
-fn coarse_frame(
+/// Plans a frame on the matching grid with its recorded orientation.
+fn plan_frame(
     input: &Path,
     meta: PhotoMetadata,
     opts: &DroneOptions,
@@ -192,10 +197,7 @@ fn coarse_frame(
 ) -> Result<Frame, Error> {
     let file = input.display().to_string();
     let rtk_std_m = meta.dji.rtk_std_m;
-    let image = aerorect_io::read_image(input)?;
-    let size = image.size();
-    let gray = AnyRaster::F32(crate::motion::gray(&image)?);
-    drop(image);
+    let size = aerorect_io::read_image(input)?.size();
     let coarse_opts = DroneOptions {
         gsd_m: Some(gsd),
         warp: WarpOptions {
@@ -218,21 +220,16 @@ fn coarse_frame(
         Some(None) => return Err(Error::Invalid(format!("{file}: not in the pose table"))),
         None => plan_from_metadata(&meta, size, &coarse_opts, &file)?,
     };
-    let AnyRaster::F32(coarse) = coarse_plan.run(&gray)? else {
-        return Err(Error::Invalid(format!("{file}: gray ortho is not f32")));
-    };
     Ok(Frame {
         input: input.to_path_buf(),
         info,
-        coarse,
         coarse_plan,
         rtk_std_m,
     })
 }
 
 /// The overlap of two frames' grids in A's pixels: [c0, r0, c1, r1) and B's offset.
-fn overlap(a: &Frame, b: &Frame) -> Option<([i64; 4], [i64; 2])> {
-    let (ga, gb) = (a.coarse_plan.grid, b.coarse_plan.grid);
+fn overlap(ga: &OrthoGrid, gb: &OrthoGrid) -> Option<([i64; 4], [i64; 2])> {
     let g = ga.gsd;
     let off = [
         ((gb.top_left[0] - ga.top_left[0]) / g).round() as i64,
@@ -264,12 +261,12 @@ type Match = ([f64; 2], [f64; 2], f64);
 /// Patches of `side` px over the pair's overlap, each of B's taken `prior` px away from A's,
 /// phase-correlated: the matches and the number of patches compared.
 fn match_patches(
-    a: &Frame,
-    b: &Frame,
+    a: &Rendered,
+    b: &Rendered,
     side: usize,
     prior: [i64; 2],
 ) -> Result<(Vec<Match>, usize), Error> {
-    let Some(([c0, r0, c1, r1], off)) = overlap(a, b) else {
+    let Some(([c0, r0, c1, r1], off)) = overlap(&a.coarse_plan.grid, &b.coarse_plan.grid) else {
         return Ok((vec![], 0));
     };
     let mut pc = PhaseCorrelator::new(
@@ -317,9 +314,10 @@ fn match_patches(
 
 /// Coarse to fine: large patches find the pair's overall offset (attitude errors move frames
 /// by metres), then `side` patches are matched around it.
-fn match_pair(a: &Frame, b: &Frame, side: usize) -> Result<(Vec<Match>, usize), Error> {
+fn match_pair(a: &Rendered, b: &Rendered, side: usize) -> Result<(Vec<Match>, usize), Error> {
+    let (ga, gb) = (&a.coarse_plan.grid, &b.coarse_plan.grid);
     // The largest power-of-two patch (up to 256 px) that fits the overlap.
-    let fits = overlap(a, b).map_or(0, |([c0, r0, c1, r1], _)| {
+    let fits = overlap(ga, gb).map_or(0, |([c0, r0, c1, r1], _)| {
         (c1 - c0).min(r1 - r0).max(0) as usize
     });
     let big = [256, 128, 64]
@@ -329,7 +327,7 @@ fn match_pair(a: &Frame, b: &Frame, side: usize) -> Result<(Vec<Match>, usize), 
     let (coarse, _) = match_patches(a, b, big, [0, 0])?;
     let mut prior = [0i64; 2];
     if !coarse.is_empty() {
-        let off = overlap(a, b).map_or([0, 0], |o| o.1);
+        let off = overlap(ga, gb).map_or([0, 0], |o| o.1);
         for k in 0..2 {
             let mut d: Vec<f64> = coarse
                 .iter()
@@ -350,24 +348,47 @@ fn on_level(pose: &Pose, camera: &Camera, px: [f64; 2], z: f64) -> Option<[f64; 
     )
 }
 
-/// Tie points of one pair (frame indices `i`, `j`) and its report.
+/// What matching one pair of frames (indices `a`, `b`) found, as the adjustment takes it; it
+/// travels between processes as [`exact_json`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairMatch {
+    pub a: usize,
+    pub b: usize,
+    pub patches: usize,
+    pub inliers: usize,
+    /// The pair's tie points (none unless at least 8 matches agree).
+    pub ties: Vec<PairTie>,
+}
+
+/// A tie point of a pair: its first guess on the ground, its pixel in each frame and weight.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PairTie {
+    pub ground: [f64; 3],
+    pub pixel_a: [f64; 2],
+    pub pixel_b: [f64; 2],
+    pub weight: f64,
+}
+
+impl PairMatch {
+    fn reliable(&self) -> bool {
+        self.inliers >= 8
+    }
+}
+
+/// Tie points of one pair (frame indices `i`, `j`) as rendered.
 fn pair_ties(
-    frames: &[Frame],
-    i: usize,
-    j: usize,
+    (i, a): (usize, &Rendered),
+    (j, b): (usize, &Rendered),
     side: usize,
-    ground_z: &(dyn Fn(f64, f64) -> f64 + Sync),
-) -> Result<(Vec<TiePoint>, PairReport), Error> {
-    let (a, b) = (&frames[i], &frames[j]);
+    ground_z: &(dyn Fn(f64, f64) -> f64 + Send + Sync),
+) -> Result<PairMatch, Error> {
     let (matches, tried) = match_pair(a, b, side)?;
-    let mut report = PairReport {
-        a: a.input.display().to_string(),
-        b: b.input.display().to_string(),
+    let mut report = PairMatch {
+        a: i,
+        b: j,
         patches: tried,
         inliers: 0,
-        misalignment_before_m: f64::NAN,
-        misalignment_after_m: None,
-        reliable: false,
+        ties: vec![],
     };
     let from: Vec<[f64; 2]> = matches.iter().map(|m| m.0).collect();
     let to: Vec<[f64; 2]> = matches.iter().map(|m| m.1).collect();
@@ -376,7 +397,7 @@ fn pair_ties(
         ..RansacOptions::default()
     };
     let Ok(fit) = ransac_homography(&from, &to, &ransac) else {
-        return Ok((vec![], report));
+        return Ok(report);
     };
     let mut ties = Vec::new();
     for (m, keep) in matches.iter().zip(&fit.inliers) {
@@ -390,22 +411,32 @@ fn pair_ties(
             continue;
         }
         let g = a.coarse_plan.grid.centre_of(m.0[0], m.0[1]);
-        let obs = |frame, pixel| Observation {
-            frame,
-            pixel,
-            weight: m.2.clamp(0.05, 1.0),
-        };
-        ties.push(TiePoint {
+        ties.push(PairTie {
             ground: [g[0], g[1], ground_z(g[0], g[1])],
-            observations: vec![obs(i, pa), obs(j, pb)],
+            pixel_a: pa,
+            pixel_b: pb,
+            weight: m.2.clamp(0.05, 1.0),
         });
     }
     report.inliers = ties.len();
-    report.reliable = ties.len() >= 8;
-    if !report.reliable {
-        ties.clear();
+    if report.reliable() {
+        report.ties = ties;
     }
-    Ok((ties, report))
+    Ok(report)
+}
+
+impl PairTie {
+    fn tie_point(&self, a: usize, b: usize) -> TiePoint {
+        let obs = |frame, pixel| Observation {
+            frame,
+            pixel,
+            weight: self.weight,
+        };
+        TiePoint {
+            ground: self.ground,
+            observations: vec![obs(a, self.pixel_a), obs(b, self.pixel_b)],
+        }
+    }
 }
 
 /// Median ground distance between the two frames' rays of each tie (at the tie's height).
@@ -420,7 +451,10 @@ fn misalignment(ties: &[TiePoint], poses: &[Pose], cameras: &[&Camera]) -> f64 {
 
 /// The terrain's height at world (x, y): the DEM (through its CRS), the level ground, or 0
 /// (heights above the take-off point).
-fn ground_fn(opts: &DroneOptions, world: &Projection) -> Box<dyn Fn(f64, f64) -> f64 + Sync> {
+fn ground_fn(
+    opts: &DroneOptions,
+    world: &Projection,
+) -> Box<dyn Fn(f64, f64) -> f64 + Send + Sync> {
     if let Some(dem) = &opts.dem {
         let dem = std::sync::Arc::clone(dem);
         let world = world.clone();
@@ -434,6 +468,8 @@ fn ground_fn(opts: &DroneOptions, world: &Projection) -> Box<dyn Fn(f64, f64) ->
 /// The flight after adjustment: every frame's corrected pose and camera.
 pub struct AdjustedFlight {
     frames: Vec<Frame>,
+    /// Every frame as rendered for the last matching round.
+    rendered: Vec<Rendered>,
     /// The last round's tie points, with their gaps before and after.
     pub ties: Vec<TieVector>,
     pub poses: Vec<Pose>,
@@ -443,80 +479,449 @@ pub struct AdjustedFlight {
     crs: Crs,
 }
 
-/// Plans, matches and adjusts a flight.
+/// Plans, matches and adjusts a flight: [`FlightPlan`]'s steps, each round's frames rendered
+/// once and shared by their pairs.
 pub fn adjust_flight(
     inputs: &[PathBuf],
     opts: &DroneOptions,
     fo: &FlightOptions,
 ) -> Result<AdjustedFlight, Error> {
-    let t0 = std::time::Instant::now();
-    let metas: Vec<(PathBuf, PhotoMetadata)> = inputs
-        .iter()
-        .map(|p| Ok((p.clone(), aerorect_io::read_photo_metadata(p)?)))
-        .collect::<Result<_, Error>>()?;
-    let (crs, world) = flight_crs(&metas, opts)?;
-    let opts = DroneOptions {
-        crs: Some((crs.clone(), world.clone())),
-        ..opts.clone()
-    };
-    // The matching grid: the finest nadir GSD times up to 4 (frames keep about 600 px across).
-    let gsd = match fo.match_gsd_m {
-        Some(g) => g,
-        None => {
-            let (g, short_side) = finest_gsd(&metas, &opts)?;
-            g * (short_side as f64 / 600.0).clamp(1.0, 4.0)
-        }
-    };
-    let mut frames: Vec<Frame> = metas
-        .into_par_iter()
-        .map(|(p, m)| coarse_frame(&p, m, &opts, gsd))
-        .collect::<Result<_, Error>>()?;
-    let ground = ground_fn(&opts, &world);
-    let rec = recorded(&frames);
-    let posed = opts.poses.is_some();
-    let mode = (opts.dem.is_some(), posed);
-    let mut t = std::time::Instant::now();
-    let mut round = match_and_adjust(&frames, &rec, ground.as_ref(), mode, fo)?;
-    let (mut poses, mut cameras) = round.orientation(&rec);
-    let mut rounds = vec![round.summary((&rec.poses, &poses), &mut t)];
-    while rounds.len() < fo.passes {
-        frames = frames
+    let plan = FlightPlan::new(inputs, opts, fo)?;
+    let mut progress = FlightProgress::default();
+    loop {
+        let o = progress.orientation.as_ref();
+        let rendered: Vec<Rendered> = (0..plan.len())
             .into_par_iter()
-            .enumerate()
-            .map(|(k, f)| rerender(f, poses[k], &cameras[k], &opts, &world))
+            .map(|k| plan.render(k, o))
             .collect::<Result<_, Error>>()?;
-        round = match_and_adjust(&frames, &rec, ground.as_ref(), mode, fo)?;
-        let (p, c) = round.orientation(&rec);
-        let typical = median_turn_deg(&poses, &p);
-        rounds.push(round.summary((&poses, &p), &mut t));
-        (poses, cameras) = (p, c);
-        if typical < fo.settled_deg {
-            break;
+        let grids: Vec<OrthoGrid> = rendered.iter().map(|r| r.coarse_plan.grid).collect();
+        let matched: Vec<PairMatch> = overlapping(&grids)
+            .par_iter()
+            .map(|&(i, j)| plan.match_rendered((i, &rendered[i]), (j, &rendered[j])))
+            .collect::<Result<_, Error>>()?;
+        let round = plan.adjust_round(&mut progress, matched)?;
+        if progress.done {
+            return Ok(plan.finish(progress, round, rendered));
         }
     }
-    let report = FlightReport {
-        frames: frames
+}
+
+/// A flight planned for matching (every frame's metadata, camera and recorded pose, its plan
+/// on the matching grid, the flight's CRS and ground): the steps of [`adjust_flight`], each a
+/// pure function of the plan and its arguments, so that they can run apart (a pair on each
+/// worker) and give what `adjust_flight` gives. The same inputs and options plan the same.
+pub struct FlightPlan {
+    frames: Vec<Frame>,
+    opts: DroneOptions,
+    fo: FlightOptions,
+    gsd: f64,
+    ground: Box<dyn Fn(f64, f64) -> f64 + Send + Sync>,
+    rec: Recorded,
+    world: Projection,
+    crs: Crs,
+    started: std::time::Instant,
+}
+
+/// Every frame's pose and camera (a round's adjusted orientation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Orientation {
+    pub poses: Vec<Pose>,
+    pub cameras: Vec<Camera>,
+}
+
+/// The rounds so far: the last round's orientation (none before the first), their summaries,
+/// and whether they are done. Travels between processes as [`FlightProgress::to_json`].
+#[derive(Debug, Clone, Default)]
+pub struct FlightProgress {
+    pub orientation: Option<Orientation>,
+    pub rounds: Vec<RoundSummary>,
+    pub done: bool,
+    /// When the last round ended (its successor's clock).
+    since: Option<std::time::Instant>,
+}
+
+impl FlightPlan {
+    /// Reads every frame's metadata and plans it on the matching grid.
+    pub fn new(inputs: &[PathBuf], opts: &DroneOptions, fo: &FlightOptions) -> Result<Self, Error> {
+        let started = std::time::Instant::now();
+        let metas: Vec<(PathBuf, PhotoMetadata)> = inputs
             .iter()
-            .map(|f| f.input.display().to_string())
-            .collect(),
-        passes: rounds.len(),
-        rounds,
-        match_gsd_m: gsd,
-        unconnected: unconnected(&frames, &round.reports),
-        pairs: round.reports,
-        adjustment: round.adjusted.report,
-        poses: adjusted_poses(&frames, &poses, &cameras),
-        seconds: t0.elapsed().as_secs_f64(),
-    };
-    Ok(AdjustedFlight {
-        frames,
-        ties: round.ties,
-        poses,
-        cameras,
-        report,
-        world,
-        crs,
-    })
+            .map(|p| Ok((p.clone(), aerorect_io::read_photo_metadata(p)?)))
+            .collect::<Result<_, Error>>()?;
+        let (crs, world) = flight_crs(&metas, opts)?;
+        let opts = DroneOptions {
+            crs: Some((crs.clone(), world.clone())),
+            ..opts.clone()
+        };
+        // The matching grid: the finest nadir GSD times up to 4 (frames keep about 600 px across).
+        let gsd = match fo.match_gsd_m {
+            Some(g) => g,
+            None => {
+                let (g, short_side) = finest_gsd(&metas, &opts)?;
+                g * (short_side as f64 / 600.0).clamp(1.0, 4.0)
+            }
+        };
+        let frames: Vec<Frame> = metas
+            .into_par_iter()
+            .map(|(p, m)| plan_frame(&p, m, &opts, gsd))
+            .collect::<Result<_, Error>>()?;
+        Ok(Self {
+            ground: ground_fn(&opts, &world),
+            rec: recorded(&frames),
+            frames,
+            opts,
+            fo: fo.clone(),
+            gsd,
+            world,
+            crs,
+            started,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// Frame `k`'s plan on the matching grid: as recorded, or with `orientation`'s pose and
+    /// camera (its frame pixels, and so its tie observations, stay those of the photo).
+    fn matching_plan(
+        &self,
+        k: usize,
+        orientation: Option<&Orientation>,
+    ) -> Result<OrthoPlan, Error> {
+        let f = &self.frames[k];
+        let Some(o) = orientation else {
+            return Ok(f.coarse_plan.clone());
+        };
+        let ground = frame_ground(f, &self.opts);
+        let req = OrthoRequest {
+            camera: &o.cameras[k],
+            pose: o.poses[k],
+            world: &self.world,
+            ground: &ground,
+            gsd_m: f.coarse_plan.grid.gsd,
+            limits: aerorect_core::RectifyLimits {
+                max_output_px: 4_000_000,
+            },
+            occlusion: false,
+        };
+        let warp = WarpOptions {
+            interp: Interp::Bilinear,
+            nodata: f64::NAN,
+            alpha: false,
+        };
+        plan_ortho(&req, warp).map_err(|e| Error::Invalid(format!("{}: {e}", f.input.display())))
+    }
+
+    /// Frame `k`'s gray ortho on the matching grid.
+    fn render(&self, k: usize, orientation: Option<&Orientation>) -> Result<Rendered, Error> {
+        let coarse_plan = self.matching_plan(k, orientation)?;
+        let input = &self.frames[k].input;
+        let image = aerorect_io::read_image(input)?;
+        let gray = AnyRaster::F32(crate::motion::gray(&image)?);
+        drop(image);
+        let AnyRaster::F32(coarse) = coarse_plan.run(&gray)? else {
+            return Err(Error::Invalid(format!(
+                "{}: gray ortho is not f32",
+                input.display()
+            )));
+        };
+        Ok(Rendered {
+            coarse,
+            coarse_plan,
+        })
+    }
+
+    /// The pairs of frames whose matching grids overlap with `orientation` (none: recorded).
+    pub fn pairs(&self, orientation: Option<&Orientation>) -> Result<Vec<(usize, usize)>, Error> {
+        let grids: Vec<OrthoGrid> = (0..self.len())
+            .into_par_iter()
+            .map(|k| Ok(self.matching_plan(k, orientation)?.grid))
+            .collect::<Result<_, Error>>()?;
+        Ok(overlapping(&grids))
+    }
+
+    /// Frames `i` and `j` rendered with `orientation` (none: recorded) and matched.
+    pub fn pair_match(
+        &self,
+        i: usize,
+        j: usize,
+        orientation: Option<&Orientation>,
+    ) -> Result<PairMatch, Error> {
+        if i.max(j) >= self.len() {
+            return Err(Error::Invalid(format!(
+                "pair ({i}, {j}) of a flight of {} frames",
+                self.len()
+            )));
+        }
+        let (a, b) = (self.render(i, orientation)?, self.render(j, orientation)?);
+        self.match_rendered((i, &a), (j, &b))
+    }
+
+    fn match_rendered(
+        &self,
+        a: (usize, &Rendered),
+        b: (usize, &Rendered),
+    ) -> Result<PairMatch, Error> {
+        pair_ties(a, b, self.fo.patch, self.ground.as_ref())
+    }
+
+    /// One round's adjustment from the matches of every overlapping pair (in [`Self::pairs`]'
+    /// order): the recorded orientation adjusted to their tie points; `progress` gets the
+    /// round's orientation and summary, and is done after [`FlightOptions::passes`] rounds or
+    /// when the median frame turned by less than [`FlightOptions::settled_deg`]. Returns the
+    /// flight's report as of this round.
+    pub fn adjust(
+        &self,
+        progress: &mut FlightProgress,
+        matched: Vec<PairMatch>,
+    ) -> Result<FlightReport, Error> {
+        let round = self.adjust_round(progress, matched)?;
+        Ok(self.report(progress, round).0)
+    }
+
+    fn adjust_round(
+        &self,
+        progress: &mut FlightProgress,
+        matched: Vec<PairMatch>,
+    ) -> Result<Round, Error> {
+        let posed = self.opts.poses.is_some();
+        let mode = (self.opts.dem.is_some(), posed);
+        let name = |k: usize| self.frames.get(k).map(|f| f.input.display().to_string());
+        let mut pairs = Vec::with_capacity(matched.len());
+        for m in matched {
+            let (Some(a), Some(b)) = (name(m.a), name(m.b)) else {
+                return Err(Error::Invalid(format!(
+                    "pair ({}, {}) of a flight of {} frames",
+                    m.a,
+                    m.b,
+                    self.len()
+                )));
+            };
+            pairs.push((m, a, b));
+        }
+        let round = match_and_adjust(pairs, self, mode)?;
+        let (poses, cameras) = round.orientation(&self.rec);
+        let before = progress
+            .orientation
+            .as_ref()
+            .map_or(&self.rec.poses, |o| &o.poses);
+        let typical = median_turn_deg(before, &poses);
+        let since = progress.since.unwrap_or(self.started);
+        progress.rounds.push(round.summary((before, &poses), since));
+        progress.since = Some(std::time::Instant::now());
+        progress.done = progress.rounds.len() >= self.fo.passes
+            || (progress.rounds.len() > 1 && typical < self.fo.settled_deg);
+        progress.orientation = Some(Orientation { poses, cameras });
+        Ok(round)
+    }
+
+    /// The flight's report after `round`, and the round's tie vectors.
+    fn report(&self, progress: &FlightProgress, round: Round) -> (FlightReport, Vec<TieVector>) {
+        let (poses, cameras) = round.orientation(&self.rec);
+        let report = FlightReport {
+            frames: self
+                .frames
+                .iter()
+                .map(|f| f.input.display().to_string())
+                .collect(),
+            passes: progress.rounds.len(),
+            rounds: progress.rounds.clone(),
+            match_gsd_m: self.gsd,
+            unconnected: unconnected(&self.frames, &round.reports),
+            pairs: round.reports,
+            adjustment: round.adjusted.report,
+            poses: adjusted_poses(&self.frames, &poses, &cameras),
+            seconds: self.started.elapsed().as_secs_f64(),
+        };
+        (report, round.ties)
+    }
+
+    fn finish(
+        self,
+        progress: FlightProgress,
+        round: Round,
+        rendered: Vec<Rendered>,
+    ) -> AdjustedFlight {
+        let (poses, cameras) = round.orientation(&self.rec);
+        let (report, ties) = self.report(&progress, round);
+        AdjustedFlight {
+            frames: self.frames,
+            rendered,
+            ties,
+            poses,
+            cameras,
+            report,
+            world: self.world,
+            crs: self.crs,
+        }
+    }
+
+    /// The output CRS of every frame.
+    pub fn crs(&self) -> &Crs {
+        &self.crs
+    }
+
+    /// Frame `k` rectified with `orientation`'s pose and camera onto the output grid, staged
+    /// (as [`AdjustedFlight::write_frame_staged`]).
+    pub fn write_frame_staged(
+        &self,
+        k: usize,
+        orientation: &Orientation,
+        output: &Path,
+        opts: &DroneOptions,
+        staged: &mut aerorect_io::StagedOutputs,
+    ) -> Result<crate::drone::PhotoResult, Error> {
+        let (Some(f), Some(pose), Some(camera)) = (
+            self.frames.get(k),
+            orientation.poses.get(k),
+            orientation.cameras.get(k),
+        ) else {
+            return Err(Error::Invalid(format!(
+                "frame {k} of a flight of {} frames",
+                self.len()
+            )));
+        };
+        let oriented = Oriented {
+            frame: f,
+            pose: *pose,
+            camera,
+            world: &self.world,
+            crs: &self.crs,
+        };
+        oriented.write_staged(output, opts, staged)
+    }
+}
+
+/// The pairs (i < j) of these grids that overlap.
+fn overlapping(grids: &[OrthoGrid]) -> Vec<(usize, usize)> {
+    (0..grids.len())
+        .flat_map(|i| (i + 1..grids.len()).map(move |j| (i, j)))
+        .filter(|&(i, j)| overlap(&grids[i], &grids[j]).is_some())
+        .collect()
+}
+
+/// JSON that gives back every finite float to the bit (each written as `"f64:"` and its bits
+/// in hex; a NaN or infinity becomes null, which reading refuses): a round's matches and
+/// orientation go from worker to worker so.
+pub fn exact_json<T: Serialize>(value: &T) -> Result<String, Error> {
+    let mut v = serde_json::to_value(value).map_err(|e| Error::Invalid(e.to_string()))?;
+    map_numbers(&mut v, &|v| {
+        if let serde_json::Value::Number(n) = v
+            && n.is_f64()
+            && let Some(x) = n.as_f64()
+        {
+            *v = serde_json::Value::String(format!("f64:{:016x}", x.to_bits()));
+        }
+    });
+    serde_json::to_string(&v).map_err(|e| Error::Invalid(e.to_string()))
+}
+
+/// The value [`exact_json`] wrote.
+pub fn from_exact_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, Error> {
+    let mut v: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| Error::Invalid(format!("exact JSON: {e}")))?;
+    map_numbers(&mut v, &|v| {
+        if let serde_json::Value::String(s) = v
+            && let Some(bits) = s.strip_prefix("f64:")
+            && let Ok(b) = u64::from_str_radix(bits, 16)
+        {
+            *v = serde_json::Number::from_f64(f64::from_bits(b))
+                .map_or(serde_json::Value::Null, serde_json::Value::Number);
+        }
+    });
+    serde_json::from_value(v).map_err(|e| Error::Invalid(format!("exact JSON: {e}")))
+}
+
+fn map_numbers(v: &mut serde_json::Value, f: &dyn Fn(&mut serde_json::Value)) {
+    match v {
+        serde_json::Value::Array(a) => a.iter_mut().for_each(|x| map_numbers(x, f)),
+        serde_json::Value::Object(o) => o.values_mut().for_each(|x| map_numbers(x, f)),
+        _ => f(v),
+    }
+}
+
+/// A pose's file form: the centre and `world_from_camera` row by row.
+type PoseFile = ([f64; 3], [[f64; 3]; 3]);
+
+/// [`FlightProgress`]'s file form.
+#[derive(Serialize, Deserialize)]
+struct ProgressFile {
+    poses: Option<Vec<PoseFile>>,
+    cameras: Option<Vec<CameraFile>>,
+    rounds: Vec<RoundSummary>,
+    done: bool,
+}
+
+#[derive(Serialize, Deserialize)]
+struct CameraFile {
+    intrinsics: aerorect_core::Intrinsics,
+    distortion: Option<aerorect_core::distortion::Distortion>,
+    size: ImageSize,
+}
+
+impl FlightProgress {
+    /// As [`exact_json`]: every float to the bit.
+    pub fn to_json(&self) -> Result<String, Error> {
+        let o = self.orientation.as_ref();
+        let file = ProgressFile {
+            poses: o.map(|o| {
+                o.poses
+                    .iter()
+                    .map(|p| {
+                        let m = p.world_from_camera();
+                        let row = |r: usize| [m[(r, 0)], m[(r, 1)], m[(r, 2)]];
+                        (p.centre, [row(0), row(1), row(2)])
+                    })
+                    .collect()
+            }),
+            cameras: o.map(|o| {
+                o.cameras
+                    .iter()
+                    .map(|c| CameraFile {
+                        intrinsics: c.intrinsics,
+                        distortion: c.distortion.clone(),
+                        size: c.size,
+                    })
+                    .collect()
+            }),
+            rounds: self.rounds.clone(),
+            done: self.done,
+        };
+        exact_json(&file)
+    }
+
+    pub fn from_json(text: &str) -> Result<Self, Error> {
+        let f: ProgressFile = from_exact_json(text)?;
+        let orientation = match (f.poses, f.cameras) {
+            (Some(p), Some(c)) => Some(Orientation {
+                poses: p
+                    .into_iter()
+                    .map(|(centre, [a, b, c])| {
+                        let m = aerorect_core::Mat3::new(
+                            a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2],
+                        );
+                        Pose::new(centre, &m)
+                    })
+                    .collect(),
+                cameras: c
+                    .into_iter()
+                    .map(|c| Camera::new(c.intrinsics, c.distortion, c.size))
+                    .collect(),
+            }),
+            _ => None,
+        };
+        Ok(Self {
+            orientation,
+            rounds: f.rounds,
+            done: f.done,
+            since: None,
+        })
+    }
 }
 
 /// The rotation between each pair of poses of the same frames, degrees.
@@ -580,18 +985,16 @@ impl Round {
     fn summary(
         &self,
         (before, after): (&[Pose], &[Pose]),
-        t: &mut std::time::Instant,
+        since: std::time::Instant,
     ) -> RoundSummary {
-        let s = RoundSummary {
+        RoundSummary {
             largest_turn_deg: largest_turn_deg(before, after),
             median_turn_deg: median_turn_deg(before, after),
             tie_points: self.adjusted.report.tie_points,
             reliable_pairs: self.reports.iter().filter(|r| r.reliable).count(),
             rms_after_px: self.adjusted.report.rms_after_px,
-            seconds: t.elapsed().as_secs_f64(),
-        };
-        *t = std::time::Instant::now();
-        s
+            seconds: since.elapsed().as_secs_f64(),
+        }
     }
 
     /// Every frame's adjusted pose and camera.
@@ -611,31 +1014,30 @@ impl Round {
     }
 }
 
-/// Matches every overlapping pair of the frames as rendered and adjusts the recorded
-/// orientation to the tie points (`dem`: the ground is a DEM; `posed`: the frames come from
-/// a pose table).
+/// Adjusts the recorded orientation to the tie points of the matched pairs (each with its
+/// frames' names; `dem`: the ground is a DEM; `posed`: the frames come from a pose table).
 fn match_and_adjust(
-    frames: &[Frame],
-    rec: &Recorded,
-    ground: &(dyn Fn(f64, f64) -> f64 + Sync),
+    matched: Vec<(PairMatch, String, String)>,
+    plan: &FlightPlan,
     (dem, posed): (bool, bool),
-    fo: &FlightOptions,
 ) -> Result<Round, Error> {
-    let pairs: Vec<(usize, usize)> = (0..frames.len())
-        .flat_map(|i| (i + 1..frames.len()).map(move |j| (i, j)))
-        .filter(|&(i, j)| overlap(&frames[i], &frames[j]).is_some())
-        .collect();
-    let matched: Vec<(Vec<TiePoint>, PairReport)> = pairs
-        .par_iter()
-        .map(|&(i, j)| pair_ties(frames, i, j, fo.patch, ground))
-        .collect::<Result<_, Error>>()?;
+    let (rec, fo, frames) = (&plan.rec, &plan.fo, &plan.frames);
+    let ground = plan.ground.as_ref();
     let cams: Vec<&Camera> = rec.camera_of.iter().map(|&c| &rec.cameras[c]).collect();
     let mut reports = Vec::with_capacity(matched.len());
     let mut ties = Vec::new();
-    for (t, mut r) in matched {
-        r.misalignment_before_m = misalignment(&t, &rec.poses, &cams);
+    for (m, a, b) in matched {
+        let t: Vec<TiePoint> = m.ties.iter().map(|t| t.tie_point(m.a, m.b)).collect();
+        reports.push(PairReport {
+            a,
+            b,
+            patches: m.patches,
+            inliers: m.inliers,
+            misalignment_before_m: misalignment(&t, &rec.poses, &cams),
+            misalignment_after_m: None,
+            reliable: m.reliable(),
+        });
         ties.extend(t);
-        reports.push(r);
     }
     let position_sigma_m = match fo.positions {
         PositionPrior::Hold => None,
@@ -693,47 +1095,6 @@ fn match_and_adjust(
         })
         .collect();
     Ok(round)
-}
-
-/// Frame `f` rendered again on the matching grid with another pose and camera (its frame
-/// pixels, and so its tie observations, stay those of the photo).
-fn rerender(
-    f: Frame,
-    pose: Pose,
-    camera: &Camera,
-    opts: &DroneOptions,
-    world: &Projection,
-) -> Result<Frame, Error> {
-    let file = f.input.display().to_string();
-    let image = aerorect_io::read_image(&f.input)?;
-    let gray = AnyRaster::F32(crate::motion::gray(&image)?);
-    drop(image);
-    let ground = frame_ground(&f, opts);
-    let req = OrthoRequest {
-        camera,
-        pose,
-        world,
-        ground: &ground,
-        gsd_m: f.coarse_plan.grid.gsd,
-        limits: aerorect_core::RectifyLimits {
-            max_output_px: 4_000_000,
-        },
-        occlusion: false,
-    };
-    let warp = WarpOptions {
-        interp: Interp::Bilinear,
-        nodata: f64::NAN,
-        alpha: false,
-    };
-    let coarse_plan = plan_ortho(&req, warp).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
-    let AnyRaster::F32(coarse) = coarse_plan.run(&gray)? else {
-        return Err(Error::Invalid(format!("{file}: gray ortho is not f32")));
-    };
-    Ok(Frame {
-        coarse,
-        coarse_plan,
-        ..f
-    })
 }
 
 /// The ground a frame is projected on: the DEM, else the level ground under it as planned
@@ -859,25 +1220,81 @@ fn unconnected(frames: &[Frame], reports: &[PairReport]) -> Vec<String> {
         .collect()
 }
 
-impl AdjustedFlight {
-    /// Frame `k`'s ortho plan with its adjusted pose and camera on the output grid (`opts`'s
-    /// GSD, else the frame's own at nadir).
-    pub fn plan(&self, k: usize, opts: &DroneOptions) -> Result<OrthoPlan, Error> {
-        let f = &self.frames[k];
+/// A frame with a pose and camera, and the flight's CRS.
+struct Oriented<'a> {
+    frame: &'a Frame,
+    pose: Pose,
+    camera: &'a Camera,
+    world: &'a Projection,
+    crs: &'a Crs,
+}
+
+impl Oriented<'_> {
+    /// The frame's ortho plan on the output grid (`opts`'s GSD, else the frame's own at nadir).
+    fn plan(&self, opts: &DroneOptions) -> Result<OrthoPlan, Error> {
+        let f = self.frame;
         let file = f.input.display().to_string();
         let ground = frame_ground(f, opts);
         // `info.gsd_m` is the matching grid's; the frame's own is its height over fx.
         let own_gsd = f.info.height_m / f.info.camera.camera.intrinsics.fx;
         let req = OrthoRequest {
-            camera: &self.cameras[k],
-            pose: self.poses[k],
-            world: &self.world,
+            camera: self.camera,
+            pose: self.pose,
+            world: self.world,
             ground: &ground,
             gsd_m: opts.gsd_m.unwrap_or(own_gsd),
             limits: opts.limits,
             occlusion: opts.occlusion,
         };
         plan_ortho(&req, opts.warp).map_err(|e| Error::Invalid(format!("{file}: {e}")))
+    }
+
+    /// Rectifies the frame onto the output grid, its output staged.
+    fn write_staged(
+        &self,
+        output: &Path,
+        opts: &DroneOptions,
+        staged: &mut aerorect_io::StagedOutputs,
+    ) -> Result<crate::drone::PhotoResult, Error> {
+        let t = std::time::Instant::now();
+        let f = self.frame;
+        let image = aerorect_io::read_image(&f.input)?;
+        let plan = self.plan(opts)?;
+        let out = plan.run(&image)?;
+        let mut info = f.info.clone();
+        info.pose = self.pose;
+        info.geo = georeference(self.crs.clone(), &plan, &opts.warp);
+        info.gsd_m = plan.grid.gsd;
+        info.warnings.extend(plan.warnings.iter().cloned());
+        crate::drone::stage_output(staged, output, &out, &info.geo, opts.cog.as_ref())?;
+        Ok(crate::drone::PhotoResult {
+            input: f.input.display().to_string(),
+            output: output.display().to_string(),
+            input_size: [image.size().width, image.size().height],
+            output_size: [plan.grid.size.width, plan.grid.size.height],
+            footprint_en: plan.footprint.clone(),
+            info,
+            seconds: t.elapsed().as_secs_f64(),
+            thumbnails: None,
+        })
+    }
+}
+
+impl AdjustedFlight {
+    fn oriented(&self, k: usize) -> Oriented<'_> {
+        Oriented {
+            frame: &self.frames[k],
+            pose: self.poses[k],
+            camera: &self.cameras[k],
+            world: &self.world,
+            crs: &self.crs,
+        }
+    }
+
+    /// Frame `k`'s ortho plan with its adjusted pose and camera on the output grid (`opts`'s
+    /// GSD, else the frame's own at nadir).
+    pub fn plan(&self, k: usize, opts: &DroneOptions) -> Result<OrthoPlan, Error> {
+        self.oriented(k).plan(opts)
     }
 
     /// The level ground under frame `k` as planned from its metadata.
@@ -942,34 +1359,14 @@ impl AdjustedFlight {
         opts: &DroneOptions,
         staged: &mut aerorect_io::StagedOutputs,
     ) -> Result<crate::drone::PhotoResult, Error> {
-        let t = std::time::Instant::now();
-        let f = &self.frames[k];
-        let image = aerorect_io::read_image(&f.input)?;
-        let plan = self.plan(k, opts)?;
-        let out = plan.run(&image)?;
-        let mut info = f.info.clone();
-        info.pose = self.poses[k];
-        info.geo = georeference(self.crs.clone(), &plan, &opts.warp);
-        info.gsd_m = plan.grid.gsd;
-        info.warnings.extend(plan.warnings.iter().cloned());
-        crate::drone::stage_output(staged, output, &out, &info.geo, opts.cog.as_ref())?;
-        Ok(crate::drone::PhotoResult {
-            input: f.input.display().to_string(),
-            output: output.display().to_string(),
-            input_size: [image.size().width, image.size().height],
-            output_size: [plan.grid.size.width, plan.grid.size.height],
-            footprint_en: plan.footprint.clone(),
-            info,
-            seconds: t.elapsed().as_secs_f64(),
-            thumbnails: None,
-        })
+        self.oriented(k).write_staged(output, opts, staged)
     }
 
     /// A gray overview of the flight on the matching grid, each cell the mean of the frames
     /// that see it (as rendered for the last matching round), stretched to 8 bits between its
     /// 1st and 99th percentiles; cells no frame sees are black.
     pub fn overview(&self) -> Result<Raster<u8>, Error> {
-        let grids: Vec<_> = self.frames.iter().map(|f| f.coarse_plan.grid).collect();
+        let grids: Vec<_> = self.rendered.iter().map(|f| f.coarse_plan.grid).collect();
         let Some(g0) = grids.first() else {
             return Err(Error::Invalid("a flight of no frames".into()));
         };
@@ -998,7 +1395,7 @@ impl AdjustedFlight {
             )));
         }
         let (mut sum, mut n) = (vec![0f64; w * h], vec![0u32; w * h]);
-        for (f, g) in self.frames.iter().zip(&grids) {
+        for (f, g) in self.rendered.iter().zip(&grids) {
             let (c0, r0) = at(g);
             for (i, v) in f.coarse.plane(0).iter().enumerate() {
                 if v.is_finite() {
@@ -1037,5 +1434,78 @@ impl AdjustedFlight {
 
     pub fn is_empty(&self) -> bool {
         self.frames.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exact_json_gives_back_every_float_to_the_bit() {
+        // Floats whose shortest decimal form a best-effort parser may miss by an ulp.
+        let awkward = [
+            0.1 + 0.2,
+            -0.0,
+            f64::MIN_POSITIVE / 3.0,
+            f64::MAX,
+            1.0 - f64::EPSILON / 2.0,
+            2.0f64.sqrt() * 1e-300,
+            123456.789_012_345_67,
+        ];
+        let m = PairMatch {
+            a: 2,
+            b: 7,
+            patches: 40,
+            inliers: 9,
+            ties: awkward
+                .windows(2)
+                .map(|w| PairTie {
+                    ground: [w[0], w[1], -w[0]],
+                    pixel_a: [w[1], w[0]],
+                    pixel_b: [w[0] * 0.5, w[1] / 7.0],
+                    weight: w[0],
+                })
+                .collect(),
+        };
+        let back: PairMatch = from_exact_json(&exact_json(&m).unwrap()).unwrap();
+        let bits = |m: &PairMatch| -> Vec<u64> {
+            m.ties
+                .iter()
+                .flat_map(|t| {
+                    let mut v = t.ground.to_vec();
+                    v.extend(t.pixel_a);
+                    v.extend(t.pixel_b);
+                    v.push(t.weight);
+                    v
+                })
+                .map(f64::to_bits)
+                .collect()
+        };
+        assert_eq!(bits(&back), bits(&m));
+        assert_eq!((back.a, back.b, back.patches, back.inliers), (2, 7, 40, 9));
+    }
+
+    #[test]
+    fn progress_gives_back_poses_and_cameras_to_the_bit() {
+        let r = aerorect_core::CameraRotation::omega_phi_kappa(0.1 + 0.2, -1.3e-3, 271.7).unwrap();
+        let pose = Pose::new(
+            [512_345.678_9, 5_974_321.012_3, 0.1 + 0.2],
+            r.ground_from_camera(),
+        );
+        let k = aerorect_core::Intrinsics::new(3666.6667, 3666.6666, 2735.7, 1823.3).unwrap();
+        let camera = Camera::new(k, None, ImageSize::new(5472, 3648));
+        let p = FlightProgress {
+            orientation: Some(Orientation {
+                poses: vec![pose],
+                cameras: vec![camera],
+            }),
+            rounds: vec![],
+            done: true,
+            since: None,
+        };
+        let back = FlightProgress::from_json(&p.to_json().unwrap()).unwrap();
+        assert_eq!(back.orientation, p.orientation);
+        assert!(back.done);
     }
 }
