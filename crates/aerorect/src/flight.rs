@@ -1072,8 +1072,10 @@ fn match_and_adjust(
         .map_err(|e| Error::Invalid(format!("flight adjustment: {e}")))?;
     if !adjusted.report.converged {
         return Err(Error::Invalid(format!(
-            "the flight adjustment did not converge in {} iterations (rms {:.2} px); nothing written",
-            adjusted.report.iterations, adjusted.report.rms_after_px
+            "the flight adjustment did not converge in {} iterations (rms {:.2} px); the frames it could not place: {}; nothing written",
+            adjusted.report.iterations,
+            adjusted.report.rms_after_px,
+            unplaced(frames, &adjusted.report)
         )));
     }
     let mut round = Round {
@@ -1095,6 +1097,37 @@ fn match_and_adjust(
         })
         .collect();
     Ok(round)
+}
+
+/// The frames a failed solve left worst: those with no observation, then the (at most five)
+/// largest residual RMS, with it.
+fn unplaced(frames: &[Frame], report: &AdjustReport) -> String {
+    let name = |k: usize| frames[k].input.display().to_string();
+    let mut worst: Vec<(usize, f64)> = report
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            (
+                k,
+                if f.observations == 0 {
+                    f64::INFINITY
+                } else {
+                    f.rms_after_px
+                },
+            )
+        })
+        .collect();
+    worst.sort_by(|a, b| b.1.total_cmp(&a.1));
+    worst
+        .iter()
+        .take(5)
+        .map(|&(k, r)| match r.is_finite() {
+            true => format!("{} (rms {r:.2} px)", name(k)),
+            false => format!("{} (no tie point)", name(k)),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The ground a frame is projected on: the DEM, else the level ground under it as planned
