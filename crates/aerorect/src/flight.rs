@@ -115,13 +115,9 @@ pub struct PairReport {
 /// omega, phi, kappa (degrees) about that CRS's grid axes, as `--poses` reads them.
 #[derive(Debug, Clone, Serialize)]
 pub struct AdjustedPose {
-    pub frame: String,
-    pub x: f64,
-    pub y: f64,
-    pub z: f64,
-    pub omega: f64,
-    pub phi: f64,
-    pub kappa: f64,
+    /// `filename` is the photo's file name.
+    #[serde(flatten)]
+    pub pose: aerorect_io::PoseRecord,
     /// The adjusted camera's focal length (px, fx).
     pub focal_px: f64,
 }
@@ -131,10 +127,11 @@ impl FlightReport {
     /// `filename,x,y,z,omega,phi,kappa`.
     pub fn poses_csv(&self) -> String {
         let mut out = String::from("filename,x,y,z,omega,phi,kappa\n");
-        for p in &self.poses {
+        for a in &self.poses {
+            let p = &a.pose;
             out += &format!(
                 "{},{:.4},{:.4},{:.4},{:.8},{:.8},{:.8}\n",
-                p.frame, p.x, p.y, p.z, p.omega, p.phi, p.kappa
+                p.filename, p.x, p.y, p.z, p.omega, p.phi, p.kappa
             );
         }
         out
@@ -1152,16 +1149,18 @@ fn adjusted_poses(frames: &[Frame], poses: &[Pose], cameras: &[Camera]) -> Vec<A
             let opk = aerorect_core::CameraRotation::from_matrix(p.world_from_camera())
                 .map_or([f64::NAN; 3], |r| r.to_omega_phi_kappa());
             AdjustedPose {
-                frame: f
-                    .input
-                    .file_name()
-                    .map_or(String::new(), |n| n.to_string_lossy().into_owned()),
-                x: p.centre[0],
-                y: p.centre[1],
-                z: p.centre[2],
-                omega: opk[0],
-                phi: opk[1],
-                kappa: opk[2],
+                pose: aerorect_io::PoseRecord {
+                    filename: f
+                        .input
+                        .file_name()
+                        .map_or(String::new(), |n| n.to_string_lossy().into_owned()),
+                    x: p.centre[0],
+                    y: p.centre[1],
+                    z: p.centre[2],
+                    omega: opk[0],
+                    phi: opk[1],
+                    kappa: opk[2],
+                },
                 focal_px: c.intrinsics.fx,
             }
         })
