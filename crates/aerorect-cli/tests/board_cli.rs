@@ -2,17 +2,8 @@
 #![allow(clippy::unwrap_used)]
 
 mod common;
-use common::{aerorect, fails, ok};
+use common::{aerorect, data, fails, ok};
 use std::path::Path;
-
-fn data(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../data")
-        .join(name)
-        .to_str()
-        .unwrap()
-        .to_string()
-}
 
 fn photos(names: &[&str]) -> Vec<String> {
     names

@@ -2,17 +2,7 @@
 #![allow(clippy::unwrap_used)]
 
 mod common;
-use common::{aerorect, fails, ok};
-use std::path::Path;
-
-fn data(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../data")
-        .join(name)
-        .to_str()
-        .unwrap()
-        .to_string()
-}
+use common::{aerorect, data, fails, ok};
 
 #[test]
 fn calibrate_writes_the_json_keys_and_a_usable_camera_file() {

@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used)]
 
 mod common;
-use common::{aerorect, fails, ok};
+use common::{aerorect, data, fails, ok};
 
 use std::path::{Path, PathBuf};
 
@@ -161,15 +161,6 @@ fn a_gsd_as_large_as_the_footprint_is_refused() {
     assert!(!d.join("o.tif").exists());
     fails(&run("10"), &["--gsd-m 10 gives a 12 x 9 px ortho"]);
     ok(&run("4"));
-}
-
-fn data(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../data")
-        .join(name)
-        .to_str()
-        .unwrap()
-        .to_string()
 }
 
 #[test]

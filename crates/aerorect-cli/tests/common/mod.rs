@@ -12,6 +12,16 @@ pub fn aerorect(args: &[&str], dir: &Path) -> Output {
         .unwrap()
 }
 
+/// The path of a bundled file under the repository's data/ folder.
+pub fn data(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data")
+        .join(name)
+        .to_str()
+        .unwrap()
+        .to_string()
+}
+
 /// Asserts success and returns stdout.
 pub fn ok(out: &Output) -> String {
     assert!(
