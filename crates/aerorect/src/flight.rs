@@ -1136,8 +1136,13 @@ fn frame_ground(f: &Frame, opts: &DroneOptions) -> Ground {
             fallback: None,
             strict: opts.strict,
         },
-        None => Ground::Flat(f.info.pose.centre[2] - f.info.height_m),
+        None => Ground::Flat(level_ground(f)),
     }
+}
+
+/// The level ground under a frame as planned from its metadata.
+fn level_ground(f: &Frame) -> f64 {
+    f.info.pose.centre[2] - f.info.height_m
 }
 
 /// Every frame's adjusted pose as `--poses` reads it (omega-phi-kappa about the grid axes).
@@ -1329,12 +1334,6 @@ impl AdjustedFlight {
         self.oriented(k).plan(opts)
     }
 
-    /// The level ground under frame `k` as planned from its metadata.
-    fn ground_z(&self, k: usize) -> f64 {
-        let f = &self.frames[k];
-        f.info.pose.centre[2] - f.info.height_m
-    }
-
     /// The output CRS of every frame.
     pub fn crs(&self) -> &Crs {
         &self.crs
@@ -1363,7 +1362,7 @@ impl AdjustedFlight {
                     path: self.frames[k].input.clone(),
                     plan: self.plan(k, &o)?,
                     nadir_xy: [c[0], c[1]],
-                    height_m: c[2] - self.ground_z(k),
+                    height_m: c[2] - level_ground(&self.frames[k]),
                 })
             })
             .collect()

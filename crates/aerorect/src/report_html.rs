@@ -22,18 +22,10 @@ fn tie_map(ties: &[TieVector]) -> String {
     if ties.is_empty() {
         return "<p>No tie points.</p>".into();
     }
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for t in ties {
-        for d in 0..2 {
-            lo[d] = lo[d].min(t.ground[d]);
-            hi[d] = hi[d].max(t.ground[d]);
-        }
-    }
-    let (w, h, pad) = (800.0, 600.0, 30.0);
-    let span = ((hi[0] - lo[0]) / (w - 2.0 * pad))
-        .max((hi[1] - lo[1]) / (h - 2.0 * pad))
-        .max(1e-9);
-    let xy = |p: [f64; 2]| (pad + (p[0] - lo[0]) / span, h - pad - (p[1] - lo[1]) / span);
+    let ground: Vec<[f64; 2]> = ties.iter().map(|t| t.ground).collect();
+    let map = GroundMap::fit(&ground);
+    let (w, h, pad, span) = (MAP_W, MAP_H, MAP_PAD, map.span);
+    let xy = |p| map.xy(p);
     let mut gaps: Vec<f64> = ties
         .iter()
         .map(|t| t.before_m[0].hypot(t.before_m[1]))
@@ -150,6 +142,42 @@ fn name(path: &str) -> String {
         .unwrap_or_else(|| path.to_string())
 }
 
+/// The maps' page: width, height and margin (px).
+const MAP_W: f64 = 800.0;
+const MAP_H: f64 = 600.0;
+const MAP_PAD: f64 = 30.0;
+
+/// A north-up page of ground points: metres per page pixel and the lower-left corner.
+struct GroundMap {
+    lo: [f64; 2],
+    span: f64,
+}
+
+impl GroundMap {
+    /// The scale that fits every point inside the padded page.
+    fn fit(points: &[[f64; 2]]) -> Self {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in points {
+            for d in 0..2 {
+                lo[d] = lo[d].min(p[d]);
+                hi[d] = hi[d].max(p[d]);
+            }
+        }
+        let span = ((hi[0] - lo[0]) / (MAP_W - 2.0 * MAP_PAD))
+            .max((hi[1] - lo[1]) / (MAP_H - 2.0 * MAP_PAD))
+            .max(1e-9);
+        Self { lo, span }
+    }
+
+    /// Page position of a ground point.
+    fn xy(&self, p: [f64; 2]) -> (f64, f64) {
+        (
+            MAP_PAD + (p[0] - self.lo[0]) / self.span,
+            MAP_H - MAP_PAD - (p[1] - self.lo[1]) / self.span,
+        )
+    }
+}
+
 /// The footprints of all frames on the ground, north up, with camera positions and a scale bar.
 fn footprint_map(frames: &[&PhotoResult]) -> String {
     let pts: Vec<[f64; 2]> = frames
@@ -164,18 +192,9 @@ fn footprint_map(frames: &[&PhotoResult]) -> String {
     if pts.is_empty() {
         return "<p>No frame was rectified.</p>".into();
     }
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in &pts {
-        for d in 0..2 {
-            lo[d] = lo[d].min(p[d]);
-            hi[d] = hi[d].max(p[d]);
-        }
-    }
-    let (w, h, pad) = (800.0, 600.0, 30.0);
-    let span = ((hi[0] - lo[0]) / (w - 2.0 * pad))
-        .max((hi[1] - lo[1]) / (h - 2.0 * pad))
-        .max(1e-9);
-    let xy = |p: [f64; 2]| (pad + (p[0] - lo[0]) / span, h - pad - (p[1] - lo[1]) / span);
+    let map = GroundMap::fit(&pts);
+    let (w, h, pad, span) = (MAP_W, MAP_H, MAP_PAD, map.span);
+    let xy = |p| map.xy(p);
     let colours = [
         "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf",
     ];
