@@ -1,14 +1,29 @@
-//! A Levenberg-Marquardt loop with Marquardt's diagonal damping. The linear algebra is
-//! nalgebra's (Cholesky of the damped normal equations); this file only decides steps and stops,
-//! because the paper's stop rule (every update moves every predicted point by less than a
-//! threshold in pixels) is not one of the usual relative tolerances.
+//! A Levenberg-Marquardt loop with Marquardt's diagonal damping. The problem supplies its
+//! residuals and its normal equations (J^T J, J^T r) in whatever block form it has, and solves
+//! the damped system with nalgebra; this file only decides steps and stops, because the paper's
+//! stop rule (every update moves every predicted point by less than a threshold in pixels) is
+//! not one of the usual relative tolerances. Buffers are made once: an iteration allocates
+//! nothing here.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
-/// What the loop minimises: residuals r(x) and their Jacobian.
+/// The linearised problem's normal equations at one point.
+pub(crate) trait NormalEquations {
+    /// The step dx solving (J^T J + lambda D) dx = -J^T r, with D the diagonal of J^T J (each
+    /// entry at least 1e-12); false when the damped matrix is not positive definite.
+    fn solve_damped(&mut self, lambda: f64, dx: &mut DVector<f64>) -> bool;
+}
+
+/// What the loop minimises: residuals r(x) and the normal equations of their Jacobian.
 pub(crate) trait Problem {
-    fn residuals(&self, x: &DVector<f64>) -> DVector<f64>;
-    fn jacobian(&self, x: &DVector<f64>) -> DMatrix<f64>;
+    type Normal: NormalEquations;
+    /// The number of residuals.
+    fn residual_count(&self) -> usize;
+    fn residuals_into(&self, x: &DVector<f64>, r: &mut DVector<f64>);
+    /// Empty normal equations (the buffers `normal_into` fills).
+    fn new_normal(&self) -> Self::Normal;
+    /// J^T J and J^T r at `x`, where `r` = residuals(x).
+    fn normal_into(&self, x: &DVector<f64>, r: &DVector<f64>, n: &mut Self::Normal);
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -21,11 +36,12 @@ pub enum StopReason {
     MaxIterations,
 }
 
-pub(crate) struct LmResult {
+pub(crate) struct LmResult<N> {
     pub x: DVector<f64>,
     pub iterations: usize,
     pub stop: StopReason,
-    pub jacobian: DMatrix<f64>,
+    /// The normal equations at `x`.
+    pub normal: N,
     pub residuals: DVector<f64>,
 }
 
@@ -37,37 +53,39 @@ pub(crate) fn minimise<P: Problem>(
     max_iterations: usize,
     stop_px: f64,
     point_shift: impl Fn(&DVector<f64>) -> f64,
-) -> LmResult {
+) -> LmResult<P::Normal> {
+    let m = p.residual_count();
     let mut x = x0;
-    let mut r = p.residuals(&x);
+    let mut r = DVector::zeros(m);
+    p.residuals_into(&x, &mut r);
     let mut cost = r.norm_squared();
     let mut lambda = 1e-3;
-    let mut j = p.jacobian(&x);
+    let mut normal = p.new_normal();
+    p.normal_into(&x, &r, &mut normal);
+    let (mut dx, mut x_new) = (DVector::zeros(x.len()), DVector::zeros(x.len()));
+    let (mut r_new, mut dr) = (DVector::zeros(m), DVector::zeros(m));
     let mut stop = StopReason::MaxIterations;
     let mut iterations = 0;
     while iterations < max_iterations {
         iterations += 1;
-        let jt = j.transpose();
-        let jtj = &jt * &j;
-        let g = &jt * &r;
         let mut accepted = false;
         for _ in 0..20 {
-            let mut a = jtj.clone();
-            for k in 0..a.nrows() {
-                a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
-            }
-            let Some(chol) = a.cholesky() else {
+            if !normal.solve_damped(lambda, &mut dx) {
                 lambda *= 10.0;
                 continue;
-            };
-            let dx = -chol.solve(&g);
-            let x_new = &x + &dx;
-            let r_new = p.residuals(&x_new);
+            }
+            x_new.copy_from(&x);
+            x_new += &dx;
+            p.residuals_into(&x_new, &mut r_new);
             let cost_new = r_new.norm_squared();
             if cost_new.is_finite() && cost_new <= cost {
-                let shift = point_shift(&(&r_new - &r));
+                dr.copy_from(&r_new);
+                dr -= &r;
+                let shift = point_shift(&dr);
                 let rel = (cost - cost_new) / cost.max(1e-300);
-                (x, r, cost) = (x_new, r_new, cost_new);
+                std::mem::swap(&mut x, &mut x_new);
+                std::mem::swap(&mut r, &mut r_new);
+                cost = cost_new;
                 lambda = (lambda / 3.0).max(1e-12);
                 accepted = true;
                 if shift < stop_px {
@@ -83,7 +101,7 @@ pub(crate) fn minimise<P: Problem>(
             stop = StopReason::NoFurtherDecrease;
             break;
         }
-        j = p.jacobian(&x);
+        p.normal_into(&x, &r, &mut normal);
         if stop != StopReason::MaxIterations {
             break;
         }
@@ -92,23 +110,58 @@ pub(crate) fn minimise<P: Problem>(
         x,
         iterations,
         stop,
-        jacobian: j,
+        normal,
         residuals: r,
+    }
+}
+
+/// Dense normal equations from a whole Jacobian (the tests' reference).
+#[cfg(test)]
+pub(crate) struct Dense {
+    pub jtj: nalgebra::DMatrix<f64>,
+    pub g: DVector<f64>,
+}
+
+#[cfg(test)]
+impl NormalEquations for Dense {
+    fn solve_damped(&mut self, lambda: f64, dx: &mut DVector<f64>) -> bool {
+        let mut a = self.jtj.clone();
+        for k in 0..a.nrows() {
+            a[(k, k)] += lambda * self.jtj[(k, k)].max(1e-12);
+        }
+        let Some(chol) = a.cholesky() else {
+            return false;
+        };
+        dx.copy_from(&-chol.solve(&self.g));
+        true
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::DMatrix;
 
     /// Rosenbrock as least squares: r = (10 (y - x^2), 1 - x); minimum at (1, 1).
     struct Rosenbrock;
     impl Problem for Rosenbrock {
-        fn residuals(&self, x: &DVector<f64>) -> DVector<f64> {
-            DVector::from_vec(vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]])
+        type Normal = Dense;
+        fn residual_count(&self) -> usize {
+            2
         }
-        fn jacobian(&self, x: &DVector<f64>) -> DMatrix<f64> {
-            DMatrix::from_row_slice(2, 2, &[-20.0 * x[0], 10.0, -1.0, 0.0])
+        fn residuals_into(&self, x: &DVector<f64>, r: &mut DVector<f64>) {
+            r.copy_from_slice(&[10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]]);
+        }
+        fn new_normal(&self) -> Dense {
+            Dense {
+                jtj: DMatrix::zeros(2, 2),
+                g: DVector::zeros(2),
+            }
+        }
+        fn normal_into(&self, x: &DVector<f64>, r: &DVector<f64>, n: &mut Dense) {
+            let j = DMatrix::from_row_slice(2, 2, &[-20.0 * x[0], 10.0, -1.0, 0.0]);
+            n.jtj = j.transpose() * &j;
+            n.g = j.transpose() * r;
         }
     }
 

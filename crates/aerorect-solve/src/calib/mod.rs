@@ -7,10 +7,14 @@
 //! at X_c = R(w) X + t with w a rotation vector. Pixels: u = fx x + skew y + cx, v = fy y + cy
 //! on the distorted normalised point (x, y).
 
+mod blocks;
 mod coverage;
 mod identify;
 mod init;
+mod jacobian;
 mod lm;
+#[cfg(test)]
+mod oracle;
 mod problem;
 
 pub use coverage::{COVERAGE_GRID, Coverage, coverage};

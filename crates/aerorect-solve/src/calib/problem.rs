@@ -2,11 +2,13 @@
 //! its report.
 
 use super::CalibrationError;
+use super::blocks::{BlockNormal, ViewBlock};
 use super::init::{PlaneView, Pose, dlt, zhang};
+use super::jacobian::{Intrinsics, PoseFrame, residual, residual_jacobian};
 use super::lm::{Problem, StopReason, minimise};
-use aerorect_core::distortion::{Direction, Distortion};
-use aerorect_core::{Camera, GeometryError, ImageSize, Intrinsics};
-use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
+use aerorect_core::distortion::Distortion;
+use aerorect_core::{Camera, GeometryError, ImageSize};
+use nalgebra::{DMatrix, DVector, Rotation3, Vector2, Vector3};
 use serde::Serialize;
 
 /// One control point seen in one image.
@@ -110,7 +112,7 @@ impl CalibrationReport {
     /// The calibrated camera for images of `size` (the size the control points were measured
     /// in).
     pub fn camera(&self, size: ImageSize) -> Result<Camera, GeometryError> {
-        let mut k = Intrinsics::new(self.fx, self.fy, self.cx, self.cy)?;
+        let mut k = aerorect_core::Intrinsics::new(self.fx, self.fy, self.cx, self.cy)?;
         k.skew = aerorect_core::error::require_finite("skew", self.skew)?;
         Ok(Camera::new(k, Some(self.distortion.clone()), size))
     }
@@ -138,20 +140,58 @@ impl CalibrationReport {
 const INTRINSICS: [&str; 5] = ["fx", "fy", "cx", "cy", "skew"];
 
 /// The adjustment: parameter vector = [fx, fy, cx, cy, skew, coefficients.., (w, t) per view].
-struct Calib<'a> {
+/// The free parameters are the free globals (in that order) followed by every view's pose.
+pub(super) struct Calib<'a> {
     obs: &'a [Observation],
     /// Observation indices per view.
-    views: Vec<Vec<usize>>,
+    pub(super) views: Vec<Vec<usize>>,
+    /// Each view's world points and pixels, in the view's order (planned once).
+    world: Vec<Vec<Vector3<f64>>>,
+    pixel: Vec<Vec<[f64; 2]>>,
     model: Distortion,
     nd: usize,
     /// Free parameter -> index in the full vector.
-    free: Vec<usize>,
-    full0: Vec<f64>,
+    pub(super) free: Vec<usize>,
+    /// The number of free global parameters (the first entries of `free`).
+    pub(super) free_globals: usize,
+    pub(super) full0: Vec<f64>,
     aspect: Option<f64>,
 }
 
-impl Calib<'_> {
-    fn expand(&self, z: &DVector<f64>) -> Vec<f64> {
+impl<'a> Calib<'a> {
+    pub(super) fn new(
+        obs: &'a [Observation],
+        views: Vec<Vec<usize>>,
+        model: Distortion,
+        free: Vec<usize>,
+        full0: Vec<f64>,
+        aspect: Option<f64>,
+    ) -> Self {
+        let nd = model.model().names().len();
+        let world = views
+            .iter()
+            .map(|v| v.iter().map(|&i| Vector3::from(obs[i].world)).collect())
+            .collect();
+        let pixel = views
+            .iter()
+            .map(|v| v.iter().map(|&i| obs[i].pixel).collect())
+            .collect();
+        let free_globals = free.iter().filter(|&&i| i < 5 + nd).count();
+        Calib {
+            obs,
+            views,
+            world,
+            pixel,
+            model,
+            nd,
+            free,
+            free_globals,
+            full0,
+            aspect,
+        }
+    }
+
+    pub(super) fn expand(&self, z: &DVector<f64>) -> Vec<f64> {
         let mut x = self.full0.clone();
         for (k, &i) in self.free.iter().enumerate() {
             x[i] = z[k];
@@ -162,90 +202,99 @@ impl Calib<'_> {
         x
     }
 
-    fn view_residuals(&self, x: &[f64], model: &Distortion, v: usize, out: &mut [f64]) {
-        let (fx, fy, cx, cy, s) = (x[0], x[1], x[2], x[3], x[4]);
+    /// The lens model with the coefficients of the full vector `x`.
+    fn model_at(&self, x: &[f64]) -> Distortion {
+        let mut model = self.model.clone();
+        model.model_mut().set_params(&x[5..5 + self.nd]);
+        model
+    }
+
+    fn pose(&self, x: &[f64], v: usize) -> PoseFrame {
         let base = 5 + self.nd + 6 * v;
-        let rot = Rotation3::from_scaled_axis(Vector3::new(x[base], x[base + 1], x[base + 2]));
-        let t = Vector3::new(x[base + 3], x[base + 4], x[base + 5]);
-        let m = model.model();
-        for (k, &i) in self.views[v].iter().enumerate() {
-            let o = &self.obs[i];
-            let xc = rot * Vector3::new(o.world[0], o.world[1], o.world[2]) + t;
-            let p = [xc.x / xc.z, xc.y / xc.z];
-            let r = match m.direction() {
-                Direction::ObservedFromIdeal => {
-                    let d = m.closed(p).value;
-                    [
-                        fx * d[0] + s * d[1] + cx - o.pixel[0],
-                        fy * d[1] + cy - o.pixel[1],
-                    ]
-                }
-                Direction::IdealFromObserved => {
-                    let yo = (o.pixel[1] - cy) / fy;
-                    let xo = (o.pixel[0] - cx - s * yo) / fx;
-                    let ideal = m.closed([xo, yo]).value;
-                    let (ex, ey) = (p[0] - ideal[0], p[1] - ideal[1]);
-                    [fx * ex + s * ey, fy * ey]
-                }
-            };
-            out[2 * k] = r[0];
-            out[2 * k + 1] = r[1];
+        PoseFrame::from_slice(&x[base..base + 6])
+    }
+
+    /// Residuals of the full vector `x`, two per observation in input order.
+    fn residuals_full(&self, x: &[f64], r: &mut [f64]) {
+        let model = self.model_at(x);
+        let k = Intrinsics::from_slice(x);
+        for v in 0..self.views.len() {
+            let pose = self.pose(x, v);
+            for (k_in_view, &i) in self.views[v].iter().enumerate() {
+                let e = residual(
+                    &k,
+                    model.model(),
+                    &pose,
+                    &self.world[v][k_in_view],
+                    self.pixel[v][k_in_view],
+                );
+                r[2 * i] = e[0];
+                r[2 * i + 1] = e[1];
+            }
         }
     }
 
-    fn all_residuals(&self, x: &[f64]) -> Vec<f64> {
-        let mut model = self.model.clone();
-        model.model_mut().set_params(&x[5..5 + self.nd]);
-        let mut r = vec![0.0; 2 * self.obs.len()];
-        let mut buf = vec![];
-        for v in 0..self.views.len() {
-            buf.resize(2 * self.views[v].len(), 0.0);
-            self.view_residuals(x, &model, v, &mut buf);
-            for (k, &i) in self.views[v].iter().enumerate() {
-                r[2 * i] = buf[2 * k];
-                r[2 * i + 1] = buf[2 * k + 1];
+    /// One view's Jacobian rows and residuals into its block.
+    fn view_jacobian(
+        &self,
+        x: &[f64],
+        model: &Distortion,
+        v: usize,
+        r: &DVector<f64>,
+        dg: &mut [Vector2<f64>],
+        b: &mut ViewBlock,
+    ) {
+        let k = Intrinsics::from_slice(x);
+        let pose = self.pose(x, v);
+        let globals = &self.free[..self.free_globals];
+        for (n, &i) in self.views[v].iter().enumerate() {
+            let jp = residual_jacobian(
+                &k,
+                model.model(),
+                &pose,
+                &self.world[v][n],
+                self.pixel[v][n],
+                dg,
+            );
+            if let Some(a) = self.aspect {
+                // fy = a fx: fx's column carries fy's.
+                dg[0] += dg[1] * a;
             }
+            b.jp.fixed_view_mut::<2, 6>(2 * n, 0).copy_from(&jp);
+            for (col, &gi) in globals.iter().enumerate() {
+                b.jg[(2 * n, col)] = dg[gi][0];
+                b.jg[(2 * n + 1, col)] = dg[gi][1];
+            }
+            b.r[2 * n] = r[2 * i];
+            b.r[2 * n + 1] = r[2 * i + 1];
         }
-        r
     }
 }
 
 impl Problem for Calib<'_> {
-    fn residuals(&self, z: &DVector<f64>) -> DVector<f64> {
-        DVector::from_vec(self.all_residuals(&self.expand(z)))
+    type Normal = BlockNormal;
+
+    fn residual_count(&self) -> usize {
+        2 * self.obs.len()
     }
 
-    /// Central differences; a pose parameter only touches its own view's rows.
-    fn jacobian(&self, z: &DVector<f64>) -> DMatrix<f64> {
-        let m = 2 * self.obs.len();
-        let mut j = DMatrix::zeros(m, self.free.len());
-        let global = 5 + self.nd;
-        for (col, &i) in self.free.iter().enumerate() {
-            let h = 1e-6 * self.full0[i].abs().max(1e-2);
-            let (mut zp, mut zm) = (z.clone(), z.clone());
-            zp[col] += h;
-            zm[col] -= h;
-            let (xp, xm) = (self.expand(&zp), self.expand(&zm));
-            if i < global {
-                let (rp, rm) = (self.all_residuals(&xp), self.all_residuals(&xm));
-                for row in 0..m {
-                    j[(row, col)] = (rp[row] - rm[row]) / (2.0 * h);
-                }
-            } else {
-                let v = (i - global) / 6;
-                let mut model = self.model.clone();
-                model.model_mut().set_params(&xp[5..global]);
-                let n = self.views[v].len();
-                let (mut rp, mut rm) = (vec![0.0; 2 * n], vec![0.0; 2 * n]);
-                self.view_residuals(&xp, &model, v, &mut rp);
-                self.view_residuals(&xm, &model, v, &mut rm);
-                for (k, &o) in self.views[v].iter().enumerate() {
-                    j[(2 * o, col)] = (rp[2 * k] - rm[2 * k]) / (2.0 * h);
-                    j[(2 * o + 1, col)] = (rp[2 * k + 1] - rm[2 * k + 1]) / (2.0 * h);
-                }
-            }
+    fn residuals_into(&self, z: &DVector<f64>, r: &mut DVector<f64>) {
+        self.residuals_full(&self.expand(z), r.as_mut_slice());
+    }
+
+    fn new_normal(&self) -> BlockNormal {
+        BlockNormal::new(self.free_globals, self.views.iter().map(Vec::len))
+    }
+
+    /// Analytic Jacobian rows per view, then the blocks of J^T J.
+    fn normal_into(&self, z: &DVector<f64>, r: &DVector<f64>, n: &mut BlockNormal) {
+        let x = self.expand(z);
+        let model = self.model_at(&x);
+        let mut dg = vec![Vector2::zeros(); 5 + self.nd];
+        for (v, b) in n.views.iter_mut().enumerate() {
+            self.view_jacobian(&x, &model, v, r, &mut dg, b);
         }
-        j
+        n.assemble();
     }
 }
 
@@ -403,6 +452,38 @@ pub(crate) fn calibrate_once(
     obs: &[Observation],
     opts: &CalibrationOptions,
 ) -> Result<CalibrationReport, CalibrationError> {
+    let plan = plan(obs, opts)?;
+    let mut res = minimise(
+        &plan.problem,
+        plan.z0.clone(),
+        opts.max_iterations,
+        opts.stop_px,
+        point_shift,
+    );
+    report(&plan.problem, &mut res, &plan.global, &plan.ids, opts)
+}
+
+/// The largest change of a predicted point (pixels) for a change `dr` of the residuals.
+pub(super) fn point_shift(dr: &DVector<f64>) -> f64 {
+    (0..dr.len() / 2)
+        .map(|i| dr[2 * i].hypot(dr[2 * i + 1]))
+        .fold(0.0, f64::max)
+}
+
+/// A checked, started adjustment: the problem, its starting free vector, the global
+/// parameters' names and the image ids.
+pub(super) struct Plan<'a> {
+    pub problem: Calib<'a>,
+    pub z0: DVector<f64>,
+    pub global: Vec<&'static str>,
+    pub ids: Vec<String>,
+}
+
+/// Checks the points and options and finds the starting values.
+pub(super) fn plan<'a>(
+    obs: &'a [Observation],
+    opts: &CalibrationOptions,
+) -> Result<Plan<'a>, CalibrationError> {
     if obs.len() < 6 {
         return Err(CalibrationError::TooFewPoints {
             got: obs.len(),
@@ -421,7 +502,6 @@ pub(crate) fn calibrate_once(
     check_inside(obs, opts.image_size)?;
     let (k, poses) = start(obs, &views, &ids, opts)?;
     let names = opts.model.model().names();
-    let nd = names.len();
     let mut full0 = vec![
         k[(0, 0)],
         k[(1, 1)],
@@ -448,7 +528,7 @@ pub(crate) fn calibrate_once(
             || (name == "skew" && !opts.skew)
             || (name == "fy" && opts.fixed_aspect.is_some())
     };
-    let global: Vec<&str> = INTRINSICS
+    let global: Vec<&'static str> = INTRINSICS
         .iter()
         .copied()
         .chain(names.iter().copied())
@@ -460,28 +540,19 @@ pub(crate) fn calibrate_once(
     if let Some(a) = aspect {
         full0[1] = full0[0] * a;
     }
-    let problem = Calib {
-        obs,
-        views: views.clone(),
-        model: opts.model.clone(),
-        nd,
-        free: free.clone(),
-        full0: full0.clone(),
-        aspect,
-    };
     let z0 = DVector::from_iterator(free.len(), free.iter().map(|&i| full0[i]));
-    let shift = |dr: &DVector<f64>| {
-        (0..dr.len() / 2)
-            .map(|i| dr[2 * i].hypot(dr[2 * i + 1]))
-            .fold(0.0, f64::max)
-    };
-    let res = minimise(&problem, z0, opts.max_iterations, opts.stop_px, shift);
-    report(&problem, &res, &global, &ids, opts)
+    let problem = Calib::new(obs, views, opts.model.clone(), free, full0, aspect);
+    Ok(Plan {
+        problem,
+        z0,
+        global,
+        ids,
+    })
 }
 
 fn report(
     p: &Calib,
-    res: &super::lm::LmResult,
+    res: &mut super::lm::LmResult<BlockNormal>,
     global: &[&str],
     ids: &[String],
     opts: &CalibrationOptions,
@@ -493,9 +564,9 @@ fn report(
         .collect();
     let ssr: f64 = res.residuals.norm_squared();
     let dof = (2 * n).saturating_sub(p.free.len()).max(1) as f64;
-    let jtj = res.jacobian.transpose() * &res.jacobian;
-    let cov = jtj
-        .try_inverse()
+    let cov = res
+        .normal
+        .global_inverse()
         .ok_or_else(|| CalibrationError::Singular("J^T J at the solution".into()))?
         * (ssr / dof);
     let mut parameters = vec![];
