@@ -12,7 +12,7 @@
 //! 1 or 3 bands; masks are always Deflate. The TIFF structure is written here by hand: the
 //! `tiff` crate's encoder writes strips only.
 
-mod layout;
+pub(crate) mod layout;
 mod pyramid;
 
 use crate::error::IoError;
@@ -231,17 +231,7 @@ fn stage_cog(
     if let Some(nd) = nodata {
         tags.push((GDAL_NODATA, GeoTagValue::Ascii(format!("{nd}"))));
     }
-    let geo_tags: Vec<(u16, Value)> = tags
-        .into_iter()
-        .map(|(t, v)| {
-            let v = match v {
-                GeoTagValue::Doubles(d) => Value::Double(d),
-                GeoTagValue::Shorts(s) => Value::Short(s),
-                GeoTagValue::Ascii(a) => Value::Ascii(a),
-            };
-            (t, v)
-        })
-        .collect();
+    let geo_tags: Vec<(u16, Value)> = tags.into_iter().map(|(t, v)| (t, v.into())).collect();
     staged.file(path, |w| {
         let r = match raster {
             AnyRaster::U8(r) => write_typed(w, r, nodata, &geo_tags, opts),

@@ -182,7 +182,7 @@ impl StagedOutputs {
             .map(|e| e.to_ascii_lowercase());
         match ext.as_deref() {
             Some("tif") | Some("tiff") => self.file(path, |w| {
-                tiff_file::write(w, raster, geo).map_err(|e| IoError::encode(path, e))
+                crate::strip_tiff::write(w, raster, geo, None).map_err(|e| IoError::encode(path, e))
             }),
             Some("png") => {
                 let sidecars = match geo {

@@ -18,6 +18,7 @@ pub mod image_file;
 pub mod metadata;
 pub mod sensors;
 pub mod staged;
+mod strip_tiff;
 mod tiff_file;
 pub mod tiled_tiff;
 

@@ -1,12 +1,17 @@
 //! The byte layout of a cloud-optimised TIFF's header: every IFD, each followed by its own
 //! out-of-line tag values, then the TileOffsets and TileByteCounts arrays of all IFDs (in IFD
-//! order), then the tile data. Classic little-endian TIFF or BigTIFF.
+//! order), then the tile data. Classic little-endian TIFF or BigTIFF. An IFD without a
+//! TileWidth tag is striped: its arrays are StripOffsets and StripByteCounts (the parallel
+//! strip writer, `strip_tiff`, lays out its one IFD here too).
 //!
 //! The header is built with zeroed offset and byte-count arrays; the writer records where
 //! each array lies ([`Layout::offsets_at`], [`Layout::counts_at`]) and fills them in once the
 //! tiles are written.
 
 pub(crate) const NEW_SUBFILE_TYPE: u16 = 254;
+pub(crate) const STRIP_OFFSETS: u16 = 273;
+pub(crate) const STRIP_BYTE_COUNTS: u16 = 279;
+pub(crate) const TILE_WIDTH: u16 = 322;
 pub(crate) const TILE_OFFSETS: u16 = 324;
 pub(crate) const TILE_BYTE_COUNTS: u16 = 325;
 
@@ -16,8 +21,21 @@ pub(crate) enum Value {
     Short(Vec<u16>),
     Long(Vec<u32>),
     Double(Vec<f64>),
+    /// Numerator and denominator.
+    Rational(Vec<[u32; 2]>),
     /// Written NUL-terminated.
     Ascii(String),
+}
+
+impl From<crate::geotiff::GeoTagValue> for Value {
+    fn from(v: crate::geotiff::GeoTagValue) -> Self {
+        use crate::geotiff::GeoTagValue as G;
+        match v {
+            G::Doubles(d) => Value::Double(d),
+            G::Shorts(s) => Value::Short(s),
+            G::Ascii(a) => Value::Ascii(a),
+        }
+    }
 }
 
 impl Value {
@@ -27,6 +45,7 @@ impl Value {
             Value::Short(v) => (3, v.len() as u64),
             Value::Long(v) => (4, v.len() as u64),
             Value::Double(v) => (12, v.len() as u64),
+            Value::Rational(v) => (5, v.len() as u64),
             Value::Ascii(s) => (2, s.len() as u64 + 1),
         }
     }
@@ -36,16 +55,29 @@ impl Value {
             Value::Short(v) => v.iter().flat_map(|x| x.to_le_bytes()).collect(),
             Value::Long(v) => v.iter().flat_map(|x| x.to_le_bytes()).collect(),
             Value::Double(v) => v.iter().flat_map(|x| x.to_le_bytes()).collect(),
+            Value::Rational(v) => v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect(),
             Value::Ascii(s) => s.bytes().chain(std::iter::once(0)).collect(),
         }
     }
 }
 
-/// One IFD: its tags (TileOffsets and TileByteCounts left out) and its number of tiles.
+/// One IFD: its tags (TileOffsets and TileByteCounts, or StripOffsets and StripByteCounts,
+/// left out) and its number of tiles (or strips).
 #[derive(Debug, Clone)]
 pub(crate) struct Ifd {
     pub tags: Vec<(u16, Value)>,
     pub tiles: usize,
+}
+
+impl Ifd {
+    /// The tags of the offset and byte-count arrays: tiles when the IFD has a TileWidth.
+    fn array_tags(&self) -> [u16; 2] {
+        if self.tags.iter().any(|(t, _)| *t == TILE_WIDTH) {
+            [TILE_OFFSETS, TILE_BYTE_COUNTS]
+        } else {
+            [STRIP_OFFSETS, STRIP_BYTE_COUNTS]
+        }
+    }
 }
 
 /// The header bytes and where the arrays to fill in lie in them.
@@ -163,9 +195,9 @@ pub(crate) fn layout(ifds: &[Ifd], big: bool) -> Layout {
                     field
                 }
             };
-            match e.tag {
-                TILE_OFFSETS => offsets_at.push(data_at),
-                TILE_BYTE_COUNTS => counts_at.push(data_at),
+            match (e.deferred, e.tag) {
+                (true, TILE_OFFSETS | STRIP_OFFSETS) => offsets_at.push(data_at),
+                (true, TILE_BYTE_COUNTS | STRIP_BYTE_COUNTS) => counts_at.push(data_at),
                 _ => {}
             }
         }
@@ -217,7 +249,7 @@ fn entries(ifd: &Ifd, big: bool) -> Vec<Entry> {
         })
         .collect();
     let (typ, word) = if big { (16, 8) } else { (4, 4) };
-    for tag in [TILE_OFFSETS, TILE_BYTE_COUNTS] {
+    for tag in ifd.array_tags() {
         out.push(Entry {
             tag,
             typ,

@@ -18,6 +18,13 @@ pub(crate) trait CogSample: Sample {
     /// SampleFormat: 1 unsigned integer, 3 IEEE float.
     const FORMAT: u16;
     fn put_le(self, out: &mut Vec<u8>);
+    /// Appends `values` as little-endian bytes.
+    fn extend_le(values: &[Self], out: &mut Vec<u8>) {
+        out.reserve(values.len() * usize::from(Self::BITS / 8));
+        for &v in values {
+            v.put_le(out);
+        }
+    }
     /// Equality for nodata: NaN equals NaN.
     fn same(self, other: Self) -> bool;
 }
@@ -27,6 +34,9 @@ impl CogSample for u8 {
     const FORMAT: u16 = 1;
     fn put_le(self, out: &mut Vec<u8>) {
         out.push(self);
+    }
+    fn extend_le(values: &[Self], out: &mut Vec<u8>) {
+        out.extend_from_slice(values);
     }
     fn same(self, other: Self) -> bool {
         self == other
