@@ -594,9 +594,32 @@ pub struct PhotoResult {
     /// The ground the frame covers (easting, northing).
     pub footprint_en: Vec<[f64; 2]>,
     pub seconds: f64,
+    /// Where `seconds` went.
+    pub stage_seconds: StageSeconds,
     /// PNG thumbnails of the input and of the output, when asked for.
     #[serde(skip)]
     pub thumbnails: Option<(Vec<u8>, Vec<u8>)>,
+}
+
+/// Wall seconds of the stages of one frame's ortho (the report's `stage_seconds`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct StageSeconds {
+    /// Metadata and image decoding.
+    pub read: f64,
+    /// The grid, the map and the footprint.
+    pub plan: f64,
+    /// Resampling onto the grid.
+    pub warp: f64,
+    /// Encoding and writing the output (staged, before its rename).
+    pub write: f64,
+}
+
+/// Seconds since `t`, and `t` reset to now.
+pub(crate) fn lap(t: &mut std::time::Instant) -> f64 {
+    let now = std::time::Instant::now();
+    let s = (now - *t).as_secs_f64();
+    *t = now;
+    s
 }
 
 /// Reads a photo, rectifies it from its metadata onto its georeferenced grid, and writes
@@ -624,7 +647,9 @@ pub fn rectify_photo_staged(
 ) -> Result<PhotoResult, Error> {
     let t = std::time::Instant::now();
     let (out, mut r) = ortho_photo(input, opts, thumbnail_side)?;
+    let mut w = std::time::Instant::now();
     stage_output(staged, output, &out, &r.info.geo, opts.cog.as_ref())?;
+    r.stage_seconds.write = lap(&mut w);
     r.output = output.display().to_string();
     r.seconds = t.elapsed().as_secs_f64();
     Ok(r)
@@ -638,6 +663,8 @@ pub fn ortho_photo(
     thumbnail_side: Option<u32>,
 ) -> Result<(aerorect_raster::AnyRaster, PhotoResult), Error> {
     let t = std::time::Instant::now();
+    let mut lap_t = t;
+    let mut stages = StageSeconds::default();
     let file = input.display().to_string();
     let meta = aerorect_io::read_photo_metadata(input)?;
     let image = aerorect_io::read_image(input)?;
@@ -645,6 +672,7 @@ pub fn ortho_photo(
         .nodata_as_for(&image)
         .map_err(|e| Error::Invalid(format!("--nodata {}: {e}", opts.warp.nodata)))?;
     let size = image.size();
+    stages.read = lap(&mut lap_t);
     let posed = opts.poses.as_deref().map(|p| pose_for(p, input));
     let (plan, info) = match posed {
         Some(Some(pose)) => plan_from_pose(pose, &meta, size, opts, &file)?,
@@ -653,7 +681,9 @@ pub fn ortho_photo(
         }
         None => plan_from_metadata(&meta, size, opts, &file)?,
     };
+    stages.plan = lap(&mut lap_t);
     let out = plan.run(&image)?;
+    stages.warp = lap(&mut lap_t);
     let thumbnails = match thumbnail_side {
         Some(s) => {
             let err = |e: String| Error::Invalid(format!("{file}: thumbnail: {e}"));
@@ -672,6 +702,7 @@ pub fn ortho_photo(
         footprint_en: plan.footprint.clone(),
         info,
         seconds: t.elapsed().as_secs_f64(),
+        stage_seconds: stages,
         thumbnails,
     };
     Ok((out, r))

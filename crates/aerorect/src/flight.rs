@@ -1294,16 +1294,26 @@ impl Oriented<'_> {
         staged: &mut aerorect_io::StagedOutputs,
     ) -> Result<crate::drone::PhotoResult, Error> {
         let t = std::time::Instant::now();
+        let mut lap_t = t;
         let f = self.frame;
         let image = aerorect_io::read_image(&f.input)?;
+        let read = crate::drone::lap(&mut lap_t);
         let plan = self.plan(opts)?;
+        let plan_s = crate::drone::lap(&mut lap_t);
         let out = plan.run(&image)?;
+        let warp = crate::drone::lap(&mut lap_t);
         let mut info = f.info.clone();
         info.pose = self.pose;
         info.geo = georeference(self.crs.clone(), &plan, &opts.warp);
         info.gsd_m = plan.grid.gsd;
         info.warnings.extend(plan.warnings.iter().cloned());
         crate::drone::stage_output(staged, output, &out, &info.geo, opts.cog.as_ref())?;
+        let stage_seconds = crate::drone::StageSeconds {
+            read,
+            plan: plan_s,
+            warp,
+            write: crate::drone::lap(&mut lap_t),
+        };
         Ok(crate::drone::PhotoResult {
             input: f.input.display().to_string(),
             output: output.display().to_string(),
@@ -1312,6 +1322,7 @@ impl Oriented<'_> {
             footprint_en: plan.footprint.clone(),
             info,
             seconds: t.elapsed().as_secs_f64(),
+            stage_seconds,
             thumbnails: None,
         })
     }
