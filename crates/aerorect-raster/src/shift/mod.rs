@@ -10,6 +10,8 @@
 
 mod fft2;
 mod jtc;
+mod jtc_cross;
+mod jtc_paper;
 mod phase;
 pub mod sim;
 
