@@ -36,6 +36,7 @@ fn warp_options(interp: &str, nodata: f64, alpha: bool) -> PyResult<WarpOptions>
         interp,
         nodata,
         alpha,
+        prefilter: true,
     })
 }
 

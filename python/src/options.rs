@@ -78,6 +78,7 @@ impl PhotoArgs {
             interp,
             nodata: self.nodata,
             alpha: self.alpha,
+            prefilter: true,
         })
     }
 

@@ -98,6 +98,7 @@ pub(crate) fn warp_options(
         interp,
         nodata,
         alpha,
+        prefilter: true,
     };
     warp.nodata_as_for(image)
         .with_context(|| format!("--nodata {nodata}"))?;
@@ -221,6 +222,7 @@ pub fn simulate(a: SimulateArgs) -> Result<()> {
         interp: a.interp,
         nodata: a.nodata,
         alpha: false,
+        prefilter: true,
     };
     let frame_img = plan.render(&ortho, &warp)?;
     let points = match a.checkpoints {

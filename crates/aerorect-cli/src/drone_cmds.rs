@@ -177,6 +177,7 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
         interp: a.interp,
         nodata: a.nodata,
         alpha: a.alpha,
+        prefilter: true,
     };
     let limits = RectifyLimits {
         max_output_px: a.max_output_px,
@@ -427,6 +428,7 @@ pub fn batch(a: BatchArgs) -> Result<()> {
             interp: a.interp,
             nodata: a.nodata,
             alpha: false,
+            prefilter: true,
         },
     )?;
     if a.cog {

@@ -70,6 +70,7 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
             interp: a.interp,
             nodata: 0.0,
             alpha: false,
+            prefilter: true,
         },
     )?;
     let (frames, crs) = if a.flight.adjust {

@@ -22,6 +22,7 @@ fn compare<T: Sample>(src: &Raster<T>, interp: Interp, tol: f64) {
         interp,
         nodata: 7.0,
         alpha: true,
+        prefilter: true,
     };
     let fast = warp(src, &h, size, &opts).unwrap();
     let slow = oracle_warp(src, &h, size, interp);
@@ -138,6 +139,7 @@ fn footprint_edges_follow_the_convention() {
         interp: Interp::Nearest,
         nodata: 99.0,
         alpha: false,
+        prefilter: true,
     };
     let out = warp(
         &src,
@@ -186,6 +188,7 @@ fn simd_and_portable_builds_agree_exactly() {
             interp,
             nodata: 3.0,
             alpha: true,
+            prefilter: true,
         };
         let src8: Raster<u8> = textured_scene(ImageSize::new(640, 120), 3, 255.0, 21);
         let mut a = Raster::new(size, 4).unwrap();
@@ -220,6 +223,7 @@ fn tiny_sources_match_the_oracle() {
                     interp,
                     nodata: 1.0,
                     alpha: false,
+                    prefilter: true,
                 },
             )
             .unwrap();

@@ -105,6 +105,9 @@ pub fn oracle_sample<T: Sample>(
             }
             acc
         }
+        // An area mean depends on the map's local scale, not on one position: its tests use
+        // closed-form block means, an analytic zone plate and OpenCV's INTER_AREA instead.
+        Interp::Average => panic!("oracle_sample: average is not a point sample"),
     })
 }
 

@@ -87,6 +87,7 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
             interp,
             nodata: 0.0,
             alpha: true,
+            prefilter: true,
         };
         let limits = RectifyLimits::default();
         let plan = RectifyPlan::new(camera.clone(), attitude, None, limits, warp)?;

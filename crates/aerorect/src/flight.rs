@@ -201,6 +201,7 @@ fn plan_frame(
             interp: Interp::Bilinear,
             nodata: f64::NAN,
             alpha: false,
+            prefilter: true,
         },
         limits: aerorect_core::RectifyLimits {
             max_output_px: 4_000_000,
@@ -610,6 +611,7 @@ impl FlightPlan {
             interp: Interp::Bilinear,
             nodata: f64::NAN,
             alpha: false,
+            prefilter: true,
         };
         plan_ortho(&req, warp).map_err(|e| Error::Invalid(format!("{}: {e}", f.input.display())))
     }

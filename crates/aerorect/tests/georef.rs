@@ -101,6 +101,7 @@ fn plan(cam: &Camera, pose: Pose, ground: &Ground) -> OrthoPlan {
         interp: Interp::Bilinear,
         nodata: f64::NAN,
         alpha: false,
+        prefilter: true,
     };
     plan_ortho(&req, warp).unwrap()
 }

@@ -73,6 +73,7 @@ fn plan(cam: &Camera, pose: Pose) -> OrthoPlan {
         interp: Interp::Bilinear,
         nodata: f64::NAN,
         alpha: false,
+        prefilter: true,
     };
     plan_ortho(&req, warp).unwrap()
 }

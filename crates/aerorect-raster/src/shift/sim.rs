@@ -29,6 +29,7 @@ pub fn shifted_linear(
         interp: Interp::Bilinear,
         nodata: 0.0,
         alpha: false,
+        prefilter: true,
     };
     match warp(scene, &map, size, &opts) {
         Ok(r) => r.plane(0).to_vec(),

@@ -1,13 +1,17 @@
-//! The warp engine: inverse mapping with nearest, bilinear or bicubic (Keys, a = -0.5) sampling.
+//! The warp engine: inverse mapping with nearest, bilinear or bicubic (Keys, a = -0.5) sampling,
+//! or area averaging (`area`); bilinear and bicubic read a box-reduced pyramid level where the
+//! destination is more than twice coarser than the source (`prefilter`).
 //!
 //! Sampling convention: a source position (x, y) is inside the image when
 //! -0.5 <= x < W - 0.5 and -0.5 <= y < H - 0.5 (the pixel footprints); inside, neighbours past
 //! the edge repeat the edge pixel. Outside, the destination gets the nodata value and, when asked,
 //! a zero in the alpha band (which is OPAQUE where valid).
 
+mod area;
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod kernel;
+mod prefilter;
 
 use crate::error::RasterError;
 use crate::map::PixelMap;
@@ -25,6 +29,9 @@ pub enum Interp {
     Bilinear,
     /// Keys' cubic convolution with a = -0.5.
     Bicubic,
+    /// The mean of the source pixels under the destination pixel's footprint, weighted by the
+    /// area they share with it (GDAL's `-r average`, OpenCV's `INTER_AREA`); see `area`.
+    Average,
 }
 
 impl Interp {
@@ -33,6 +40,7 @@ impl Interp {
             Interp::Nearest => "nearest",
             Interp::Bilinear => "bilinear",
             Interp::Bicubic => "bicubic",
+            Interp::Average => "average",
         }
     }
 }
@@ -44,8 +52,9 @@ impl std::str::FromStr for Interp {
             "nearest" => Ok(Interp::Nearest),
             "bilinear" => Ok(Interp::Bilinear),
             "bicubic" => Ok(Interp::Bicubic),
+            "average" => Ok(Interp::Average),
             _ => Err(format!(
-                "unknown interpolation '{s}': expected nearest, bilinear or bicubic"
+                "unknown interpolation '{s}': expected nearest, bilinear, bicubic or average"
             )),
         }
     }
@@ -59,6 +68,10 @@ pub struct WarpOptions {
     pub nodata: f64,
     /// Append an alpha band: OPAQUE where the source had the pixel, 0 elsewhere.
     pub alpha: bool,
+    /// Bilinear and bicubic read a 2 x 2 box-reduced pyramid level where the destination is more
+    /// than twice coarser than the source, so they do not alias (see `prefilter`); false keeps
+    /// the plain kernels everywhere. No effect at scales below 2 (bit for bit).
+    pub prefilter: bool,
 }
 
 impl Default for WarpOptions {
@@ -67,6 +80,7 @@ impl Default for WarpOptions {
             interp: Interp::Bilinear,
             nodata: 0.0,
             alpha: false,
+            prefilter: true,
         }
     }
 }
@@ -144,13 +158,33 @@ fn warp_into_impl<T: Sample, M: PixelMap>(
             bytes: (src.size().pixels() * std::mem::size_of::<T>()) as u128,
         });
     }
-    let g = kernel::SourceGeometry::of(src, allow_simd);
-    match opts.interp {
-        Interp::Nearest => run::<T, M, kernel::Nearest>(src, map, &g, nodata, opts.alpha, dst),
-        Interp::Bilinear => run::<T, M, kernel::Bilinear>(src, map, &g, nodata, opts.alpha, dst),
-        Interp::Bicubic => run::<T, M, kernel::Bicubic>(src, map, &g, nodata, opts.alpha, dst),
+    if opts.prefilter
+        && matches!(opts.interp, Interp::Bilinear | Interp::Bicubic)
+        && let Some(plan) = prefilter::plan(map, dst.size(), src.size())
+    {
+        return prefilter::run(src, map, opts, dst, &plan, allow_simd);
     }
+    dispatch(src, map, opts.interp, nodata, opts.alpha, dst, allow_simd);
     Ok(())
+}
+
+/// Runs `interp`'s kernel over the whole destination (no prefilter; arguments checked).
+fn dispatch<T: Sample, M: PixelMap>(
+    src: &Raster<T>,
+    map: &M,
+    interp: Interp,
+    nodata: T,
+    alpha: bool,
+    dst: &mut Raster<T>,
+    allow_simd: bool,
+) {
+    let g = kernel::SourceGeometry::of(src, allow_simd);
+    match interp {
+        Interp::Nearest => run::<T, M, kernel::Nearest>(src, map, &g, nodata, alpha, dst),
+        Interp::Bilinear => run::<T, M, kernel::Bilinear>(src, map, &g, nodata, alpha, dst),
+        Interp::Bicubic => run::<T, M, kernel::Bicubic>(src, map, &g, nodata, alpha, dst),
+        Interp::Average => area::run(src, map, nodata, alpha, dst),
+    }
 }
 
 /// About this many destination pixels per rayon task.

@@ -1,0 +1,250 @@
+//! Automatic prefiltering for bilinear and bicubic downsampling (`WarpOptions::prefilter`).
+//!
+//! Where a destination pixel spans more than two source pixels, bilinear and bicubic read only
+//! their 2 x 2 or 4 x 4 neighbours and alias. The destination is cut into `TILE` x `TILE` tiles;
+//! each tile's scale rho (source pixels per destination pixel along the longer side of the
+//! footprint: the larger length of the Jacobian's two columns, OpenGL's mipmap rule) is taken at
+//! the tile's centre (else the smallest over its corners with a source), and the tile is resampled
+//! from pyramid level k = floor(log2 rho), so the remaining scale rho / 2^k is in [1, 2). Levels
+//! are 2 x 2 box means (`reduce_half`), the image's last odd row or column averaged with itself;
+//! a level-k pixel i is centred on level-0 position (i + 0.5) 2^k - 0.5.
+//!
+//! When every tile has level 0 (scales below 2 everywhere), the warp is the plain one, bit for
+//! bit. Tiles at level 0 beside prefiltered ones are also bit-identical to the plain warp (the same
+//! coordinates and kernel). Validity (nodata, alpha) is always decided on level 0's footprints,
+//! as for the plain warp. Neighbouring tiles at different levels differ in sharpness: a visible
+//! seam where the scale crosses a power of two (no blending between levels).
+
+use super::WarpOptions;
+use crate::error::RasterError;
+use crate::map::PixelMap;
+use crate::raster::{Raster, Sample};
+use aerorect_core::ImageSize;
+use rayon::prelude::*;
+
+/// Tile side, destination pixels.
+const TILE: usize = 64;
+
+/// Per tile (row-major), the pyramid level to read.
+pub(crate) struct Plan {
+    tiles_x: usize,
+    levels: Vec<usize>,
+}
+
+impl Plan {
+    fn max_level(&self) -> usize {
+        self.levels.iter().copied().max().unwrap_or(0)
+    }
+}
+
+/// The local scale at destination (col, row): the larger length of the Jacobian's columns,
+/// by central differences over one pixel. `None` without a source there.
+pub(crate) fn scale_at<M: PixelMap>(map: &M, col: f64, row: f64) -> Option<f64> {
+    let d = |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+    let (l, r) = (
+        map.source_of(col - 0.5, row)?,
+        map.source_of(col + 0.5, row)?,
+    );
+    let (u, b) = (
+        map.source_of(col, row - 0.5)?,
+        map.source_of(col, row + 0.5)?,
+    );
+    let rho = d(l, r).max(d(u, b));
+    rho.is_finite().then_some(rho)
+}
+
+/// The level with rho / 2^k in [1, 2), at most `max_level` (a relative 1e-9 absorbs rounding in
+/// exact power-of-two scales).
+fn level_of(rho: f64, max_level: usize) -> usize {
+    if rho < 2.0 {
+        return 0;
+    }
+    ((rho * (1.0 + 1e-9)).log2().floor() as usize).min(max_level)
+}
+
+/// Each tile's level; `None` when every tile reads level 0 (the plain warp applies).
+pub(crate) fn plan<M: PixelMap>(map: &M, dst: ImageSize, src: ImageSize) -> Option<Plan> {
+    // Levels while the smaller side keeps at least 2 pixels.
+    let max_level = (src.width.min(src.height).max(1).ilog2() as usize).saturating_sub(1);
+    let (tiles_x, tiles_y) = (dst.width.div_ceil(TILE), dst.height.div_ceil(TILE));
+    let mut levels = Vec::with_capacity(tiles_x * tiles_y);
+    for ty in 0..tiles_y {
+        for tx in 0..tiles_x {
+            let (c0, r0) = ((tx * TILE) as f64, (ty * TILE) as f64);
+            let (c1, r1) = (
+                ((tx * TILE + TILE).min(dst.width) - 1) as f64,
+                ((ty * TILE + TILE).min(dst.height) - 1) as f64,
+            );
+            let rho = scale_at(map, 0.5 * (c0 + c1), 0.5 * (r0 + r1)).or_else(|| {
+                [(c0, r0), (c1, r0), (c0, r1), (c1, r1)]
+                    .iter()
+                    .filter_map(|&(c, r)| scale_at(map, c, r))
+                    .reduce(f64::min)
+            });
+            levels.push(rho.map_or(0, |s| level_of(s, max_level)));
+        }
+    }
+    levels
+        .iter()
+        .any(|&l| l > 0)
+        .then_some(Plan { tiles_x, levels })
+}
+
+/// The 2 x 2 box mean of `src`, ceil(W / 2) x ceil(H / 2): a last odd column or row is averaged
+/// with itself.
+pub(crate) fn reduce_half<T: Sample>(src: &Raster<T>) -> Result<Raster<T>, RasterError> {
+    let (w, h) = (src.width(), src.height());
+    let size = ImageSize::new(w.div_ceil(2), h.div_ceil(2));
+    let mut out = Raster::new(size, src.bands())?;
+    for (b, plane) in out.planes_mut().iter_mut().enumerate() {
+        let p = src.plane(b);
+        plane
+            .par_chunks_mut(size.width)
+            .enumerate()
+            .for_each(|(r, dst)| {
+                let (r0, r1) = (2 * r, (2 * r + 1).min(h - 1));
+                for (c, d) in dst.iter_mut().enumerate() {
+                    let (c0, c1) = (2 * c, (2 * c + 1).min(w - 1));
+                    let sum = p[r0 * w + c0].to_f32()
+                        + p[r0 * w + c1].to_f32()
+                        + p[r1 * w + c0].to_f32()
+                        + p[r1 * w + c1].to_f32();
+                    *d = T::from_f32(0.25 * sum);
+                }
+            });
+    }
+    Ok(out)
+}
+
+/// One tile's map: destination (col, row) of the tile -> position in pyramid level `level`.
+struct TileMap<'a, M> {
+    inner: &'a M,
+    col0: usize,
+    row0: usize,
+    level: usize,
+}
+
+impl<M: PixelMap> TileMap<'_, M> {
+    #[inline]
+    fn to_level(&self, v: f64) -> f64 {
+        if self.level == 0 {
+            return v;
+        }
+        (v + 0.5) / (1u64 << self.level) as f64 - 0.5
+    }
+}
+
+impl<M: PixelMap> PixelMap for TileMap<'_, M> {
+    fn source_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+        let p = self
+            .inner
+            .source_of(col + self.col0 as f64, row + self.row0 as f64)?;
+        Some(p.map(|v| self.to_level(v)))
+    }
+
+    fn source_row(&self, row: usize, col0: usize, xs: &mut [f64], ys: &mut [f64]) {
+        self.inner
+            .source_row(row + self.row0, col0 + self.col0, xs, ys);
+        if self.level > 0 {
+            for v in xs.iter_mut().chain(ys.iter_mut()) {
+                *v = self.to_level(*v);
+            }
+        }
+    }
+}
+
+/// Warps tile by tile from the planned levels (tile rows in parallel): each tile through the
+/// plain warp into its own buffer, copied into `dst`.
+pub(crate) fn run<T: Sample, M: PixelMap>(
+    src: &Raster<T>,
+    map: &M,
+    opts: &WarpOptions,
+    dst: &mut Raster<T>,
+    plan: &Plan,
+    allow_simd: bool,
+) -> Result<(), RasterError> {
+    let mut reduced: Vec<Raster<T>> = Vec::new();
+    for _ in 0..plan.max_level() {
+        let next = reduce_half(reduced.last().unwrap_or(src))?;
+        reduced.push(next);
+    }
+    let level = |k: usize| if k == 0 { src } else { &reduced[k - 1] };
+    let nodata = opts.nodata_as::<T>()?;
+    let width = dst.width();
+    let bands = dst.bands();
+    let mut bands_of_rows: Vec<Vec<&mut [T]>> = (0..dst.height().div_ceil(TILE))
+        .map(|_| Vec::new())
+        .collect();
+    for plane in dst.planes_mut() {
+        for (task, chunk) in bands_of_rows.iter_mut().zip(plane.chunks_mut(TILE * width)) {
+            task.push(chunk);
+        }
+    }
+    bands_of_rows
+        .into_par_iter()
+        .enumerate()
+        .try_for_each(|(ty, mut chunks)| {
+            let rows = chunks[0].len() / width;
+            for tx in 0..plan.tiles_x {
+                let k = plan.levels[ty * plan.tiles_x + tx];
+                let cols = TILE.min(width - tx * TILE);
+                let tmap = TileMap {
+                    inner: map,
+                    col0: tx * TILE,
+                    row0: ty * TILE,
+                    level: k,
+                };
+                let mut tile = Raster::new(ImageSize::new(cols, rows), bands)?;
+                let (interp, alpha) = (opts.interp, opts.alpha);
+                super::dispatch(
+                    level(k),
+                    &tmap,
+                    interp,
+                    nodata,
+                    alpha,
+                    &mut tile,
+                    allow_simd,
+                );
+                if k > 0 {
+                    outside_level0(src.size(), &tmap, nodata, opts.alpha, &mut tile);
+                }
+                for (chunk, plane) in chunks.iter_mut().zip(tile.planes()) {
+                    for (r, line) in plane.chunks(cols).enumerate() {
+                        let start = r * width + tx * TILE;
+                        chunk[start..start + cols].copy_from_slice(line);
+                    }
+                }
+            }
+            Ok(())
+        })
+}
+
+/// Writes nodata (and alpha 0) where the tile's pixels fall outside level 0's footprints: level
+/// k covers a little more than the image (its last pixel may stand for one source pixel).
+fn outside_level0<T: Sample, M: PixelMap>(
+    src: ImageSize,
+    tmap: &TileMap<'_, M>,
+    nodata: T,
+    alpha: bool,
+    tile: &mut Raster<T>,
+) {
+    let cols = tile.width();
+    let (mut xs, mut ys) = (vec![0.0; cols], vec![0.0; cols]);
+    let (w, h) = (src.width as f64, src.height as f64);
+    let image_bands = tile.bands() - usize::from(alpha);
+    for r in 0..tile.height() {
+        tmap.inner
+            .source_row(r + tmap.row0, tmap.col0, &mut xs, &mut ys);
+        for (c, (&x, &y)) in xs.iter().zip(ys.iter()).enumerate() {
+            if x >= -0.5 && x < w - 0.5 && y >= -0.5 && y < h - 0.5 {
+                continue;
+            }
+            for b in 0..image_bands {
+                tile.plane_mut(b)[r * cols + c] = nodata;
+            }
+            if alpha {
+                tile.plane_mut(image_bands)[r * cols + c] = T::default();
+            }
+        }
+    }
+}
