@@ -1,14 +1,49 @@
-//! AVX2 kernel for the case that matters most: bilinear u8 (gray and colour frames).
+//! AVX2 builds of the kernels, eight (or four) destination pixels per step.
 //!
-//! Eight destination pixels per step: f64 coordinates -> clamped i32 indices and f32 fractions
-//! (as `Bilinear::prepare`), one 32-bit gather for the upper neighbour pair and one for the lower
-//! pair, and the blend in f32 with the same operations in the same order as `Bilinear::apply`
-//! (no FMA), so the result is bit-identical to the portable kernel (a test checks it).
+//! Every routine here does the same arithmetic, operation for operation, as the portable kernel
+//! in `kernel.rs` (f64 positions, f32 blend, no FMA), so the two builds agree bit for bit (a test
+//! checks it). Loads are laid out per kernel:
+//! - nearest: the tap index is computed eight at a time, then one scalar load per pixel and band
+//!   (scalar loads beat a gather for single samples);
+//! - bilinear: one gather brings the upper neighbour pair (2 adjacent samples) of eight pixels and
+//!   one the lower pair (u8, u16: 32-bit lanes; f32: 64-bit lanes, four pixels per gather);
+//! - bicubic: per pixel, four row loads of four adjacent samples, blended vertically as one 4-lane
+//!   vector and then horizontally; taps that cross the border go through the portable kernel.
 
-use super::kernel::{Bilinear, Kernel, SourceGeometry};
+use super::kernel::{BLOCK, Bicubic, Bilinear, Kernel, Nearest, SourceGeometry};
+use crate::raster::Sample;
 use std::arch::x86_64::*;
 
-/// Constants of one source image for the 8-pixel step.
+/// Per-task buffers for the AVX2 builds, one block long.
+pub(crate) struct SimdScratch {
+    pub(crate) idx: Vec<u32>,
+    pub(crate) cubic: Vec<CubicTap>,
+    pub(crate) base: Vec<u32>,
+    /// Per pixel: 0 outside, 1 interior (all 16 taps inside), 2 on the border (taps clamped).
+    pub(crate) state: Vec<u8>,
+}
+
+impl SimdScratch {
+    pub(crate) fn new() -> Self {
+        Self {
+            idx: vec![0; BLOCK],
+            cubic: vec![CubicTap::default(); BLOCK],
+            base: vec![0; BLOCK],
+            state: vec![0; BLOCK],
+        }
+    }
+}
+
+/// The weights of one interior bicubic pixel (`keys_weights_f32`); the upper-left index of its
+/// 4 x 4 neighbourhood is kept apart (`SimdScratch::base`).
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(16))]
+pub(crate) struct CubicTap {
+    wx: [f32; 4],
+    wy: [f32; 4],
+}
+
+/// Constants of one source image for the eight-pixel steps.
 pub(crate) struct Consts {
     lim_x: __m256d,
     lim_y: __m256d,
@@ -19,16 +54,16 @@ pub(crate) struct Consts {
     i0max_x: __m128i,
     i0max_y: __m128i,
     width: __m256i,
+    width128: __m128i,
     w_minus_2: __m256i,
     byte: __m256i,
     half: __m256,
-    nodata: __m256i,
     pick: __m256i,
 }
 
 impl Consts {
     #[target_feature(enable = "avx2")]
-    pub(crate) fn new(g: &SourceGeometry, nodata: u8) -> Self {
+    pub(crate) fn new(g: &SourceGeometry) -> Self {
         let (w, h) = (g.width(), g.height());
         Self {
             lim_x: _mm256_set1_pd(w as f64 - 0.5),
@@ -40,10 +75,10 @@ impl Consts {
             i0max_x: _mm_set1_epi32(w as i32 - 2),
             i0max_y: _mm_set1_epi32(h as i32 - 2),
             width: _mm256_set1_epi32(w as i32),
+            width128: _mm_set1_epi32(w as i32),
             w_minus_2: _mm256_set1_epi32(w as i32 - 2),
             byte: _mm256_set1_epi32(0xFF),
             half: _mm256_set1_ps(0.5),
-            nodata: _mm256_set1_epi32(i32::from(nodata)),
             // Picks byte 0 of each 32-bit lane into the low 4 bytes of each 128-bit half.
             pick: _mm256_setr_epi8(
                 0, 4, 8, 12, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 0, 4, 8, 12, -1, -1,
@@ -51,145 +86,636 @@ impl Consts {
             ),
         }
     }
-}
 
-/// Eight pixels: source positions (x, y) in two halves -> every band's output at `at`.
-/// Returns the inside mask (bit k for pixel k).
-///
-/// # Safety
-/// AVX2; source at least 2 x 2 with full planes; `at + 8 <= out.len()` for every output.
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn step8(
-    k: &Consts,
-    (x_lo, x_hi, y_lo, y_hi): (__m256d, __m256d, __m256d, __m256d),
-    planes: &[&[u8]],
-    outs: &mut [&mut [u8]],
-    at: usize,
-) -> i32 {
-    let inside = |x: __m256d, y: __m256d| {
+    /// Inside the pixel footprints (`SourceGeometry::inside`), as a 64-bit lane mask.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn inside(&self, x: __m256d, y: __m256d) -> __m256d {
         let a = _mm256_and_pd(
-            _mm256_cmp_pd::<_CMP_GE_OQ>(x, k.neg_half),
-            _mm256_cmp_pd::<_CMP_LT_OQ>(x, k.lim_x),
+            _mm256_cmp_pd::<_CMP_GE_OQ>(x, self.neg_half),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(x, self.lim_x),
         );
         let b = _mm256_and_pd(
-            _mm256_cmp_pd::<_CMP_GE_OQ>(y, k.neg_half),
-            _mm256_cmp_pd::<_CMP_LT_OQ>(y, k.lim_y),
+            _mm256_cmp_pd::<_CMP_GE_OQ>(y, self.neg_half),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(y, self.lim_y),
         );
         _mm256_and_pd(a, b)
-    };
-    let (in_lo, in_hi) = (inside(x_lo, y_lo), inside(x_hi, y_hi));
-    let mask = _mm256_movemask_pd(in_lo) | (_mm256_movemask_pd(in_hi) << 4);
-    // The eight 64-bit lane masks as eight 32-bit lane masks (even dwords of each half).
+    }
+}
+
+/// Four source positions of `xs`, `ys` from `i` on.
+///
+/// # Safety
+/// AVX2; `i + 4 <= xs.len(), ys.len()`.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn load4(xs: &[f64], ys: &[f64], i: usize) -> (__m256d, __m256d) {
+    debug_assert!(i + 4 <= xs.len() && i + 4 <= ys.len());
+    // SAFETY: i + 4 <= len (the contract).
+    unsafe {
+        (
+            _mm256_loadu_pd(xs.as_ptr().add(i)),
+            _mm256_loadu_pd(ys.as_ptr().add(i)),
+        )
+    }
+}
+
+/// Eight 64-bit lane masks (two halves) as eight 32-bit lane masks.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn narrow_mask(lo: __m256d, hi: __m256d) -> __m256i {
     let even = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
-    let lanes = _mm256_set_m128i(
-        _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
-            _mm256_castpd_si256(in_hi),
-            even,
-        )),
-        _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
-            _mm256_castpd_si256(in_lo),
-            even,
-        )),
-    );
-    // Clamp (max_pd returns its second operand, 0, for NaN), truncate, cap the index at n - 2.
-    let split = |v: __m256d, vmax: __m256d, imax: __m128i| {
-        let c = _mm256_min_pd(_mm256_max_pd(v, k.zero), vmax);
-        let i0 = _mm_min_epi32(_mm256_cvttpd_epi32(c), imax);
-        let f = _mm256_cvtpd_ps(_mm256_sub_pd(c, _mm256_cvtepi32_pd(i0)));
-        (i0, f)
-    };
-    let (x0_lo, fx_lo) = split(x_lo, k.max_x, k.i0max_x);
-    let (x0_hi, fx_hi) = split(x_hi, k.max_x, k.i0max_x);
-    let (y0_lo, fy_lo) = split(y_lo, k.max_y, k.i0max_y);
-    let (y0_hi, fy_hi) = split(y_hi, k.max_y, k.i0max_y);
+    _mm256_set_m128i(
+        _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(hi), even)),
+        _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(lo), even)),
+    )
+}
+
+/// Bilinear split of four positions (`left_neighbour`): clamp to [0, vmax] (NaN to 0, as
+/// `max_pd` returns its second operand for NaN), truncate, cap the index at n - 2.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn split(k: &Consts, v: __m256d, vmax: __m256d, imax: __m128i) -> (__m128i, __m128) {
+    let c = _mm256_min_pd(_mm256_max_pd(v, k.zero), vmax);
+    let i0 = _mm_min_epi32(_mm256_cvttpd_epi32(c), imax);
+    let f = _mm256_cvtpd_ps(_mm256_sub_pd(c, _mm256_cvtepi32_pd(i0)));
+    (i0, f)
+}
+
+/// The bilinear taps of eight pixels: upper-left offsets, fractions, inside lanes and mask bits.
+pub(crate) struct Taps8 {
+    off: __m256i,
+    fx: __m256,
+    fy: __m256,
+    lanes: __m256i,
+    mask: i32,
+}
+
+/// # Safety
+/// AVX2; `i + 8 <= xs.len(), ys.len()`.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn bilinear_taps8(k: &Consts, xs: &[f64], ys: &[f64], i: usize) -> Taps8 {
+    // SAFETY: i + 8 <= len (the contract).
+    let ((x_lo, y_lo), (x_hi, y_hi)) = unsafe { (load4(xs, ys, i), load4(xs, ys, i + 4)) };
+    let (in_lo, in_hi) = (k.inside(x_lo, y_lo), k.inside(x_hi, y_hi));
+    let mask = _mm256_movemask_pd(in_lo) | (_mm256_movemask_pd(in_hi) << 4);
+    let (x0_lo, fx_lo) = split(k, x_lo, k.max_x, k.i0max_x);
+    let (x0_hi, fx_hi) = split(k, x_hi, k.max_x, k.i0max_x);
+    let (y0_lo, fy_lo) = split(k, y_lo, k.max_y, k.i0max_y);
+    let (y0_hi, fy_hi) = split(k, y_hi, k.max_y, k.i0max_y);
     let x0 = _mm256_set_m128i(x0_hi, x0_lo);
     let y0 = _mm256_set_m128i(y0_hi, y0_lo);
-    let fx = _mm256_set_m128(fx_hi, fx_lo);
-    let fy = _mm256_set_m128(fy_hi, fy_lo);
-    let off = _mm256_add_epi32(_mm256_mullo_epi32(y0, k.width), x0);
-    let off_low = _mm256_add_epi32(off, k.w_minus_2);
-    for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+    Taps8 {
+        off: _mm256_add_epi32(_mm256_mullo_epi32(y0, k.width), x0),
+        fx: _mm256_set_m128(fx_hi, fx_lo),
+        fy: _mm256_set_m128(fy_hi, fy_lo),
+        lanes: narrow_mask(in_lo, in_hi),
+        mask,
+    }
+}
+
+/// The bilinear blend, in the order of `Bilinear::apply` (no FMA).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn blend(t: &Taps8, p00: __m256, p01: __m256, p10: __m256, p11: __m256) -> __m256 {
+    let top = _mm256_add_ps(p00, _mm256_mul_ps(t.fx, _mm256_sub_ps(p01, p00)));
+    let bottom = _mm256_add_ps(p10, _mm256_mul_ps(t.fx, _mm256_sub_ps(p11, p10)));
+    _mm256_add_ps(top, _mm256_mul_ps(t.fy, _mm256_sub_ps(bottom, top)))
+}
+
+/// A sample type with an AVX2 bilinear step and a four-sample row load.
+pub(crate) trait SimdSample: Sample {
+    /// Bilinear at eight pixels of `plane`, written to `out[at..at + 8]` (nodata outside).
+    ///
+    /// # Safety
+    /// AVX2; source at least 2 x 2 with a full plane (`g.width * g.height` samples); taps from
+    /// `bilinear_taps8`; `at + 8 <= out.len()`.
+    unsafe fn bilinear8(
+        k: &Consts,
+        t: &Taps8,
+        plane: &[Self],
+        out: &mut [Self],
+        at: usize,
+        nodata: Self,
+    );
+
+    /// Four adjacent samples from `p` on, as f32.
+    ///
+    /// # Safety
+    /// AVX2; the four samples from `p` on are readable.
+    unsafe fn row4(p: *const Self) -> __m128;
+}
+
+impl SimdSample for u8 {
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bilinear8(
+        k: &Consts,
+        t: &Taps8,
+        plane: &[u8],
+        out: &mut [u8],
+        at: usize,
+        nodata: u8,
+    ) {
         let base = plane.as_ptr() as *const i32;
         // SAFETY: off <= (h-2) w + (w-2), so the 4 bytes at off end by (h-1) w + 2 <= w h; the
         // lower pair is read at off + w - 2 >= 0 and ends by (h-2) w + (w-2) + w + 2 = w h.
         let (top, low) = unsafe {
             (
-                _mm256_i32gather_epi32::<1>(base, off),
-                _mm256_i32gather_epi32::<1>(base, off_low),
+                _mm256_i32gather_epi32::<1>(base, t.off),
+                _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(t.off, k.w_minus_2)),
             )
         };
         let p00 = _mm256_cvtepi32_ps(_mm256_and_si256(top, k.byte));
         let p01 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<8>(top), k.byte));
         let p10 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<16>(low), k.byte));
         let p11 = _mm256_cvtepi32_ps(_mm256_srli_epi32::<24>(low));
-        let t = _mm256_add_ps(p00, _mm256_mul_ps(fx, _mm256_sub_ps(p01, p00)));
-        let b = _mm256_add_ps(p10, _mm256_mul_ps(fx, _mm256_sub_ps(p11, p10)));
-        let v = _mm256_add_ps(t, _mm256_mul_ps(fy, _mm256_sub_ps(b, t)));
+        let v = blend(t, p00, p01, p10, p11);
         let q = _mm256_cvttps_epi32(_mm256_add_ps(v, k.half));
-        let q = _mm256_blendv_epi8(k.nodata, q, lanes);
+        let q = _mm256_blendv_epi8(_mm256_set1_epi32(i32::from(nodata)), q, t.lanes);
         let bytes = _mm256_shuffle_epi8(q, k.pick);
         let packed = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
             bytes,
             _mm256_setr_epi32(0, 4, 1, 1, 1, 1, 1, 1),
         ));
-        // SAFETY: at + 8 <= out.len() (the contract): the 8-byte store stays inside the row.
+        debug_assert!(at + 8 <= out.len());
+        // SAFETY: at + 8 <= out.len() (the contract): the 8-byte store stays inside.
         unsafe { _mm_storel_epi64(out.as_mut_ptr().add(at) as *mut __m128i, packed) };
     }
-    mask
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn row4(p: *const u8) -> __m128 {
+        // SAFETY: four bytes from p are readable (the contract).
+        let v = unsafe { (p as *const i32).read_unaligned() };
+        _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(v)))
+    }
 }
 
-/// Bilinear u8 for one block: `xs`, `ys` source positions, `planes` the source bands, `outs`
-/// the destination bands (same length as `xs`); `valid`, when given, receives the inside flags.
+impl SimdSample for u16 {
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bilinear8(
+        k: &Consts,
+        t: &Taps8,
+        plane: &[u16],
+        out: &mut [u16],
+        at: usize,
+        nodata: u16,
+    ) {
+        let base = plane.as_ptr() as *const i32;
+        // SAFETY: samples off, off + 1 and off + w, off + w + 1 with off <= (h-2) w + (w-2): the
+        // last is (h-1) w + w - 1 < w h.
+        let (top, low) = unsafe {
+            (
+                _mm256_i32gather_epi32::<2>(base, t.off),
+                _mm256_i32gather_epi32::<2>(base, _mm256_add_epi32(t.off, k.width)),
+            )
+        };
+        let lo16 = _mm256_set1_epi32(0xFFFF);
+        let p00 = _mm256_cvtepi32_ps(_mm256_and_si256(top, lo16));
+        let p01 = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(top));
+        let p10 = _mm256_cvtepi32_ps(_mm256_and_si256(low, lo16));
+        let p11 = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(low));
+        let v = blend(t, p00, p01, p10, p11);
+        let q = _mm256_cvttps_epi32(_mm256_add_ps(v, k.half));
+        let q = _mm256_blendv_epi8(_mm256_set1_epi32(i32::from(nodata)), q, t.lanes);
+        // Lanes [q0..q3 q0..q3 | q4..q7 q4..q7] as u16, then the two low quarters together.
+        let packed = _mm256_permute4x64_epi64::<0b1000>(_mm256_packus_epi32(q, q));
+        debug_assert!(at + 8 <= out.len());
+        // SAFETY: at + 8 <= out.len() (the contract): the 16-byte store stays inside.
+        unsafe {
+            _mm_storeu_si128(
+                out.as_mut_ptr().add(at) as *mut __m128i,
+                _mm256_castsi256_si128(packed),
+            )
+        };
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn row4(p: *const u16) -> __m128 {
+        // SAFETY: four u16 from p are readable (the contract).
+        let v = unsafe { _mm_loadl_epi64(p as *const __m128i) };
+        _mm_cvtepi32_ps(_mm_cvtepu16_epi32(v))
+    }
+}
+
+impl SimdSample for f32 {
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bilinear8(
+        k: &Consts,
+        t: &Taps8,
+        plane: &[f32],
+        out: &mut [f32],
+        at: usize,
+        nodata: f32,
+    ) {
+        let base = plane.as_ptr() as *const f64;
+        let below = _mm256_add_epi32(t.off, k.width);
+        let (off_lo, off_hi) = (
+            _mm256_castsi256_si128(t.off),
+            _mm256_extracti128_si256::<1>(t.off),
+        );
+        let (below_lo, below_hi) = (
+            _mm256_castsi256_si128(below),
+            _mm256_extracti128_si256::<1>(below),
+        );
+        // SAFETY: as for u16: pairs off, off + 1 and off + w, off + w + 1 end below w h.
+        let (t_lo, t_hi, b_lo, b_hi) = unsafe {
+            (
+                _mm256_i32gather_pd::<4>(base, off_lo),
+                _mm256_i32gather_pd::<4>(base, off_hi),
+                _mm256_i32gather_pd::<4>(base, below_lo),
+                _mm256_i32gather_pd::<4>(base, below_hi),
+            )
+        };
+        // Pairs (a0 a1 b0 b1 | c0 c1 d0 d1), (e.. f.. | g.. h..) -> evens and odds in pixel order.
+        let deal = |lo: __m256d, hi: __m256d| {
+            let (lo, hi) = (_mm256_castpd_ps(lo), _mm256_castpd_ps(hi));
+            let order =
+                |v: __m256| _mm256_castpd_ps(_mm256_permute4x64_pd::<0xD8>(_mm256_castps_pd(v)));
+            (
+                order(_mm256_shuffle_ps::<0x88>(lo, hi)),
+                order(_mm256_shuffle_ps::<0xDD>(lo, hi)),
+            )
+        };
+        let (p00, p01) = deal(t_lo, t_hi);
+        let (p10, p11) = deal(b_lo, b_hi);
+        let v = blend(t, p00, p01, p10, p11);
+        let v = _mm256_blendv_ps(_mm256_set1_ps(nodata), v, _mm256_castsi256_ps(t.lanes));
+        debug_assert!(at + 8 <= out.len());
+        // SAFETY: at + 8 <= out.len() (the contract).
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr().add(at), v) };
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn row4(p: *const f32) -> __m128 {
+        // SAFETY: four f32 from p are readable (the contract).
+        unsafe { _mm_loadu_ps(p) }
+    }
+}
+
+/// Bilinear for one block: `xs`, `ys` source positions, `planes` the source bands, `outs` the
+/// destination bands (as long as `xs`); `valid` receives the inside flags.
 ///
 /// # Safety
-/// The CPU must have AVX2; the source must be at least 2 x 2 (`g.width, g.height >= 2`) and
-/// every plane must hold `g.width * g.height` samples.
+/// AVX2; the source at least 2 x 2 (`g.width, g.height >= 2`), every plane `g.width * g.height`.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn bilinear_u8_block(
+pub(crate) unsafe fn bilinear_block<T: SimdSample>(
     g: &SourceGeometry,
     xs: &[f64],
     ys: &[f64],
-    planes: &[&[u8]],
-    outs: &mut [&mut [u8]],
-    mut valid: Option<&mut [bool]>,
-    nodata: u8,
+    planes: &[&[T]],
+    outs: &mut [&mut [T]],
+    valid: &mut [bool],
+    nodata: T,
 ) {
-    let n = xs.len().min(ys.len());
-    let k = Consts::new(g, nodata);
+    let n = xs.len().min(ys.len()).min(valid.len());
+    let k = Consts::new(g);
     let mut i = 0;
     while i + 8 <= n {
-        // SAFETY: i + 8 <= n <= xs.len(), ys.len(), so the unaligned loads stay in bounds.
-        let v = unsafe {
-            (
-                _mm256_loadu_pd(xs.as_ptr().add(i)),
-                _mm256_loadu_pd(xs.as_ptr().add(i + 4)),
-                _mm256_loadu_pd(ys.as_ptr().add(i)),
-                _mm256_loadu_pd(ys.as_ptr().add(i + 4)),
-            )
-        };
-        // SAFETY: as this function's contract; i + 8 <= n = every output's length.
-        let mask = unsafe { step8(&k, v, planes, outs, i) };
-        if let Some(v) = valid.as_deref_mut() {
-            for b in 0..8 {
-                v[i + b] = mask >> b & 1 == 1;
-            }
+        // SAFETY: i + 8 <= n.
+        let t = unsafe { bilinear_taps8(&k, xs, ys, i) };
+        for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+            // SAFETY: as this function's contract; i + 8 <= n = every output's length.
+            unsafe { T::bilinear8(&k, &t, plane, out, i, nodata) };
+        }
+        for (b, v) in valid[i..i + 8].iter_mut().enumerate() {
+            *v = t.mask >> b & 1 == 1;
         }
         i += 8;
     }
     // The tail through the portable kernel (same arithmetic).
     for k in i..n {
         let mut tap = Default::default();
-        let ok = Bilinear::prepare(g, xs[k], ys[k], &mut tap);
+        valid[k] = Bilinear::prepare(g, xs[k], ys[k], &mut tap);
         for (plane, out) in planes.iter().zip(outs.iter_mut()) {
-            out[k] = if ok {
+            out[k] = if valid[k] {
                 Bilinear::apply(plane, g, &tap)
             } else {
                 nodata
             };
         }
-        if let Some(v) = valid.as_deref_mut() {
-            v[k] = ok;
+    }
+}
+
+/// Nearest taps (`Nearest::prepare`) of a block: source indices and inside flags.
+///
+/// # Safety
+/// AVX2.
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn nearest_taps(
+    g: &SourceGeometry,
+    xs: &[f64],
+    ys: &[f64],
+    idx: &mut [u32],
+    valid: &mut [bool],
+) {
+    let n = xs.len().min(ys.len()).min(idx.len()).min(valid.len());
+    let k = Consts::new(g);
+    let half = _mm256_set1_pd(0.5);
+    let round = |v: __m256d, vmax: __m256d| {
+        _mm256_cvttpd_epi32(_mm256_min_pd(
+            _mm256_max_pd(_mm256_add_pd(v, half), k.zero),
+            vmax,
+        ))
+    };
+    let mut i = 0;
+    while i + 4 <= n {
+        // SAFETY: i + 4 <= n.
+        let (x, y) = unsafe { load4(xs, ys, i) };
+        let mask = _mm256_movemask_pd(k.inside(x, y));
+        let at = _mm_add_epi32(
+            _mm_mullo_epi32(round(y, k.max_y), k.width128),
+            round(x, k.max_x),
+        );
+        // SAFETY: i + 4 <= n <= idx.len().
+        unsafe { _mm_storeu_si128(idx.as_mut_ptr().add(i) as *mut __m128i, at) };
+        for (b, v) in valid[i..i + 4].iter_mut().enumerate() {
+            *v = mask >> b & 1 == 1;
         }
+        i += 4;
+    }
+    for k in i..n {
+        valid[k] = Nearest::prepare(g, xs[k], ys[k], &mut idx[k]);
+    }
+}
+
+/// One band of nearest from prepared taps.
+///
+/// # Safety
+/// Every `idx` below `plane.len()` (as `nearest_taps` makes them).
+#[inline]
+pub(crate) unsafe fn nearest_apply<T: Sample>(
+    plane: &[T],
+    idx: &[u32],
+    valid: &[bool],
+    nodata: T,
+    out: &mut [T],
+) {
+    for ((d, &i), &ok) in out.iter_mut().zip(idx).zip(valid) {
+        debug_assert!((i as usize) < plane.len());
+        // SAFETY: i < plane.len() (the contract).
+        let v = unsafe { *plane.get_unchecked(i as usize) };
+        *d = if ok { v } else { nodata };
+    }
+}
+
+/// The four Keys weights of eight fractions, as `keys_weights_f32` (same operations and order),
+/// transposed to per-pixel vectors: `[pixel 0 | pixel 4], [1 | 5], [2 | 6], [3 | 7]`.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn keys8(t: __m256) -> [__m256; 4] {
+    let c = _mm256_set1_ps;
+    let t2 = _mm256_mul_ps(t, t);
+    let t3 = _mm256_mul_ps(t2, t);
+    let half_t = _mm256_mul_ps(c(0.5), t);
+    let w0 = _mm256_sub_ps(_mm256_add_ps(_mm256_mul_ps(c(-0.5), t3), t2), half_t);
+    let w1 = _mm256_add_ps(
+        _mm256_sub_ps(_mm256_mul_ps(c(1.5), t3), _mm256_mul_ps(c(2.5), t2)),
+        c(1.0),
+    );
+    let w2 = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(c(-1.5), t3), _mm256_mul_ps(c(2.0), t2)),
+        half_t,
+    );
+    let w3 = _mm256_sub_ps(_mm256_mul_ps(c(0.5), t3), _mm256_mul_ps(c(0.5), t2));
+    let (a, b) = (_mm256_unpacklo_ps(w0, w1), _mm256_unpackhi_ps(w0, w1));
+    let (c, d) = (_mm256_unpacklo_ps(w2, w3), _mm256_unpackhi_ps(w2, w3));
+    [
+        _mm256_shuffle_ps::<0x44>(a, c),
+        _mm256_shuffle_ps::<0xEE>(a, c),
+        _mm256_shuffle_ps::<0x44>(b, d),
+        _mm256_shuffle_ps::<0xEE>(b, d),
+    ]
+}
+
+/// Bicubic split of four positions (`Bicubic::prepare`): clamp to [-1, n] (NaN to -1), floor;
+/// the integer part and the fraction (f64, then rounded to f32).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn cubic_split(v: __m256d, hi: __m256d) -> (__m128i, __m128) {
+    let c = _mm256_min_pd(_mm256_max_pd(v, _mm256_set1_pd(-1.0)), hi);
+    let f = _mm256_floor_pd(c);
+    (_mm256_cvttpd_epi32(f), _mm256_cvtpd_ps(_mm256_sub_pd(c, f)))
+}
+
+/// Bicubic taps of a block: per pixel its state (0 outside, 1 interior, 2 border) and, for
+/// interior pixels, the 4 x 4 neighbourhood's upper-left index and the weights.
+///
+/// # Safety
+/// AVX2; the source at least 4 x 4.
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn bicubic_taps(
+    g: &SourceGeometry,
+    xs: &[f64],
+    ys: &[f64],
+    taps: &mut [CubicTap],
+    bases: &mut [u32],
+    state: &mut [u8],
+) {
+    let n = xs
+        .len()
+        .min(ys.len())
+        .min(taps.len())
+        .min(bases.len())
+        .min(state.len());
+    let k = Consts::new(g);
+    let (w, h) = (g.width() as i32, g.height() as i32);
+    let (hi_x, hi_y) = (_mm256_set1_pd(w as f64), _mm256_set1_pd(h as f64));
+    let one = _mm256_set1_epi32(1);
+    let (last_x, last_y) = (_mm256_set1_epi32(w - 3), _mm256_set1_epi32(h - 3));
+    // Interior: 1 <= v <= last.
+    let within = |v: __m256i, last: __m256i| {
+        _mm256_andnot_si256(
+            _mm256_or_si256(_mm256_cmpgt_epi32(one, v), _mm256_cmpgt_epi32(v, last)),
+            _mm256_set1_epi32(-1),
+        )
+    };
+    let mut i = 0;
+    while i + 8 <= n {
+        // SAFETY: i + 8 <= n.
+        let ((x_lo, y_lo), (x_hi, y_hi)) = unsafe { (load4(xs, ys, i), load4(xs, ys, i + 4)) };
+        let inside = narrow_mask(k.inside(x_lo, y_lo), k.inside(x_hi, y_hi));
+        let (xi_lo, tx_lo) = cubic_split(x_lo, hi_x);
+        let (xi_hi, tx_hi) = cubic_split(x_hi, hi_x);
+        let (yi_lo, ty_lo) = cubic_split(y_lo, hi_y);
+        let (yi_hi, ty_hi) = cubic_split(y_hi, hi_y);
+        let (xi, yi) = (
+            _mm256_set_m128i(xi_hi, xi_lo),
+            _mm256_set_m128i(yi_hi, yi_lo),
+        );
+        let wx = keys8(_mm256_set_m128(tx_hi, tx_lo));
+        let wy = keys8(_mm256_set_m128(ty_hi, ty_lo));
+        let interior = _mm256_and_si256(within(xi, last_x), within(yi, last_y));
+        // 2 inside, 1 interior (interior pixels are inside: 2 - 1), 0 outside.
+        let st = _mm256_add_epi32(_mm256_and_si256(inside, _mm256_set1_epi32(2)), interior);
+        let st = _mm256_permutevar8x32_epi32(
+            _mm256_shuffle_epi8(st, k.pick),
+            _mm256_setr_epi32(0, 4, 1, 1, 1, 1, 1, 1),
+        );
+        let base = _mm256_add_epi32(
+            _mm256_mullo_epi32(_mm256_sub_epi32(yi, one), k.width),
+            _mm256_sub_epi32(xi, one),
+        );
+        // SAFETY: i + 8 <= n <= bases.len(), state.len(), taps.len(); CubicTap is 16-byte
+        // aligned with wx and wy [f32; 4] each.
+        unsafe {
+            _mm256_storeu_si256(bases.as_mut_ptr().add(i) as *mut __m256i, base);
+            _mm_storel_epi64(
+                state.as_mut_ptr().add(i) as *mut __m128i,
+                _mm256_castsi256_si128(st),
+            );
+            let t = taps.as_mut_ptr().add(i);
+            for p in 0..4 {
+                let (lo, hi) = (&mut *t.add(p), &mut *t.add(p + 4));
+                _mm_store_ps(lo.wx.as_mut_ptr(), _mm256_castps256_ps128(wx[p]));
+                _mm_store_ps(hi.wx.as_mut_ptr(), _mm256_extractf128_ps::<1>(wx[p]));
+                _mm_store_ps(lo.wy.as_mut_ptr(), _mm256_castps256_ps128(wy[p]));
+                _mm_store_ps(hi.wy.as_mut_ptr(), _mm256_extractf128_ps::<1>(wy[p]));
+            }
+        }
+        i += 8;
+    }
+    for p in i..n {
+        let mut tap = Default::default();
+        state[p] = if Bicubic::prepare(g, xs[p], ys[p], &mut tap) {
+            2
+        } else {
+            0
+        };
+    }
+}
+
+/// One interior bicubic pixel (`Bicubic::apply`'s order: vertical, then (h0 + h2) + (h1 + h3)).
+///
+/// # Safety
+/// AVX2; `t` an interior tap of `bicubic_taps` for a source of width `w` whose samples start at
+/// `p`: the four rows of four samples from `t.base` on are inside the plane.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn cubic1<T: SimdSample>(p: *const T, w: usize, t: &CubicTap, b: u32) -> f32 {
+    let b = b as usize;
+    // SAFETY: the contract.
+    unsafe {
+        let wy = _mm_load_ps(t.wy.as_ptr());
+        let r = |j: usize| T::row4(p.add(b + j * w));
+        let m0 = _mm_mul_ps(r(0), _mm_permute_ps::<0x00>(wy));
+        let m1 = _mm_mul_ps(r(1), _mm_permute_ps::<0x55>(wy));
+        let m2 = _mm_mul_ps(r(2), _mm_permute_ps::<0xAA>(wy));
+        let m3 = _mm_mul_ps(r(3), _mm_permute_ps::<0xFF>(wy));
+        let col = _mm_add_ps(_mm_add_ps(_mm_add_ps(m0, m1), m2), m3);
+        let h = _mm_mul_ps(col, _mm_load_ps(t.wx.as_ptr()));
+        let pairs = _mm_add_ps(h, _mm_movehl_ps(h, h));
+        _mm_cvtss_f32(_mm_add_ss(pairs, _mm_movehdup_ps(pairs)))
+    }
+}
+
+/// Two interior bicubic pixels at once, one per 128-bit half (same arithmetic as `cubic1`).
+///
+/// # Safety
+/// As `cubic1` for both taps.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn cubic2<T: SimdSample>(
+    p: *const T,
+    w: usize,
+    (a, b): (&CubicTap, &CubicTap),
+    (ba, bb): (u32, u32),
+) -> (f32, f32) {
+    let (ba, bb) = (ba as usize, bb as usize);
+    // SAFETY: the contract.
+    unsafe {
+        let wy = _mm256_set_m128(_mm_load_ps(b.wy.as_ptr()), _mm_load_ps(a.wy.as_ptr()));
+        let wx = _mm256_set_m128(_mm_load_ps(b.wx.as_ptr()), _mm_load_ps(a.wx.as_ptr()));
+        let r = |j: usize| _mm256_set_m128(T::row4(p.add(bb + j * w)), T::row4(p.add(ba + j * w)));
+        let m0 = _mm256_mul_ps(r(0), _mm256_permute_ps::<0x00>(wy));
+        let m1 = _mm256_mul_ps(r(1), _mm256_permute_ps::<0x55>(wy));
+        let m2 = _mm256_mul_ps(r(2), _mm256_permute_ps::<0xAA>(wy));
+        let m3 = _mm256_mul_ps(r(3), _mm256_permute_ps::<0xFF>(wy));
+        let col = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(m0, m1), m2), m3);
+        let h = _mm256_mul_ps(col, wx);
+        let pairs = _mm256_add_ps(h, _mm256_permute_ps::<0b11_10_11_10>(h));
+        let sum = _mm256_add_ps(pairs, _mm256_movehdup_ps(pairs));
+        (
+            _mm256_cvtss_f32(sum),
+            _mm_cvtss_f32(_mm256_extractf128_ps::<1>(sum)),
+        )
+    }
+}
+
+/// One band of bicubic from prepared taps; border pixels through the portable kernel.
+///
+/// # Safety
+/// AVX2; `plane` holds `g.width * g.height` samples; taps and states from `bicubic_taps` for the
+/// same positions `xs`, `ys`.
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn bicubic_apply<T: SimdSample>(
+    g: &SourceGeometry,
+    plane: &[T],
+    xs: &[f64],
+    ys: &[f64],
+    (taps, bases, state): (&[CubicTap], &[u32], &[u8]),
+    nodata: T,
+    out: &mut [T],
+) {
+    assert!(plane.len() == g.width() * g.height());
+    let (w, p) = (g.width(), plane.as_ptr());
+    let n = out.len().min(state.len()).min(taps.len()).min(bases.len());
+    let mut k = 0;
+    while k + 2 <= n {
+        // SAFETY: k + 1 < n <= every slice's length. Interior pixels (state 1): base =
+        // (yi-1) w + xi-1 with 1 <= xi <= w-3, 1 <= yi <= h-3, so the four rows of four samples
+        // end by (yi+2) w + xi+2 < w h = plane.len().
+        unsafe {
+            if *state.get_unchecked(k) == 1 && *state.get_unchecked(k + 1) == 1 {
+                let pair = (taps.get_unchecked(k), taps.get_unchecked(k + 1));
+                let at = (*bases.get_unchecked(k), *bases.get_unchecked(k + 1));
+                let (a, b) = cubic2(p, w, pair, at);
+                *out.get_unchecked_mut(k) = T::from_f32(a);
+                *out.get_unchecked_mut(k + 1) = T::from_f32(b);
+            } else {
+                for j in k..k + 2 {
+                    let v = bicubic_one(g, plane, (xs, ys), (taps, bases, state), j, nodata);
+                    *out.get_unchecked_mut(j) = v;
+                }
+            }
+        }
+        k += 2;
+    }
+    if k < n {
+        // SAFETY: k < n; as above.
+        out[k] = unsafe { bicubic_one(g, plane, (xs, ys), (taps, bases, state), k, nodata) };
+    }
+}
+
+/// Pixel `k` of `bicubic_apply` on its own (a pixel beside a border or outside one).
+///
+/// # Safety
+/// As `bicubic_apply`; `k` below every slice's length.
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+#[cold]
+unsafe fn bicubic_one<T: SimdSample>(
+    g: &SourceGeometry,
+    plane: &[T],
+    (xs, ys): (&[f64], &[f64]),
+    (taps, bases, state): (&[CubicTap], &[u32], &[u8]),
+    k: usize,
+    nodata: T,
+) -> T {
+    match state[k] {
+        // SAFETY: an interior tap (the contract).
+        1 => T::from_f32(unsafe { cubic1(plane.as_ptr(), g.width(), &taps[k], bases[k]) }),
+        2 => {
+            let mut tap = Default::default();
+            Bicubic::prepare(g, xs[k], ys[k], &mut tap);
+            Bicubic::apply(plane, g, &tap)
+        }
+        _ => nodata,
     }
 }

@@ -62,7 +62,7 @@ pub(crate) trait Kernel: 'static {
 }
 
 /// Destination pixels handled per block: coordinates, taps and all bands stay in L1.
-const BLOCK: usize = 256;
+pub(crate) const BLOCK: usize = 256;
 
 /// Per-task buffers, one block long, reused block after block.
 pub(crate) struct Scratch<K: Kernel> {
@@ -70,6 +70,8 @@ pub(crate) struct Scratch<K: Kernel> {
     ys: Vec<f64>,
     taps: Vec<K::Tap>,
     valid: Vec<bool>,
+    #[cfg(target_arch = "x86_64")]
+    simd: super::avx2::SimdScratch,
 }
 
 impl<K: Kernel> Scratch<K> {
@@ -79,6 +81,8 @@ impl<K: Kernel> Scratch<K> {
             ys: vec![0.0; BLOCK],
             taps: vec![K::Tap::default(); BLOCK],
             valid: vec![false; BLOCK],
+            #[cfg(target_arch = "x86_64")]
+            simd: super::avx2::SimdScratch::new(),
         }
     }
 }
@@ -93,7 +97,7 @@ pub(crate) struct RowOut<'a, 'b, T> {
     pub(crate) alpha: bool,
 }
 
-/// Resamples one destination row. Uses the AVX2 build of the same loop where the CPU has it.
+/// Resamples one destination row. Uses the AVX2 build of the kernels where the CPU has it.
 pub(crate) fn row<T: Sample, K: Kernel, M: PixelMap>(
     src: &Raster<T>,
     map: &M,
@@ -103,19 +107,73 @@ pub(crate) fn row<T: Sample, K: Kernel, M: PixelMap>(
     out: RowOut<'_, '_, T>,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if g.simd {
-        // SAFETY: `g.simd` is only set after `is_x86_feature_detected!("avx2")` returned true.
-        unsafe { row_avx2::<T, K, M>(src, map, g, scratch, nodata, out) };
-        return;
+    if g.simd && g.width >= 4 && g.height >= 4 && src.bands() <= MAX_SIMD_BANDS {
+        // SAFETY: `g.simd` is only set after `is_x86_feature_detected!("avx2")` returned true;
+        // the source is at least 4 x 4.
+        let out = match same_type::<T, u8>(src, out, nodata) {
+            Ok((src, out, nodata)) => {
+                return unsafe { row_avx2::<u8, K, M>(src, map, g, scratch, nodata, out) };
+            }
+            Err(out) => out,
+        };
+        let out = match same_type::<T, u16>(src, out, nodata) {
+            Ok((src, out, nodata)) => {
+                return unsafe { row_avx2::<u16, K, M>(src, map, g, scratch, nodata, out) };
+            }
+            Err(out) => out,
+        };
+        let out = match same_type::<T, f32>(src, out, nodata) {
+            Ok((src, out, nodata)) => {
+                return unsafe { row_avx2::<f32, K, M>(src, map, g, scratch, nodata, out) };
+            }
+            Err(out) => out,
+        };
+        return row_body::<T, K, M>(src, map, g, scratch, nodata, out);
     }
     row_body::<T, K, M>(src, map, g, scratch, nodata, out);
 }
 
-/// The same loop compiled for AVX2 (wider f64 division and conversions in the coordinate loop),
-/// with the hand-written kernel for bilinear u8.
+/// The source, row and nodata as sample type `S` when `T` is `S`; the row back otherwise.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::type_complexity)]
+fn same_type<'s, 'a, 'b, T: Sample, S: Sample>(
+    src: &'s Raster<T>,
+    out: RowOut<'a, 'b, T>,
+    nodata: T,
+) -> Result<(&'s Raster<S>, RowOut<'a, 'b, S>, S), RowOut<'a, 'b, T>> {
+    use std::any::TypeId;
+    if TypeId::of::<T>() != TypeId::of::<S>() {
+        return Err(out);
+    }
+    // SAFETY: T and S are the same type (equal TypeIds), so these casts change no type.
+    let (src, chunks, nodata) = unsafe {
+        (
+            &*(src as *const Raster<T> as *const Raster<S>),
+            &mut *(out.chunks as *mut [&'b mut [T]] as *mut [&'b mut [S]]),
+            *(&nodata as *const T as *const S),
+        )
+    };
+    let out = RowOut {
+        chunks,
+        start: out.start,
+        row: out.row,
+        width: out.width,
+        alpha: out.alpha,
+    };
+    Ok((src, out, nodata))
+}
+
+/// Bands handled by the AVX2 kernels without allocating.
+#[cfg(target_arch = "x86_64")]
+const MAX_SIMD_BANDS: usize = 8;
+
+/// The AVX2 build: per block, the kernel's taps eight (four) pixels at a time, then each band.
+///
+/// # Safety
+/// The CPU has AVX2; the source is at least 4 x 4 with at most `MAX_SIMD_BANDS` full planes.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn row_avx2<T: Sample, K: Kernel, M: PixelMap>(
+unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
     src: &Raster<T>,
     map: &M,
     g: &SourceGeometry,
@@ -123,83 +181,58 @@ unsafe fn row_avx2<T: Sample, K: Kernel, M: PixelMap>(
     nodata: T,
     out: RowOut<'_, '_, T>,
 ) {
+    use super::avx2;
     use std::any::TypeId;
-    let u8_bilinear =
-        TypeId::of::<T>() == TypeId::of::<u8>() && TypeId::of::<K>() == TypeId::of::<Bilinear>();
-    if u8_bilinear && g.width >= 2 && g.height >= 2 && src.bands() <= MAX_SIMD_BANDS {
-        // SAFETY: T is u8 (checked by TypeId above), so these casts change no type.
-        let (src, chunks, nodata) = unsafe {
-            (
-                &*(src as *const Raster<T> as *const Raster<u8>),
-                &mut *(out.chunks as *mut [&mut [T]] as *mut [&mut [u8]]),
-                *(&nodata as *const T as *const u8),
-            )
-        };
-        let out = RowOut {
-            chunks,
-            start: out.start,
-            row: out.row,
-            width: out.width,
-            alpha: out.alpha,
-        };
-        // SAFETY: AVX2 is enabled here; the source is at least 2 x 2.
-        unsafe {
-            row_u8_bilinear_avx2(
-                src,
-                map,
-                g,
-                &mut scratch.xs,
-                &mut scratch.ys,
-                &mut scratch.valid,
-                nodata,
-                out,
-            )
-        };
-        return;
-    }
-    row_body::<T, K, M>(src, map, g, scratch, nodata, out);
-}
-
-/// Bands handled by the AVX2 u8 kernel without allocating.
-#[cfg(target_arch = "x86_64")]
-const MAX_SIMD_BANDS: usize = 8;
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn row_u8_bilinear_avx2<M: PixelMap>(
-    src: &Raster<u8>,
-    map: &M,
-    g: &SourceGeometry,
-    xs: &mut [f64],
-    ys: &mut [f64],
-    valid: &mut [bool],
-    nodata: u8,
-    out: RowOut<'_, '_, u8>,
-) {
+    let kernel = TypeId::of::<K>();
     let bands = src.bands();
-    let mut planes: [&[u8]; MAX_SIMD_BANDS] = [&[]; MAX_SIMD_BANDS];
+    let mut planes: [&[T]; MAX_SIMD_BANDS] = [&[]; MAX_SIMD_BANDS];
     for (p, b) in planes.iter_mut().zip(0..bands) {
         *p = src.plane(b);
     }
+    let planes = &planes[..bands];
+    let Scratch {
+        xs,
+        ys,
+        valid,
+        simd,
+        ..
+    } = scratch;
     let mut c0 = 0;
     while c0 < out.width {
         let n = BLOCK.min(out.width - c0);
         let range = out.start + c0..out.start + c0 + n;
-        let mut outs: [&mut [u8]; MAX_SIMD_BANDS] = Default::default();
+        let (xs, ys, valid) = (&mut xs[..n], &mut ys[..n], &mut valid[..n]);
+        map.source_row(out.row, c0, xs, ys);
+        let mut outs: [&mut [T]; MAX_SIMD_BANDS] = Default::default();
         for (o, chunk) in outs.iter_mut().zip(out.chunks.iter_mut().take(bands)) {
             *o = &mut chunk[range.clone()];
         }
-        let valid_out = out.alpha.then(|| &mut valid[..n]);
-        let (planes, outs) = (&planes[..bands], &mut outs[..bands]);
-        map.source_row(out.row, c0, &mut xs[..n], &mut ys[..n]);
-        // SAFETY: AVX2 is enabled; the source is at least 2 x 2 and its planes are full.
-        unsafe {
-            super::avx2::bilinear_u8_block(g, &xs[..n], &ys[..n], planes, outs, valid_out, nodata)
-        };
+        let outs = &mut outs[..bands];
+        // SAFETY (all three arms): AVX2 is enabled; the source is at least 4 x 4 with full
+        // planes; taps come from the matching `*_taps` call on the same positions.
+        if kernel == TypeId::of::<Nearest>() {
+            let idx = &mut simd.idx[..n];
+            unsafe { avx2::nearest_taps(g, xs, ys, idx, valid) };
+            for (plane, o) in planes.iter().zip(outs.iter_mut()) {
+                unsafe { avx2::nearest_apply(plane, idx, valid, nodata, o) };
+            }
+        } else if kernel == TypeId::of::<Bilinear>() {
+            unsafe { avx2::bilinear_block(g, xs, ys, planes, outs, valid, nodata) };
+        } else {
+            let (taps, bases) = (&mut simd.cubic[..n], &mut simd.base[..n]);
+            let state = &mut simd.state[..n];
+            unsafe { avx2::bicubic_taps(g, xs, ys, taps, bases, state) };
+            for (plane, o) in planes.iter().zip(outs.iter_mut()) {
+                let taps = (&taps[..], &bases[..], &state[..]);
+                unsafe { avx2::bicubic_apply(g, plane, xs, ys, taps, nodata, o) };
+            }
+            for (v, &s) in valid.iter_mut().zip(state.iter()) {
+                *v = s != 0;
+            }
+        }
         if out.alpha {
             for (d, &ok) in out.chunks[bands][range].iter_mut().zip(valid.iter()) {
-                *d = if ok { u8::MAX } else { 0 };
+                *d = if ok { T::OPAQUE } else { T::default() };
             }
         }
         c0 += n;
@@ -220,6 +253,7 @@ fn row_body<T: Sample, K: Kernel, M: PixelMap>(
         ys,
         taps,
         valid,
+        ..
     } = scratch;
     let mut c0 = 0;
     while c0 < out.width {
@@ -367,6 +401,20 @@ pub fn keys_weights(t: f64) -> [f64; 4] {
     ]
 }
 
+/// `keys_weights` in f32, as the kernels use them (the fraction rounded to f32 first); the
+/// operations and their order are those of the AVX2 build.
+#[inline(always)]
+pub(crate) fn keys_weights_f32(t: f32) -> [f32; 4] {
+    let (t2, half_t) = (t * t, 0.5 * t);
+    let t3 = t2 * t;
+    [
+        (-0.5 * t3 + t2) - half_t,
+        (1.5 * t3 - 2.5 * t2) + 1.0,
+        (-1.5 * t3 + 2.0 * t2) + half_t,
+        0.5 * t3 - 0.5 * t2,
+    ]
+}
+
 impl Kernel for Bicubic {
     type Tap = BicubicTap;
 
@@ -378,39 +426,61 @@ impl Kernel for Bicubic {
         let xc = x.max(-1.0).min(g.width as f64);
         let yc = y.max(-1.0).min(g.height as f64);
         let (xf, yf) = (xc.floor(), yc.floor());
-        let (wx, wy) = (keys_weights(xc - xf), keys_weights(yc - yf));
+        let wx = keys_weights_f32((xc - xf) as f32);
+        let wy = keys_weights_f32((yc - yf) as f32);
         let (xi, yi) = (xf as i32, yf as i32);
         let (wmax, hmax) = (g.width as i32 - 1, g.height as i32 - 1);
         for k in 0..4 {
             tap.cols[k] = (xi - 1 + k as i32).clamp(0, wmax) as u32;
             tap.rows[k] = (yi - 1 + k as i32).clamp(0, hmax) as u32 * g.width as u32;
-            tap.wx[k] = wx[k] as f32;
-            tap.wy[k] = wy[k] as f32;
+            tap.wx[k] = wx[k];
+            tap.wy[k] = wy[k];
         }
         inside
     }
 
+    /// Vertical first (per column i: ((p0i wy0 + p1i wy1) + p2i wy2) + p3i wy3), then
+    /// horizontal as (h0 + h2) + (h1 + h3): the order of the AVX2 build, which does the four
+    /// columns as one vector.
     #[inline(always)]
     fn apply<T: Sample>(plane: &[T], g: &SourceGeometry, t: &BicubicTap) -> T {
         // Every index is below width * height = plane.len() by construction in `prepare`.
         assert!(plane.len() == g.width * g.height);
-        let mut acc = 0.0f32;
-        for j in 0..4 {
-            let row = t.rows[j] as usize;
-            let mut s = 0.0f32;
-            for i in 0..4 {
-                // SAFETY: row <= (h-1) w and cols[i] <= w - 1, so the index is < w h = len.
-                s += t.wx[i] * unsafe { plane.get_unchecked(row + t.cols[i] as usize) }.to_f32();
-            }
-            acc += t.wy[j] * s;
+        let mut h = [0.0f32; 4];
+        for (i, h) in h.iter_mut().enumerate() {
+            // SAFETY: rows[j] <= (h-1) w and cols[i] <= w - 1, so the index is < w h = len.
+            let p = |j: usize| unsafe {
+                plane
+                    .get_unchecked(t.rows[j] as usize + t.cols[i] as usize)
+                    .to_f32()
+            };
+            let col = p(0) * t.wy[0] + p(1) * t.wy[1] + p(2) * t.wy[2] + p(3) * t.wy[3];
+            *h = col * t.wx[i];
         }
-        T::from_f32(acc)
+        T::from_f32((h[0] + h[2]) + (h[1] + h[3]))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn f32_weights_are_the_kernel_to_f32_precision() {
+        for k in 0..=4096 {
+            let t = k as f64 / 4096.0 + 1e-7;
+            let (w32, w64) = (keys_weights_f32(t as f32), keys_weights(t));
+            for i in 0..4 {
+                let e = (f64::from(w32[i]) - w64[i]).abs();
+                assert!(
+                    e < 3e-7,
+                    "t = {t}, tap {i}: {} vs {} ({e:e})",
+                    w32[i],
+                    w64[i]
+                );
+            }
+        }
+    }
 
     #[test]
     fn expanded_weights_equal_the_kernel_definition() {
