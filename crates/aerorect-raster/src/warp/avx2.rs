@@ -59,6 +59,8 @@ pub(crate) struct Consts {
     byte: __m256i,
     half: __m256,
     pick: __m256i,
+    /// The source width and height.
+    size: (i32, i32),
 }
 
 impl Consts {
@@ -84,6 +86,7 @@ impl Consts {
                 0, 4, 8, 12, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 0, 4, 8, 12, -1, -1,
                 -1, -1, -1, -1, -1, -1, -1, -1, -1, -1,
             ),
+            size: (w as i32, h as i32),
         }
     }
 
@@ -149,13 +152,70 @@ pub(crate) struct Taps8 {
     fy: __m256,
     lanes: __m256i,
     mask: i32,
+    /// For u8: the eight pixels' neighbours inside 16 bytes of two or three source rows.
+    window: Option<Window>,
+}
+
+/// Eight u8 bilinear taps read as byte shuffles of 16-byte row loads instead of gathers: the
+/// layout of pillow-simd and IPP for nearly horizontal rows. It applies when the eight upper
+/// neighbour rows differ by at most one and their columns by at most 14.
+pub(crate) struct Window {
+    /// Offset of the first byte of the first row.
+    start: usize,
+    /// Per 32-bit lane: bytes (x0, x0 + 1) of the row to bytes 0, 1 (upper pair) ...
+    top: __m256i,
+    /// ... and to bytes 2, 3 (lower pair).
+    low: __m256i,
+    /// Lanes whose upper row is the first row (all when `rows == 2`).
+    first: __m256i,
+    /// Rows read: 2 when all eight upper rows are equal, else 3.
+    rows: usize,
+}
+
+/// The minimum and maximum of eight i32 lanes.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn min_max8(v: __m256i) -> (i32, i32) {
+    let swap = _mm256_permute2x128_si256::<1>(v, v);
+    let (mut lo, mut hi) = (_mm256_min_epi32(v, swap), _mm256_max_epi32(v, swap));
+    lo = _mm256_min_epi32(lo, _mm256_shuffle_epi32::<0b01_00_11_10>(lo));
+    hi = _mm256_max_epi32(hi, _mm256_shuffle_epi32::<0b01_00_11_10>(hi));
+    lo = _mm256_min_epi32(lo, _mm256_shuffle_epi32::<0b10_11_00_01>(lo));
+    hi = _mm256_max_epi32(hi, _mm256_shuffle_epi32::<0b10_11_00_01>(hi));
+    (_mm256_cvtsi256_si32(lo), _mm256_cvtsi256_si32(hi))
+}
+
+/// The byte window of eight u8 taps with upper-left neighbours (x0, y0), when there is one.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn window(k: &Consts, x0: __m256i, y0: __m256i) -> Option<Window> {
+    let (xmin, xmax) = min_max8(x0);
+    let (ymin, ymax) = min_max8(y0);
+    let rows = if ymax == ymin { 2 } else { 3 };
+    let (w, h) = k.size;
+    // The 16 bytes from xmin of `rows` rows from ymin must be inside the image.
+    if xmax - xmin > 14 || ymax - ymin > 1 || xmin + 16 > w || ymin + rows > h {
+        return None;
+    }
+    let rel = _mm256_sub_epi32(x0, _mm256_set1_epi32(xmin));
+    let pair = _mm256_or_si256(
+        rel,
+        _mm256_slli_epi32::<8>(_mm256_add_epi32(rel, _mm256_set1_epi32(1))),
+    );
+    Some(Window {
+        start: (ymin * w + xmin) as usize,
+        top: _mm256_or_si256(pair, _mm256_set1_epi32(0x8080_0000_u32 as i32)),
+        low: _mm256_or_si256(_mm256_slli_epi32::<16>(pair), _mm256_set1_epi32(0x8080)),
+        first: _mm256_cmpeq_epi32(y0, _mm256_set1_epi32(ymin)),
+        rows: rows as usize,
+    })
 }
 
 /// # Safety
 /// AVX2; `i + 8 <= xs.len(), ys.len()`.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn bilinear_taps8(k: &Consts, xs: &[f64], ys: &[f64], i: usize) -> Taps8 {
+unsafe fn bilinear_taps8(k: &Consts, xs: &[f64], ys: &[f64], i: usize, with_window: bool) -> Taps8 {
     // SAFETY: i + 8 <= len (the contract).
     let ((x_lo, y_lo), (x_hi, y_hi)) = unsafe { (load4(xs, ys, i), load4(xs, ys, i + 4)) };
     let (in_lo, in_hi) = (k.inside(x_lo, y_lo), k.inside(x_hi, y_hi));
@@ -172,6 +232,7 @@ unsafe fn bilinear_taps8(k: &Consts, xs: &[f64], ys: &[f64], i: usize) -> Taps8 
         fy: _mm256_set_m128(fy_hi, fy_lo),
         lanes: narrow_mask(in_lo, in_hi),
         mask,
+        window: if with_window { window(k, x0, y0) } else { None },
     }
 }
 
@@ -186,6 +247,9 @@ fn blend(t: &Taps8, p00: __m256, p01: __m256, p10: __m256, p11: __m256) -> __m25
 
 /// A sample type with an AVX2 bilinear step and a four-sample row load.
 pub(crate) trait SimdSample: Sample {
+    /// Whether `bilinear8` reads byte windows (`Window`) where they apply.
+    const WINDOWS: bool = false;
+
     /// Bilinear at eight pixels of `plane`, written to `out[at..at + 8]` (nodata outside).
     ///
     /// # Safety
@@ -208,6 +272,8 @@ pub(crate) trait SimdSample: Sample {
 }
 
 impl SimdSample for u8 {
+    const WINDOWS: bool = true;
+
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn bilinear8(
@@ -218,14 +284,20 @@ impl SimdSample for u8 {
         at: usize,
         nodata: u8,
     ) {
-        let base = plane.as_ptr() as *const i32;
-        // SAFETY: off <= (h-2) w + (w-2), so the 4 bytes at off end by (h-1) w + 2 <= w h; the
-        // lower pair is read at off + w - 2 >= 0 and ends by (h-2) w + (w-2) + w + 2 = w h.
-        let (top, low) = unsafe {
-            (
-                _mm256_i32gather_epi32::<1>(base, t.off),
-                _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(t.off, k.w_minus_2)),
-            )
+        let (top, low) = match &t.window {
+            // SAFETY: `window` checked that `rows` rows of 16 bytes from `start` are inside.
+            Some(win) => unsafe { window_pairs(win, plane, k.size.0 as usize) },
+            None => {
+                let base = plane.as_ptr() as *const i32;
+                // SAFETY: off <= (h-2) w + (w-2), so the 4 bytes at off end by (h-1) w + 2 <= w h;
+                // the lower pair is read at off + w - 2 >= 0 and ends by (h-2) w + (w-2) + w + 2.
+                unsafe {
+                    (
+                        _mm256_i32gather_epi32::<1>(base, t.off),
+                        _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(t.off, k.w_minus_2)),
+                    )
+                }
+            }
         };
         let p00 = _mm256_cvtepi32_ps(_mm256_and_si256(top, k.byte));
         let p01 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<8>(top), k.byte));
@@ -251,6 +323,40 @@ impl SimdSample for u8 {
         let v = unsafe { (p as *const i32).read_unaligned() };
         _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(v)))
     }
+}
+
+/// The upper pairs (bytes 0, 1 of each lane) and lower pairs (bytes 2, 3) of a window's taps,
+/// as the gathers of `bilinear8` would bring them.
+///
+/// # Safety
+/// AVX2; `win.rows` rows of 16 bytes from `win.start` (row stride `width`) are inside `plane`.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn window_pairs(win: &Window, plane: &[u8], width: usize) -> (__m256i, __m256i) {
+    // SAFETY: the contract.
+    let row = |r: usize| unsafe {
+        let p = plane.as_ptr().add(win.start + r * width) as *const __m128i;
+        _mm256_broadcastsi128_si256(_mm_loadu_si128(p))
+    };
+    let (r0, r1) = (row(0), row(1));
+    if win.rows == 2 {
+        return (
+            _mm256_shuffle_epi8(r0, win.top),
+            _mm256_shuffle_epi8(r1, win.low),
+        );
+    }
+    let r2 = row(2);
+    let top = _mm256_blendv_epi8(
+        _mm256_shuffle_epi8(r1, win.top),
+        _mm256_shuffle_epi8(r0, win.top),
+        win.first,
+    );
+    let low = _mm256_blendv_epi8(
+        _mm256_shuffle_epi8(r2, win.low),
+        _mm256_shuffle_epi8(r1, win.low),
+        win.first,
+    );
+    (top, low)
 }
 
 impl SimdSample for u16 {
@@ -379,7 +485,7 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample>(
     let mut i = 0;
     while i + 8 <= n {
         // SAFETY: i + 8 <= n.
-        let t = unsafe { bilinear_taps8(&k, xs, ys, i) };
+        let t = unsafe { bilinear_taps8(&k, xs, ys, i, T::WINDOWS) };
         for (plane, out) in planes.iter().zip(outs.iter_mut()) {
             // SAFETY: as this function's contract; i + 8 <= n = every output's length.
             unsafe { T::bilinear8(&k, &t, plane, out, i, nodata) };
