@@ -303,3 +303,52 @@ fn prefiltered_tiles_keep_the_plain_footprint() {
         assert!(valid > size.pixels() / 4, "{valid} valid pixels");
     }
 }
+
+/// OpenCV's cv2.resize INTER_AREA on a crop of aero1 (stored, see data/downsample/README.md):
+/// resize maps destination pixel c to source f (c + 0.5) - 0.5. Within one grey level; at the
+/// integer factors every difference is an exact tie of the block mean (x.5), which OpenCV rounds
+/// half to even (cvRound) and aerorect half up.
+#[test]
+fn average_equals_opencvs_inter_area() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/downsample");
+    let input = std::fs::read(dir.join("aero1_gray_240x180.u8")).unwrap();
+    let src = Raster::from_planes(ImageSize::new(240, 180), vec![input]).unwrap();
+    for (f, name, w, h) in [
+        (4.0, "area_x4_60x45.u8", 60, 45),
+        (3.0, "area_x3_80x60.u8", 80, 60),
+        (2.5, "area_x2.5_96x72.u8", 96, 72),
+    ] {
+        let peer = std::fs::read(dir.join(name)).unwrap();
+        let o = 0.5 * (f - 1.0);
+        let map = affine(f, 0.0, o, 0.0, f, o);
+        let out = warp(
+            &src,
+            &map,
+            ImageSize::new(w, h),
+            &opts(Interp::Average, true),
+        )
+        .unwrap();
+        let mut differing = 0;
+        for (i, (&ours, &theirs)) in out.plane(0).iter().zip(&peer).enumerate() {
+            assert!((ours as i32 - theirs as i32).abs() <= 1, "x{f} pixel {i}");
+            if ours == theirs {
+                continue;
+            }
+            differing += 1;
+            if f.fract() == 0.0 {
+                let n = f as usize;
+                let (c, r) = (i % w, i / w);
+                let sum: u32 = (0..n * n)
+                    .map(|k| src.get(0, n * c + k % n, n * r + k / n).unwrap() as u32)
+                    .sum();
+                let mean = sum as f64 / (n * n) as f64;
+                assert_eq!(mean.fract(), 0.5, "x{f} pixel {i}: not a tie");
+                assert_eq!(theirs % 2, 0, "x{f} pixel {i}: OpenCV rounds ties to even");
+            }
+        }
+        eprintln!(
+            "x{f}: {differing} of {} pixels differ from OpenCV (by 1)",
+            w * h
+        );
+    }
+}

@@ -103,13 +103,16 @@ pub(crate) fn reduce_half<T: Sample>(src: &Raster<T>) -> Result<Raster<T>, Raste
             .enumerate()
             .for_each(|(r, dst)| {
                 let (r0, r1) = (2 * r, (2 * r + 1).min(h - 1));
-                for (c, d) in dst.iter_mut().enumerate() {
-                    let (c0, c1) = (2 * c, (2 * c + 1).min(w - 1));
-                    let sum = p[r0 * w + c0].to_f32()
-                        + p[r0 * w + c1].to_f32()
-                        + p[r1 * w + c0].to_f32()
-                        + p[r1 * w + c1].to_f32();
+                let (top, bottom) = (&p[r0 * w..r0 * w + w], &p[r1 * w..r1 * w + w]);
+                let pairs = top.chunks_exact(2).zip(bottom.chunks_exact(2));
+                for (d, (t, b)) in dst.iter_mut().zip(pairs) {
+                    let sum = t[0].to_f32() + t[1].to_f32() + b[0].to_f32() + b[1].to_f32();
                     *d = T::from_f32(0.25 * sum);
+                }
+                if w % 2 == 1 {
+                    // The last odd column is averaged with itself.
+                    let sum = top[w - 1].to_f32() + bottom[w - 1].to_f32();
+                    dst[size.width - 1] = T::from_f32(0.5 * sum);
                 }
             });
     }
@@ -246,5 +249,47 @@ fn outside_level0<T: Sample, M: PixelMap>(
                 tile.plane_mut(image_bands)[r * cols + c] = T::default();
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 5 x 3 -> 3 x 2: 2 x 2 means, the last odd column and row averaged with themselves.
+    #[test]
+    fn reduce_half_is_the_block_mean_with_the_edge_repeated() {
+        let p: Vec<f32> = (0..15).map(|i| (i * i) as f32).collect();
+        let src = Raster::from_planes(ImageSize::new(5, 3), vec![p.clone()]).expect("raster");
+        let half = reduce_half(&src).expect("reduced");
+        assert_eq!(half.size(), ImageSize::new(3, 2));
+        let at = |c: usize, r: usize| p[r.min(2) * 5 + c.min(4)];
+        for r in 0..2 {
+            for c in 0..3 {
+                let want = 0.25
+                    * (at(2 * c, 2 * r)
+                        + at(2 * c + 1, 2 * r)
+                        + at(2 * c, 2 * r + 1)
+                        + at(2 * c + 1, 2 * r + 1));
+                assert_eq!(half.plane(0)[r * 3 + c], want, "({c}, {r})");
+            }
+        }
+    }
+
+    #[test]
+    fn the_level_leaves_a_scale_in_one_to_two() {
+        for (rho, level) in [
+            (1.0, 0),
+            (1.99, 0),
+            (2.0, 1),
+            (3.9, 1),
+            (4.0, 2),
+            (15.9, 3),
+            (1e6, 5),
+        ] {
+            assert_eq!(level_of(rho, 5), level, "rho {rho}");
+        }
+        // Exact powers of two computed with rounding error still land on their level.
+        assert_eq!(level_of(4.0 * (1.0 - 1e-12), 5), 2);
     }
 }
