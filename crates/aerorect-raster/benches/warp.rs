@@ -1,4 +1,4 @@
-//! Warp engine throughput: gray8, rgb8, gray16, f32 x nearest, bilinear, bicubic x 1 and 2 threads.
+//! Warp engine throughput: gray8, rgb8, rgba8, gray16, f32 x nearest, bilinear, bicubic x 1 and 2 threads.
 //! Criterion reports elements/s: read it as output pixels per second.
 #![allow(clippy::unwrap_used)]
 
@@ -50,6 +50,7 @@ fn group<T: Sample>(c: &mut Criterion, name: &str, bands: usize, peak: f32) {
 fn warp_benches(c: &mut Criterion) {
     group::<u8>(c, "gray8", 1, 255.0);
     group::<u8>(c, "rgb8", 3, 255.0);
+    group::<u8>(c, "rgba8", 4, 255.0);
     group::<u16>(c, "gray16", 1, 65535.0);
     group::<f32>(c, "f32", 1, 1.0);
 }
