@@ -190,21 +190,36 @@ fn strip_bytes<T: StripSample>(r: &Raster<T>, strips: Strips, s: usize) -> Vec<u
     let w = r.width();
     let row0 = s * strips.rows_per_strip;
     let rows = strips.rows_per_strip.min(r.height() - row0);
-    let bands = r.bands();
-    let mut px = vec![T::default(); rows * w * bands];
-    for (b, plane) in r.planes().iter().enumerate() {
-        let src_rows = plane[row0 * w..(row0 + rows) * w].chunks_exact(w);
-        for (dst, src) in px.chunks_exact_mut(w * bands).zip(src_rows) {
-            dst[b] = src[0];
-            let pairs = src[1..].iter().zip(src);
-            for (p, (&v, &left)) in dst.chunks_exact_mut(bands).skip(1).zip(pairs) {
-                p[b] = v.delta(left);
-            }
-        }
+    let planes: Vec<&[T]> = r
+        .planes()
+        .iter()
+        .map(|p| &p[row0 * w..(row0 + rows) * w])
+        .collect();
+    let mut px = vec![T::default(); rows * w * planes.len()];
+    match planes.len() {
+        1 => interleave::<T, 1>(&planes, w, &mut px),
+        2 => interleave::<T, 2>(&planes, w, &mut px),
+        3 => interleave::<T, 3>(&planes, w, &mut px),
+        _ => interleave::<T, 4>(&planes, w, &mut px),
     }
     let mut out = Vec::new();
     T::extend_le(&px, &mut out);
     out
+}
+
+/// `N` planes of rows of `w` samples into `px`, pixel-interleaved, each sample replaced by its
+/// predictor difference.
+fn interleave<T: StripSample, const N: usize>(planes: &[&[T]], w: usize, px: &mut [T]) {
+    let (pixels, _) = px.as_chunks_mut::<N>();
+    for (b, plane) in planes.iter().enumerate().take(N) {
+        for (dst, src) in pixels.chunks_exact_mut(w).zip(plane.chunks_exact(w)) {
+            dst[0][b] = src[0];
+            let pairs = src[1..].iter().zip(src);
+            for (p, (&v, &left)) in dst[1..].iter_mut().zip(pairs) {
+                p[b] = v.delta(left);
+            }
+        }
+    }
 }
 
 /// One strip's zlib stream: `fdeflate` after the predictor, else zlib level 1.

@@ -2,6 +2,7 @@
 
 use crate::error::RasterError;
 use aerorect_core::ImageSize;
+use rayon::prelude::*;
 
 /// A sample type the warp engine can resample.
 pub trait Sample: Copy + Default + Send + Sync + PartialEq + std::fmt::Debug + 'static {
@@ -112,18 +113,28 @@ impl<T: Sample> Raster<T> {
             return Err(length_mismatch(data.len(), n * bands, size, bands));
         }
         let planes = (0..bands)
-            .map(|b| data.iter().skip(b).step_by(bands).copied().collect())
+            .into_par_iter()
+            .map(|b| band_of_interleaved(data, bands, b))
             .collect();
         Ok(Self { size, planes })
     }
 
-    /// Pixel-interleaved samples (RGBRGB...).
+    /// Pixel-interleaved samples (RGBRGB...), blocks of pixels in parallel.
     pub fn to_interleaved(&self) -> Vec<T> {
-        let n = self.size.pixels();
-        let mut out = Vec::with_capacity(n * self.bands());
-        for i in 0..n {
-            out.extend(self.planes.iter().map(|p| p[i]));
+        let bands = self.bands();
+        let mut out = vec![T::default(); self.size.pixels() * bands];
+        if bands == 0 {
+            return out;
         }
+        out.par_chunks_mut(INTERLEAVE_BLOCK_PX * bands)
+            .enumerate()
+            .for_each(|(i, block)| {
+                let start = i * INTERLEAVE_BLOCK_PX;
+                for (b, p) in self.planes.iter().enumerate() {
+                    let src = &p[start..start + block.len() / bands];
+                    put_band_interleaved(block, bands, b, src);
+                }
+            });
         out
     }
 
@@ -258,6 +269,43 @@ impl AnyRaster {
     }
 }
 
+/// Pixels per parallel block of [`Raster::to_interleaved`].
+const INTERLEAVE_BLOCK_PX: usize = 1 << 16;
+
+/// Band `b` of pixel-interleaved `data` of `bands` samples a pixel (1-4 bands unrolled).
+fn band_of_interleaved<T: Copy>(data: &[T], bands: usize, b: usize) -> Vec<T> {
+    fn take<T: Copy, const N: usize>(data: &[T], b: usize) -> Vec<T> {
+        data.as_chunks::<N>().0.iter().map(|p| p[b]).collect()
+    }
+    match bands {
+        1 => data.to_vec(),
+        2 => take::<T, 2>(data, b),
+        3 => take::<T, 3>(data, b),
+        4 => take::<T, 4>(data, b),
+        _ => data.chunks_exact(bands).map(|p| p[b]).collect(),
+    }
+}
+
+/// `src` into band `b` of pixel-interleaved `out` of `bands` samples a pixel.
+fn put_band_interleaved<T: Copy>(out: &mut [T], bands: usize, b: usize, src: &[T]) {
+    fn put<T: Copy, const N: usize>(out: &mut [T], b: usize, src: &[T]) {
+        for (p, &v) in out.as_chunks_mut::<N>().0.iter_mut().zip(src) {
+            p[b] = v;
+        }
+    }
+    match bands {
+        1 => out.copy_from_slice(src),
+        2 => put::<T, 2>(out, b, src),
+        3 => put::<T, 3>(out, b, src),
+        4 => put::<T, 4>(out, b, src),
+        _ => {
+            for (p, &v) in out.chunks_exact_mut(bands).zip(src) {
+                p[b] = v;
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -270,6 +318,24 @@ mod tests {
         assert_eq!(r.plane(1), &[1, 4, 7, 10, 13, 16]);
         assert_eq!(r.get(2, 2, 1), Some(17));
         assert_eq!(r.to_interleaved(), data);
+    }
+
+    #[test]
+    fn interleaving_matches_the_per_sample_formula_for_any_band_count() {
+        // more pixels than one parallel block, and a partial last block
+        let size = ImageSize::new(517, 300);
+        for bands in 1..=6 {
+            let data: Vec<u16> = (0..size.pixels() * bands)
+                .map(|i| (i * 7919 % 65521) as u16)
+                .collect();
+            let r = Raster::from_interleaved(size, bands, &data).expect("fits");
+            for b in 0..bands {
+                for (i, &v) in r.plane(b).iter().enumerate() {
+                    assert_eq!(v, data[i * bands + b], "band {b} of {bands}, pixel {i}");
+                }
+            }
+            assert_eq!(r.to_interleaved(), data, "{bands} bands");
+        }
     }
 
     #[test]
