@@ -129,6 +129,20 @@ fn serialisation_round_trips_by_name() {
 }
 
 #[test]
+fn closed_into_equals_closed() {
+    for d in models() {
+        let m = d.model();
+        let mut d_params = vec![[f64::NAN; 2]; m.names().len()];
+        for p in grid() {
+            let c = m.closed(p);
+            let (value, d_point) = m.closed_into(p, &mut d_params);
+            assert_eq!((value, d_point), (c.value, c.d_point), "{}", d.kind());
+            assert_eq!(d_params, c.d_params, "{} at {p:?}", d.kind());
+        }
+    }
+}
+
+#[test]
 fn fast_paths_equal_the_closed_form() {
     for d in models() {
         let m = d.model();

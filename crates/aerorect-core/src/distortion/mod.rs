@@ -54,6 +54,17 @@ pub trait DistortionModel {
         self.closed(q).value
     }
 
+    /// The value and the point Jacobian, with the parameter Jacobian written into `d_params`
+    /// (one entry a parameter, `names()` order): `closed` without allocating (a calibration's
+    /// Jacobian rows).
+    fn closed_into(&self, q: [f64; 2], d_params: &mut [[f64; 2]]) -> ([f64; 2], [[f64; 2]; 2]) {
+        let c = self.closed(q);
+        for (out, d) in d_params.iter_mut().zip(&c.d_params) {
+            *out = *d;
+        }
+        (c.value, c.d_point)
+    }
+
     /// The value and the point Jacobian (no allocation; Newton's method).
     fn value_d_point(&self, q: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
         let c = self.closed(q);

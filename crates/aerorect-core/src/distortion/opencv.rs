@@ -273,6 +273,14 @@ impl DistortionModel for OpenCv {
         (value, d_point)
     }
 
+    fn closed_into(&self, q: [f64; 2], d_params: &mut [[f64; 2]]) -> ([f64; 2], [[f64; 2]; 2]) {
+        let all = self.d_all(q);
+        for (out, &i) in d_params.iter_mut().zip(self.effective_terms().indices()) {
+            *out = all[i];
+        }
+        self.value_d_point(q)
+    }
+
     fn closed(&self, q: [f64; 2]) -> ClosedForm {
         let (value, d_point) = self.value_d_point(q);
         let all = self.d_all(q);

@@ -97,12 +97,17 @@ fn linear_value(basis: &[Basis], theta: &[f64], q: [f64; 2]) -> ([f64; 2], [[f64
     (value, d_point)
 }
 
-/// ideal = q + sum theta_j B_j(q) with its Jacobians.
-fn linear_closed(basis: &[Basis], theta: &[f64], q: [f64; 2]) -> ClosedForm {
+/// ideal = q + sum theta_j B_j(q) and its point Jacobian, the parameter Jacobian (the basis
+/// values) into `d_params`.
+fn linear_closed_into(
+    basis: &[Basis],
+    theta: &[f64],
+    q: [f64; 2],
+    d_params: &mut [[f64; 2]],
+) -> ([f64; 2], [[f64; 2]; 2]) {
     let mut value = q;
     let mut d_point = [[1.0, 0.0], [0.0, 1.0]];
-    let mut d_params = Vec::with_capacity(basis.len());
-    for (b, &t) in basis.iter().zip(theta) {
+    for ((b, &t), out) in basis.iter().zip(theta).zip(d_params.iter_mut()) {
         let (v, d) = b(q[0], q[1]);
         for i in 0..2 {
             value[i] += t * v[i];
@@ -110,8 +115,15 @@ fn linear_closed(basis: &[Basis], theta: &[f64], q: [f64; 2]) -> ClosedForm {
                 d_point[i][j] += t * d[i][j];
             }
         }
-        d_params.push(v);
+        *out = v;
     }
+    (value, d_point)
+}
+
+/// ideal = q + sum theta_j B_j(q) with its Jacobians.
+fn linear_closed(basis: &[Basis], theta: &[f64], q: [f64; 2]) -> ClosedForm {
+    let mut d_params = vec![[0.0; 2]; basis.len()];
+    let (value, d_point) = linear_closed_into(basis, theta, q, &mut d_params);
     ClosedForm {
         value,
         d_point,
@@ -142,6 +154,9 @@ macro_rules! paper_model {
             }
             fn direction(&self) -> Direction { Direction::IdealFromObserved }
             fn closed(&self, q: [f64; 2]) -> ClosedForm { linear_closed(Self::BASIS, &self.params(), q) }
+            fn closed_into(&self, q: [f64; 2], d_params: &mut [[f64; 2]]) -> ([f64; 2], [[f64; 2]; 2]) {
+                linear_closed_into(Self::BASIS, &[$(self.$field),*], q, d_params)
+            }
             fn value(&self, q: [f64; 2]) -> [f64; 2] { self.value_d_point(q).0 }
             fn value_d_point(&self, q: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
                 linear_value(Self::BASIS, &[$(self.$field),*], q)

@@ -112,16 +112,35 @@ pub(crate) fn residual(
     }
 }
 
-/// The derivatives of `residual`: d r / d (fx, fy, cx, cy, skew, coefficients in the model's
-/// order) into `dg` (one column a parameter, 5 + the model's count), and d r / d (w, t).
+/// One point's derivatives by the global parameters, made once per Jacobian.
+pub(crate) struct PointScratch {
+    /// d r / d (fx, fy, cx, cy, skew, coefficients in the model's order).
+    pub dg: Vec<Vector2<f64>>,
+    /// The model's parameter Jacobian.
+    dtheta: Vec<[f64; 2]>,
+}
+
+impl PointScratch {
+    /// For a model of `nd` coefficients.
+    pub fn new(nd: usize) -> Self {
+        PointScratch {
+            dg: vec![Vector2::zeros(); 5 + nd],
+            dtheta: vec![[0.0; 2]; nd],
+        }
+    }
+}
+
+/// The derivatives of `residual`: d r / d (fx, fy, cx, cy, skew, coefficients) into
+/// `scratch.dg`, and d r / d (w, t) returned.
 pub(crate) fn residual_jacobian(
     k: &Intrinsics,
     m: &dyn DistortionModel,
     pose: &PoseFrame,
     world: &Vector3<f64>,
     pixel: [f64; 2],
-    dg: &mut [Vector2<f64>],
+    scratch: &mut PointScratch,
 ) -> Matrix2x6<f64> {
+    let PointScratch { dg, dtheta } = scratch;
     let rx = pose.rot * world;
     let xc = rx + pose.t;
     let iz = 1.0 / xc.z;
@@ -130,31 +149,30 @@ pub(crate) fn residual_jacobian(
     let a = k.a();
     let h = match m.direction() {
         Direction::ObservedFromIdeal => {
-            let c = m.closed(p);
-            let d = c.value;
+            let (d, d_point) = m.closed_into(p, dtheta);
             dg[0] = Vector2::new(d[0], 0.0);
             dg[1] = Vector2::new(0.0, d[1]);
             dg[2] = Vector2::new(1.0, 0.0);
             dg[3] = Vector2::new(0.0, 1.0);
             dg[4] = Vector2::new(d[1], 0.0);
-            for (out, dt) in dg[5..].iter_mut().zip(&c.d_params) {
+            for (out, dt) in dg[5..].iter_mut().zip(dtheta.iter()) {
                 *out = a * Vector2::from(*dt);
             }
-            a * mat2(c.d_point) * dp
+            a * mat2(d_point) * dp
         }
         Direction::IdealFromObserved => {
             let q = normalised(k, pixel);
-            let c = m.closed(q);
-            let (ex, ey) = (p[0] - c.value[0], p[1] - c.value[1]);
+            let (ideal, d_point) = m.closed_into(q, dtheta);
+            let (ex, ey) = (p[0] - ideal[0], p[1] - ideal[1]);
             // d r / d q = -A M; q's derivatives by each intrinsic.
-            let drq = -(a * mat2(c.d_point));
+            let drq = -(a * mat2(d_point));
             let (fx, fy, s, yo) = (k.fx, k.fy, k.skew, q[1]);
             dg[0] = Vector2::new(ex, 0.0) + drq * Vector2::new(-q[0] / fx, 0.0);
             dg[1] = Vector2::new(0.0, ey) + drq * Vector2::new(s * yo / (fx * fy), -yo / fy);
             dg[2] = drq * Vector2::new(-1.0 / fx, 0.0);
             dg[3] = drq * Vector2::new(s / (fx * fy), -1.0 / fy);
             dg[4] = Vector2::new(ey, 0.0) + drq * Vector2::new(-yo / fx, 0.0);
-            for (out, dt) in dg[5..].iter_mut().zip(&c.d_params) {
+            for (out, dt) in dg[5..].iter_mut().zip(dtheta.iter()) {
                 *out = -(a * Vector2::from(*dt));
             }
             a * dp

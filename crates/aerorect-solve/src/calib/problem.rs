@@ -4,11 +4,11 @@
 use super::CalibrationError;
 use super::blocks::{BlockNormal, ViewBlock};
 use super::init::{PlaneView, Pose, dlt, zhang};
-use super::jacobian::{Intrinsics, PoseFrame, residual, residual_jacobian};
+use super::jacobian::{Intrinsics, PointScratch, PoseFrame, residual, residual_jacobian};
 use super::lm::{Problem, StopReason, minimise};
 use aerorect_core::distortion::Distortion;
 use aerorect_core::{Camera, GeometryError, ImageSize};
-use nalgebra::{DMatrix, DVector, Rotation3, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use serde::Serialize;
 
 /// One control point seen in one image.
@@ -241,7 +241,7 @@ impl<'a> Calib<'a> {
         model: &Distortion,
         v: usize,
         r: &DVector<f64>,
-        dg: &mut [Vector2<f64>],
+        s: &mut PointScratch,
         b: &mut ViewBlock,
     ) {
         let k = Intrinsics::from_slice(x);
@@ -254,11 +254,13 @@ impl<'a> Calib<'a> {
                 &pose,
                 &self.world[v][n],
                 self.pixel[v][n],
-                dg,
+                s,
             );
+            let dg = &mut s.dg;
             if let Some(a) = self.aspect {
                 // fy = a fx: fx's column carries fy's.
-                dg[0] += dg[1] * a;
+                let fy = dg[1];
+                dg[0] += fy * a;
             }
             b.jp.fixed_view_mut::<2, 6>(2 * n, 0).copy_from(&jp);
             for (col, &gi) in globals.iter().enumerate() {
@@ -290,9 +292,9 @@ impl Problem for Calib<'_> {
     fn normal_into(&self, z: &DVector<f64>, r: &DVector<f64>, n: &mut BlockNormal) {
         let x = self.expand(z);
         let model = self.model_at(&x);
-        let mut dg = vec![Vector2::zeros(); 5 + self.nd];
+        let mut s = PointScratch::new(self.nd);
         for (v, b) in n.views.iter_mut().enumerate() {
-            self.view_jacobian(&x, &model, v, r, &mut dg, b);
+            self.view_jacobian(&x, &model, v, r, &mut s, b);
         }
         n.assemble();
     }
