@@ -34,8 +34,14 @@ pub struct GcpArgs {
     /// Output grid in reference pixels, X0,Y0,WIDTH,HEIGHT; default: the image's footprint.
     #[arg(long)]
     grid: Option<String>,
+    /// Resampling: nearest, bilinear, bicubic, or average (the area-weighted mean of the source
+    /// pixels under each output pixel, GDAL's -r average, OpenCV's INTER_AREA).
     #[arg(long, default_value = "bilinear")]
     interp: Interp,
+    /// Bilinear and bicubic: keep the plain kernel where the output is more than twice coarser
+    /// than the source (by default such regions read a 2 x 2 box-reduced level, which stops aliasing).
+    #[arg(long)]
+    no_prefilter: bool,
     #[arg(long, default_value_t = 0.0)]
     nodata: f64,
     #[arg(long)]
@@ -92,7 +98,7 @@ pub fn gcp(a: GcpArgs) -> Result<()> {
     let grid = a.grid.as_deref().map(parse_grid).transpose()?;
     let gcps = read_gcps(&a.gcps)?;
     let image = read_image(&a.input)?;
-    let warp = warp_options(a.interp, a.nodata, a.alpha, &image)?;
+    let warp = warp_options(a.interp, !a.no_prefilter, a.nodata, a.alpha, &image)?;
     let limits = RectifyLimits {
         max_output_px: a.max_output_px,
     };
@@ -176,8 +182,14 @@ pub struct RegisterArgs {
     max_scale: f64,
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Resampling: nearest, bilinear, bicubic, or average (the area-weighted mean of the source
+    /// pixels under each output pixel, GDAL's -r average, OpenCV's INTER_AREA).
     #[arg(long, default_value = "bilinear")]
     interp: Interp,
+    /// Bilinear and bicubic: keep the plain kernel where the output is more than twice coarser
+    /// than the source (by default such regions read a 2 x 2 box-reduced level, which stops aliasing).
+    #[arg(long)]
+    no_prefilter: bool,
     #[arg(long, default_value_t = 0.0)]
     nodata: f64,
     #[arg(long)]
@@ -240,7 +252,7 @@ pub fn register_cmd(a: RegisterArgs) -> Result<()> {
     check_register_ranges(&a)?;
     let image = read_image(&a.input)?;
     let reference = read_image(&a.reference)?;
-    let warp = warp_options(a.interp, a.nodata, a.alpha, &image)?;
+    let warp = warp_options(a.interp, !a.no_prefilter, a.nodata, a.alpha, &image)?;
     let t = Instant::now();
     let reg = register(&gray(&image)?, &gray(&reference)?, &opts)
         .with_context(|| format!("{} -> {}", a.input.display(), a.reference.display()))?;

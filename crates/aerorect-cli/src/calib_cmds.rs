@@ -253,8 +253,14 @@ pub struct UndistortArgs {
     /// Camera file with a `[distortion]` table.
     #[arg(long)]
     camera: PathBuf,
+    /// Resampling: nearest, bilinear, bicubic, or average (the area-weighted mean of the source
+    /// pixels under each output pixel, GDAL's -r average, OpenCV's INTER_AREA).
     #[arg(long, default_value = "bilinear")]
     interp: Interp,
+    /// Bilinear and bicubic: keep the plain kernel where the output is more than twice coarser
+    /// than the source (by default such regions read a 2 x 2 box-reduced level, which stops aliasing).
+    #[arg(long)]
+    no_prefilter: bool,
     /// Grow the output to hold every valid pixel (same focal lengths) instead of keeping the size.
     #[arg(long)]
     fit: bool,
@@ -279,7 +285,7 @@ pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
     }
     let img = read_image(&a.input)?;
     let camera = cam.camera(Some(img.size()))?;
-    let warp = crate::commands::warp_options(a.interp, a.nodata, a.alpha, &img)?;
+    let warp = crate::commands::warp_options(a.interp, !a.no_prefilter, a.nodata, a.alpha, &img)?;
     let plan =
         UndistortPlan::new(&camera, a.fit).with_context(|| a.camera.display().to_string())?;
     let t = std::time::Instant::now();

@@ -30,8 +30,14 @@ pub struct RectifyArgs {
     /// output is georeferenced: a GeoTIFF in the UTM zone, or a PNG with a world file.
     #[arg(long)]
     pub(crate) attitude: Option<String>,
+    /// Resampling: nearest, bilinear, bicubic, or average (the area-weighted mean of the source
+    /// pixels under each output pixel, GDAL's -r average, OpenCV's INTER_AREA).
     #[arg(long, default_value = "bilinear")]
     pub(crate) interp: Interp,
+    /// Bilinear and bicubic: keep the plain kernel where the output is more than twice coarser
+    /// than the source (by default such regions read a 2 x 2 box-reduced level, which stops aliasing).
+    #[arg(long)]
+    pub(crate) no_prefilter: bool,
     /// Ground sample distance of the georeferenced output, metres (default: the frame's own at nadir).
     #[arg(long, conflicts_with = "attitude")]
     pub(crate) gsd_m: Option<f64>,
@@ -90,6 +96,7 @@ pub(crate) fn write_image_and_report(
 /// Warp options whose nodata value is checked against the image's sample type.
 pub(crate) fn warp_options(
     interp: Interp,
+    prefilter: bool,
     nodata: f64,
     alpha: bool,
     image: &AnyRaster,
@@ -98,7 +105,7 @@ pub(crate) fn warp_options(
         interp,
         nodata,
         alpha,
-        prefilter: true,
+        prefilter,
     };
     warp.nodata_as_for(image)
         .with_context(|| format!("--nodata {nodata}"))?;
@@ -142,7 +149,7 @@ pub fn rectify(a: RectifyArgs) -> Result<()> {
     let alt = altitude(a.altitude_m, a.base_altitude_m)?;
     let image = read_image(&a.input)?;
     let camera = cam.camera(Some(image.size()))?;
-    let warp = warp_options(a.interp, a.nodata, a.alpha, &image)?;
+    let warp = warp_options(a.interp, !a.no_prefilter, a.nodata, a.alpha, &image)?;
     let limits = RectifyLimits {
         max_output_px: a.max_output_px,
     };
@@ -190,8 +197,14 @@ pub struct SimulateArgs {
     camera: PathBuf,
     #[arg(long)]
     attitude: String,
+    /// Resampling: nearest, bilinear, bicubic, or average (the area-weighted mean of the source
+    /// pixels under each output pixel, GDAL's -r average, OpenCV's INTER_AREA).
     #[arg(long, default_value = "bicubic")]
     interp: Interp,
+    /// Bilinear and bicubic: keep the plain kernel where the output is more than twice coarser
+    /// than the source (by default such regions read a 2 x 2 box-reduced level, which stops aliasing).
+    #[arg(long)]
+    no_prefilter: bool,
     #[arg(long, default_value_t = 0.0)]
     nodata: f64,
     /// Number of check points to write (spread over the frame, on the ground).
@@ -222,7 +235,7 @@ pub fn simulate(a: SimulateArgs) -> Result<()> {
         interp: a.interp,
         nodata: a.nodata,
         alpha: false,
-        prefilter: true,
+        prefilter: !a.no_prefilter,
     };
     let frame_img = plan.render(&ortho, &warp)?;
     let points = match a.checkpoints {

@@ -177,7 +177,7 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
         interp: a.interp,
         nodata: a.nodata,
         alpha: a.alpha,
-        prefilter: true,
+        prefilter: !a.no_prefilter,
     };
     let limits = RectifyLimits {
         max_output_px: a.max_output_px,
@@ -373,8 +373,14 @@ pub struct BatchArgs {
     /// tif (GeoTIFF) or png (with a world file).
     #[arg(long, default_value = "tif")]
     format: String,
+    /// Resampling: nearest, bilinear, bicubic, or average (the area-weighted mean of the source
+    /// pixels under each output pixel, GDAL's -r average, OpenCV's INTER_AREA).
     #[arg(long, default_value = "bilinear")]
     interp: Interp,
+    /// Bilinear and bicubic: keep the plain kernel where the output is more than twice coarser
+    /// than the source (by default such regions read a 2 x 2 box-reduced level, which stops aliasing).
+    #[arg(long)]
+    no_prefilter: bool,
     #[arg(long, default_value_t = 0.0)]
     nodata: f64,
     #[arg(long, default_value_t = DEFAULT_MAX_OUTPUT_PX)]
@@ -428,7 +434,7 @@ pub fn batch(a: BatchArgs) -> Result<()> {
             interp: a.interp,
             nodata: a.nodata,
             alpha: false,
-            prefilter: true,
+            prefilter: !a.no_prefilter,
         },
     )?;
     if a.cog {

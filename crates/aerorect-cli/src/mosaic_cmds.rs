@@ -26,8 +26,14 @@ pub struct MosaicArgs {
     /// Width of the cross-fade across a seam, pixels.
     #[arg(long, default_value_t = 16)]
     feather_px: usize,
+    /// Resampling: nearest, bilinear, bicubic, or average (the area-weighted mean of the source
+    /// pixels under each output pixel, GDAL's -r average, OpenCV's INTER_AREA).
     #[arg(long, default_value = "bilinear")]
     interp: Interp,
+    /// Bilinear and bicubic: keep the plain kernel where the output is more than twice coarser
+    /// than the source (by default such regions read a 2 x 2 box-reduced level, which stops aliasing).
+    #[arg(long)]
+    no_prefilter: bool,
     /// Largest frame ortho in pixels; a footprint reaching the horizon is clipped to it.
     #[arg(long, default_value_t = DEFAULT_MAX_OUTPUT_PX)]
     max_output_px: u64,
@@ -70,7 +76,7 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
             interp: a.interp,
             nodata: 0.0,
             alpha: false,
-            prefilter: true,
+            prefilter: !a.no_prefilter,
         },
     )?;
     let (frames, crs) = if a.flight.adjust {

@@ -132,14 +132,16 @@ fn half_widths(s: &Scratch, c: usize) -> (f64, f64) {
 fn axis_weights(centre: f64, h: f64, n: usize, w: &mut Vec<f32>) -> usize {
     let lo = (centre - h).max(-0.5);
     let hi = (centre + h).min(n as f64 - 0.5);
-    // The pixel whose footprint [i - 0.5, i + 0.5) holds lo.
+    // The pixel whose footprint [i - 0.5, i + 0.5) holds lo; the last one starting below hi.
     let first = ((lo + 0.5).floor().max(0.0) as usize).min(n - 1);
+    let last = ((hi + 0.5).ceil().max(1.0) as usize - 1).clamp(first, n - 1);
     w.clear();
-    let mut i = first;
-    while i < n && (i as f64 - 0.5) < hi {
-        let overlap = hi.min(i as f64 + 0.5) - lo.max(i as f64 - 0.5);
-        w.push(overlap.max(0.0) as f32);
-        i += 1;
+    w.resize(last - first + 1, 1.0);
+    if first == last {
+        w[0] = (hi - lo) as f32;
+    } else {
+        w[0] = (first as f64 + 0.5 - lo) as f32;
+        w[last - first] = (hi - (last as f64 - 0.5)) as f32;
     }
     first
 }
@@ -155,6 +157,7 @@ struct RowOut<T> {
 fn average_row<T: Sample>(src: &Raster<T>, s: &mut Scratch, chunks: &mut [&mut [T]], o: RowOut<T>) {
     let (w, h) = (src.width(), src.height());
     let bands = src.bands();
+    let (mut last_y, mut y0, mut wy_sum) = ((f64::NAN, f64::NAN), 0, 0.0f32);
     for c in 0..o.width {
         let (x, y) = (s.cur[0][c], s.cur[1][c]);
         let inside = x >= -0.5 && x < w as f64 - 0.5 && y >= -0.5 && y < h as f64 - 0.5;
@@ -170,8 +173,13 @@ fn average_row<T: Sample>(src: &Raster<T>, s: &mut Scratch, chunks: &mut [&mut [
         }
         let (hx, hy) = half_widths(s, c);
         let x0 = axis_weights(x, hx, w, &mut s.wx);
-        let y0 = axis_weights(y, hy, h, &mut s.wy);
-        let total = s.wx.iter().sum::<f32>() * s.wy.iter().sum::<f32>();
+        if (y, hy) != last_y {
+            // Along an axis-aligned row the vertical weights repeat: computed once.
+            y0 = axis_weights(y, hy, h, &mut s.wy);
+            wy_sum = s.wy.iter().sum::<f32>();
+            last_y = (y, hy);
+        }
+        let total = s.wx.iter().sum::<f32>() * wy_sum;
         for (b, chunk) in chunks.iter_mut().take(bands).enumerate() {
             let plane = src.plane(b);
             let mut acc = 0.0f32;
