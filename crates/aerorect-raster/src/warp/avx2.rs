@@ -486,9 +486,16 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample>(
     while i + 8 <= n {
         // SAFETY: i + 8 <= n.
         let t = unsafe { bilinear_taps8(&k, xs, ys, i, T::WINDOWS) };
-        for (plane, out) in planes.iter().zip(outs.iter_mut()) {
-            // SAFETY: as this function's contract; i + 8 <= n = every output's length.
-            unsafe { T::bilinear8(&k, &t, plane, out, i, nodata) };
+        if t.mask == 0 {
+            // All eight outside (common around an ortho's footprint): no loads.
+            for out in outs.iter_mut() {
+                out[i..i + 8].fill(nodata);
+            }
+        } else {
+            for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+                // SAFETY: as this function's contract; i + 8 <= n = every output's length.
+                unsafe { T::bilinear8(&k, &t, plane, out, i, nodata) };
+            }
         }
         for (b, v) in valid[i..i + 8].iter_mut().enumerate() {
             *v = t.mask >> b & 1 == 1;
