@@ -352,3 +352,41 @@ fn average_equals_opencvs_inter_area() {
         );
     }
 }
+
+/// A window of the destination (a mosaic tile: the same map read from column c0, row r0, on the
+/// 64-pixel tile grid) equals that part of the whole warp bit for bit: its pyramid is reduced
+/// from a crop aligned to the deepest level, so the levels are the whole image's.
+#[test]
+fn a_prefiltered_window_equals_that_part_of_the_whole_warp() {
+    struct Window<'a>(&'a Homography, usize, usize);
+    impl PixelMap for Window<'_> {
+        fn source_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+            self.0.source_of(col + self.1 as f64, row + self.2 as f64)
+        }
+        fn source_row(&self, row: usize, col0: usize, xs: &mut [f64], ys: &mut [f64]) {
+            self.0.source_row(row + self.2, col0 + self.1, xs, ys);
+        }
+    }
+    let src = noise_u8(ImageSize::new(1500, 1200), 2, 4);
+    let h = Homography::new(Mat3::new(4.0, 0.5, 3.0, -0.2, 4.5, 1.0, 2e-4, 1e-3, 1.0)).unwrap();
+    let size = ImageSize::new(320, 256);
+    for interp in [Interp::Bilinear, Interp::Bicubic] {
+        let whole = warp(&src, &h, size, &opts(interp, true)).unwrap();
+        let plain = warp(&src, &h, size, &opts(interp, false)).unwrap();
+        assert!(whole != plain, "prefiltered");
+        let (c0, r0, win) = (128, 64, ImageSize::new(100, 90));
+        let part = warp(&src, &Window(&h, c0, r0), win, &opts(interp, true)).unwrap();
+        for b in 0..3 {
+            for r in 0..win.height {
+                for c in 0..win.width {
+                    assert_eq!(
+                        part.get(b, c, r),
+                        whole.get(b, c + c0, r + r0),
+                        "{} band {b} ({c}, {r})",
+                        interp.name()
+                    );
+                }
+            }
+        }
+    }
+}

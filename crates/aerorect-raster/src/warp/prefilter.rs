@@ -125,15 +125,17 @@ struct TileMap<'a, M> {
     col0: usize,
     row0: usize,
     level: usize,
+    /// Level-`level` position of the reduced crop's first pixel (zero at level 0).
+    origin: [f64; 2],
 }
 
 impl<M: PixelMap> TileMap<'_, M> {
     #[inline]
-    fn to_level(&self, v: f64) -> f64 {
+    fn to_level(&self, v: f64, axis: usize) -> f64 {
         if self.level == 0 {
             return v;
         }
-        (v + 0.5) / (1u64 << self.level) as f64 - 0.5
+        (v + 0.5) / (1u64 << self.level) as f64 - 0.5 - self.origin[axis]
     }
 }
 
@@ -142,15 +144,17 @@ impl<M: PixelMap> PixelMap for TileMap<'_, M> {
         let p = self
             .inner
             .source_of(col + self.col0 as f64, row + self.row0 as f64)?;
-        Some(p.map(|v| self.to_level(v)))
+        Some([self.to_level(p[0], 0), self.to_level(p[1], 1)])
     }
 
     fn source_row(&self, row: usize, col0: usize, xs: &mut [f64], ys: &mut [f64]) {
         self.inner
             .source_row(row + self.row0, col0 + self.col0, xs, ys);
         if self.level > 0 {
-            for v in xs.iter_mut().chain(ys.iter_mut()) {
-                *v = self.to_level(*v);
+            for (axis, vs) in [xs, ys].into_iter().enumerate() {
+                for v in vs.iter_mut() {
+                    *v = self.to_level(*v, axis);
+                }
             }
         }
     }
@@ -166,12 +170,18 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
     plan: &Plan,
     allow_simd: bool,
 ) -> Result<(), RasterError> {
+    let crop = crop_of(map, plan, dst.size(), src.size());
+    let cropped_src = crop.map(|c| cropped(src, c)).transpose()?;
     let mut reduced: Vec<Raster<T>> = Vec::new();
     for _ in 0..plan.max_level() {
-        let next = reduce_half(reduced.last().unwrap_or(src))?;
+        let next = reduce_half(reduced.last().or(cropped_src.as_ref()).unwrap_or(src))?;
         reduced.push(next);
     }
     let level = |k: usize| if k == 0 { src } else { &reduced[k - 1] };
+    let origin = |k: usize| {
+        let [x0, y0] = crop.map_or([0, 0], |c| [c.x0, c.y0]);
+        [x0, y0].map(|v| if k == 0 { 0.0 } else { (v >> k) as f64 })
+    };
     let nodata = opts.nodata_as::<T>()?;
     let width = dst.width();
     let bands = dst.bands();
@@ -196,6 +206,7 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
                     col0: tx * TILE,
                     row0: ty * TILE,
                     level: k,
+                    origin: origin(k),
                 };
                 let mut tile = Raster::new(ImageSize::new(cols, rows), bands)?;
                 let (interp, alpha) = (opts.interp, opts.alpha);
@@ -250,6 +261,69 @@ fn outside_level0<T: Sample, M: PixelMap>(
             }
         }
     }
+}
+
+/// The part of the source that the prefiltered tiles read: `x0`, `y0` multiples of 2^K (K the
+/// deepest level), so its reduced levels are the whole image's, pixel for pixel.
+#[derive(Clone, Copy)]
+struct Crop {
+    x0: usize,
+    y0: usize,
+    size: ImageSize,
+}
+
+/// The bounding box of the source positions of every prefiltered tile's pixels, grown by 4 level-K
+/// pixels (bicubic reads 2 either side) and aligned to 2^K; `None` when it is the whole image
+/// (or no pixel has a source). A warp of a small window (a mosaic tile) then reduces only the part
+/// of the frame it sees.
+fn crop_of<M: PixelMap>(map: &M, plan: &Plan, dst: ImageSize, src: ImageSize) -> Option<Crop> {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    let (mut xs, mut ys) = (vec![0.0; TILE], vec![0.0; TILE]);
+    for (t, _) in plan.levels.iter().enumerate().filter(|(_, k)| **k > 0) {
+        let (col0, row0) = ((t % plan.tiles_x) * TILE, (t / plan.tiles_x) * TILE);
+        let cols = TILE.min(dst.width - col0);
+        for row in row0..(row0 + TILE).min(dst.height) {
+            map.source_row(row, col0, &mut xs[..cols], &mut ys[..cols]);
+            for (&x, &y) in xs[..cols].iter().zip(&ys[..cols]) {
+                if x.is_finite() && y.is_finite() {
+                    (lo, hi) = ([lo[0].min(x), lo[1].min(y)], [hi[0].max(x), hi[1].max(y)]);
+                }
+            }
+        }
+    }
+    if !lo[0].is_finite() {
+        return None;
+    }
+    let a = 1usize << plan.max_level();
+    let margin = 4.0 * a as f64;
+    let start = |v: f64| ((v - margin).max(0.0) as usize / a) * a;
+    let end = |v: f64, n: usize| ((v + margin).max(0.0).min(n as f64) as usize).div_ceil(a) * a;
+    let (x0, y0) = (
+        start(lo[0]).min(src.width - 1),
+        start(lo[1]).min(src.height - 1),
+    );
+    let (x1, y1) = (
+        end(hi[0], src.width).clamp(x0 + 1, src.width),
+        end(hi[1], src.height).clamp(y0 + 1, src.height),
+    );
+    let size = ImageSize::new(x1 - x0, y1 - y0);
+    (size != src).then_some(Crop { x0, y0, size })
+}
+
+/// The crop's pixels, every band.
+fn cropped<T: Sample>(src: &Raster<T>, c: Crop) -> Result<Raster<T>, RasterError> {
+    let w = src.width();
+    let planes = src
+        .planes()
+        .iter()
+        .map(|p| {
+            (c.y0..c.y0 + c.size.height)
+                .flat_map(|r| &p[r * w + c.x0..r * w + c.x0 + c.size.width])
+                .copied()
+                .collect()
+        })
+        .collect();
+    Raster::from_planes(c.size, planes)
 }
 
 #[cfg(test)]
