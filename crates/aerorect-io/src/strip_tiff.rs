@@ -6,9 +6,10 @@
 //!
 //! Compression is Deflate (zlib streams, TIFF compression 8). 8 and 16-bit samples go through
 //! the horizontal predictor (TIFF Predictor 2: each sample minus its left neighbour in the same
-//! band) and `fdeflate`, the `png` crate's fast zlib compressor: on an RGB ortho about five
-//! times as fast as zlib level 1 (`flate2`) and a quarter smaller. f32 samples keep zlib level
-//! 1 without a predictor. Other tags as the `tiff` crate's encoder wrote them before: chunky
+//! band) and `fdeflate`, the `png` crate's fast zlib compressor: on the RGB ortho of a DJI frame
+//! (4553 x 4193) 4.6 times as fast as `flate2`'s zlib level 1 without the predictor (the
+//! writer before) and 25% smaller (13.2 MB, was 17.6 MB). f32 samples keep zlib level 1
+//! without a predictor. Other tags as the `tiff` crate's encoder wrote them before: chunky
 //! samples, X/YResolution 1/1 without unit, ExtraSamples = 2 (unassociated alpha) for 2 and 4
 //! bands, the GeoTIFF tags. BigTIFF when the uncompressed image reaches 3.9 GB.
 
