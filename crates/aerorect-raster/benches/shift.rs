@@ -1,5 +1,8 @@
-//! Shift estimators per frame pair: JTC (the paper's processing), cross-correlation and phase
+//! Shift estimators per frame pair: JTC (the paper's binarised processing on the joint image,
+//! and without binarisation in its cross-spectrum form), cross-correlation and phase
 //! correlation, on 128, 256 and 512 frames (single-threaded: the estimators use one core).
+//! `*-track` feeds a stream (each frame against the previous one, as `track` does), where the
+//! previous frame's spectrum is reused.
 #![allow(clippy::unwrap_used)]
 
 use aerorect_core::ImageSize;
@@ -11,6 +14,38 @@ use aerorect_testkit::textured_scene;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::time::Duration;
 
+fn estimator(name: &str, n: usize) -> Box<dyn ShiftEstimator> {
+    let phase = |weighting| {
+        Box::new(
+            PhaseCorrelator::new(
+                n,
+                n,
+                PhaseOptions {
+                    weighting,
+                    window: true,
+                },
+            )
+            .unwrap(),
+        )
+    };
+    match name {
+        "jtc" => Box::new(JointTransformCorrelator::new(n, n, JtcOptions::default()).unwrap()),
+        "jtc-linear" => Box::new(
+            JointTransformCorrelator::new(
+                n,
+                n,
+                JtcOptions {
+                    binarize: false,
+                    ..JtcOptions::default()
+                },
+            )
+            .unwrap(),
+        ),
+        "xcorr" => phase(Weighting::None),
+        _ => phase(Weighting::Phase),
+    }
+}
+
 fn shift_benches(c: &mut Criterion) {
     let scene = textured_scene::<f32>(ImageSize::new(1100, 1100), 1, 1.0, 3);
     let mut g = c.benchmark_group("shift");
@@ -21,44 +56,26 @@ fn shift_benches(c: &mut Criterion) {
         let size = ImageSize::new(n, n);
         let r = shifted_linear(&scene, 20.0, 20.0, size, 0.0, 0.0);
         let t = shifted_linear(&scene, 20.0, 20.0, size, 1.37, -2.61);
-        let mut estimators: Vec<(&str, Box<dyn ShiftEstimator>)> = vec![
-            (
-                "jtc",
-                Box::new(JointTransformCorrelator::new(n, n, JtcOptions::default()).unwrap()),
-            ),
-            (
-                "xcorr",
-                Box::new(
-                    PhaseCorrelator::new(
-                        n,
-                        n,
-                        PhaseOptions {
-                            weighting: Weighting::None,
-                            window: true,
-                        },
-                    )
-                    .unwrap(),
-                ),
-            ),
-            (
-                "phase",
-                Box::new(
-                    PhaseCorrelator::new(
-                        n,
-                        n,
-                        PhaseOptions {
-                            weighting: Weighting::Phase,
-                            window: true,
-                        },
-                    )
-                    .unwrap(),
-                ),
-            ),
-        ];
-        for (name, est) in estimators.iter_mut() {
-            g.bench_function(BenchmarkId::new(*name, n), |b| {
+        for name in ["jtc", "jtc-linear", "xcorr", "phase"] {
+            let mut est = estimator(name, n);
+            g.bench_function(BenchmarkId::new(name, n), |b| {
                 b.iter(|| est.estimate(&r, &t).unwrap())
             });
+            if name != "jtc" {
+                // A stream r, t, r, t, ...: each call's reference is the previous call's current.
+                let mut est = estimator(name, n);
+                let mut flip = false;
+                g.bench_function(BenchmarkId::new(format!("{name}-track"), n), |b| {
+                    b.iter(|| {
+                        flip = !flip;
+                        if flip {
+                            est.estimate(&r, &t).unwrap()
+                        } else {
+                            est.estimate(&t, &r).unwrap()
+                        }
+                    })
+                });
+            }
         }
     }
     g.finish();

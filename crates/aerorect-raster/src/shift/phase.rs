@@ -38,13 +38,25 @@ pub struct PhaseCorrelator {
     win_x: Vec<f32>,
     win_y: Vec<f32>,
     spec_r: Vec<Complex32>,
-    q: Vec<Complex32>,
-    /// Scratch for the inverse transform (it destroys its input).
+    /// The current frame's spectrum with the unmoved window (the next pair's reference).
+    spec_t: Vec<Complex32>,
+    /// Scratch for the inverse transform (it destroys its input) and the moved-window pass.
     work: Vec<Complex32>,
     plane: Vec<f32>,
-    // Newton workspace: per column u, the v-sums and their first and second v-derivatives.
+    /// The last `current` frame, whose spectrum `spec_t` holds (when `last_valid`): a track
+    /// hands it back as the next reference, which is then not transformed again.
+    last: Vec<f32>,
+    last_valid: bool,
+    /// Newton workspace: Q's real and imaginary parts (same layout), per row v the phase
+    /// factor cos, sin of k_v y, and k_v, k_v^2 (k_v = 2 pi signed(v) / h); per column u the
+    /// phase factor of k_u x.
+    q_re: Vec<f32>,
+    q_im: Vec<f32>,
+    ey_c: Vec<f32>,
+    ey_s: Vec<f32>,
+    k1: Vec<f32>,
+    k2: Vec<f32>,
     ex: Vec<(f64, f64)>,
-    ey: Vec<(f64, f64)>,
     /// 2 pi k_v / h for every row v (signed frequency).
     kv: Vec<f64>,
 }
@@ -54,6 +66,9 @@ impl PhaseCorrelator {
         check_size(width, height)?;
         let fft = Fft2::new(width, height);
         let n = fft.spectrum_len();
+        let kv: Vec<f64> = (0..height)
+            .map(|v| 2.0 * PI * signed(v, height) / height as f64)
+            .collect();
         Ok(Self {
             w: width,
             h: height,
@@ -62,20 +77,25 @@ impl PhaseCorrelator {
             win_x: hann_table(width, 0.0),
             win_y: hann_table(height, 0.0),
             spec_r: vec![Complex32::default(); n],
-            q: vec![Complex32::default(); n],
+            spec_t: vec![Complex32::default(); n],
             work: vec![Complex32::default(); n],
             plane: vec![0.0; width * height],
+            last: vec![0.0; width * height],
+            last_valid: false,
+            q_re: vec![0.0; n],
+            q_im: vec![0.0; n],
+            ey_c: vec![0.0; height],
+            ey_s: vec![0.0; height],
+            k1: kv.iter().map(|&k| k as f32).collect(),
+            k2: kv.iter().map(|&k| (k * k) as f32).collect(),
             ex: vec![(0.0, 0.0); width / 2 + 1],
-            ey: vec![(0.0, 0.0); height],
-            kv: (0..height)
-                .map(|v| 2.0 * PI * signed(v, height) / height as f64)
-                .collect(),
+            kv,
         })
     }
 
-    /// Forward transform of a mean-removed frame, windowed by the Hann window moved by
-    /// `shift` (the reference uses (0, 0)).
-    fn transform(&mut self, frame: &[f32], mean: f32, into_q: bool, shift: (f64, f64)) {
+    /// Forward transform of a mean-removed frame into `out`, windowed by the Hann window moved
+    /// by `shift` (the reference uses (0, 0)).
+    fn transform(&mut self, frame: &[f32], mean: f32, shift: (f64, f64), out: &mut [Complex32]) {
         let (w, use_window) = (self.w, self.opts.window);
         if use_window {
             fill_hann(&mut self.win_x, shift.0);
@@ -83,29 +103,32 @@ impl PhaseCorrelator {
         }
         let (wx, wy) = (&self.win_x, &self.win_y);
         let fill = |r: usize, buf: &mut [f32]| {
-            for (x, b) in buf.iter_mut().enumerate() {
-                let v = frame[r * w + x] - mean;
-                *b = if use_window { v * wx[x] * wy[r] } else { v };
+            let row = &frame[r * w..(r + 1) * w];
+            if use_window {
+                let g = wy[r];
+                for ((b, &v), &x) in buf.iter_mut().zip(row).zip(wx.iter()) {
+                    *b = (v - mean) * x * g;
+                }
+            } else {
+                for (b, &v) in buf.iter_mut().zip(row) {
+                    *b = v - mean;
+                }
             }
-        };
-        let out = if into_q {
-            &mut self.q
-        } else {
-            &mut self.spec_r
         };
         self.fft.forward_rows(self.h, fill, out);
     }
 
-    /// c, its gradient and Hessian at (x, y) (the Hermitian half spectrum counted twice).
+    /// c, its gradient and Hessian at (x, y) (the Hermitian half spectrum counted twice). The
+    /// sums along each column are in f32 (eight lanes), the columns' in f64.
     fn newton_terms(&mut self, x: f64, y: f64) -> [f64; 6] {
         let (w, h) = (self.w, self.h);
         for (u, e) in self.ex.iter_mut().enumerate() {
             let (s, c) = (2.0 * PI * u as f64 * x / w as f64).sin_cos();
             *e = (c, s);
         }
-        for (e, k) in self.ey.iter_mut().zip(&self.kv) {
-            let (s, c) = (k * y).sin_cos();
-            *e = (c, s);
+        for ((c, s), k) in self.ey_c.iter_mut().zip(self.ey_s.iter_mut()).zip(&self.kv) {
+            let (sn, cs) = (k * y).sin_cos();
+            (*c, *s) = (cs as f32, sn as f32);
         }
         let mut t = [0.0f64; 6]; // c, cx, cy, cxx, cyy, cxy
         for u in 0..=w / 2 {
@@ -114,18 +137,14 @@ impl PhaseCorrelator {
             } else {
                 2.0
             };
-            let col = &self.q[u * h..(u + 1) * h];
-            // a0 = sum_v Q e_y, a1 = sum_v Q e_y (2 pi i k_v / h), a2 = sum_v Q e_y (2 pi i k_v / h)^2
-            let (mut a0, mut a1, mut a2) = ((0.0, 0.0), (0.0, 0.0), (0.0, 0.0));
-            for ((qv, e), &k) in col.iter().zip(&self.ey).zip(&self.kv) {
-                let (re, im) = (
-                    qv.re as f64 * e.0 - qv.im as f64 * e.1,
-                    qv.re as f64 * e.1 + qv.im as f64 * e.0,
-                );
-                a0 = (a0.0 + re, a0.1 + im);
-                a1 = (a1.0 - k * im, a1.1 + k * re); // times i k
-                a2 = (a2.0 - k * k * re, a2.1 - k * k * im); // times -k^2
-            }
+            let col = u * h..(u + 1) * h;
+            // S_n = sum_v Q e_y k_v^n; a0 = S0, a1 = i S1, a2 = -S2.
+            let [s0r, s0i, s1r, s1i, s2r, s2i] = column_sums(
+                &self.q_re[col.clone()],
+                &self.q_im[col],
+                [&self.ey_c, &self.ey_s, &self.k1, &self.k2],
+            );
+            let (a0, a1, a2) = ((s0r, s0i), (-s1i, s1r), (-s2r, -s2i));
             let (c, s) = self.ex[u];
             let kx = 2.0 * PI * u as f64 / w as f64;
             let re = |a: (f64, f64)| a.0 * c - a.1 * s; // Re(e_x a)
@@ -140,8 +159,9 @@ impl PhaseCorrelator {
         t
     }
 
-    /// Newton's method from (x, y) to the nearest maximum of the continuous correlation.
-    fn refine(&mut self, mut x: f64, mut y: f64) -> (f64, f64, f64) {
+    /// Newton's method from (x, y) to the nearest maximum of the continuous correlation, until
+    /// a step is below `tol` px.
+    fn refine(&mut self, mut x: f64, mut y: f64, tol: f64) -> (f64, f64, f64) {
         let mut c = 0.0;
         for _ in 0..10 {
             let [c0, cx, cy, cxx, cyy, cxy] = self.newton_terms(x, y);
@@ -155,7 +175,7 @@ impl PhaseCorrelator {
             let (dx, dy) = (dx.clamp(-0.25, 0.25), dy.clamp(-0.25, 0.25));
             x += dx;
             y += dy;
-            if dx.abs().max(dy.abs()) < 1e-6 {
+            if dx.abs().max(dy.abs()) < tol {
                 break;
             }
         }
@@ -164,27 +184,47 @@ impl PhaseCorrelator {
 }
 
 impl PhaseCorrelator {
-    /// Q = conj(R) T (weighted as configured) from the two spectra; returns sum |R|^2, sum |T|^2.
-    fn cross_power(&mut self) -> (f64, f64) {
-        let (w, h) = (self.w, self.h);
+    /// Q = conj(R) T (weighted as configured) from the reference's spectrum and the current
+    /// frame's (`spec_t`, or with `moved` the moved-window one in `work`): into `q_re`, `q_im`
+    /// (Newton's) and `work` (the coarse peak's inverse transform); returns sum |R|^2, sum |T|^2.
+    fn cross_power(&mut self, moved: bool) -> (f64, f64) {
+        let (w, h, phase) = (self.w, self.h, self.opts.weighting == Weighting::Phase);
         let (mut er, mut et) = (0.0f64, 0.0f64);
-        for (i, (q, r)) in self.q.iter_mut().zip(&self.spec_r).enumerate() {
-            let col = i / h;
-            let weight = if col == 0 || (w % 2 == 0 && col == w / 2) {
+        for u in 0..=w / 2 {
+            let weight = if u == 0 || (w % 2 == 0 && u == w / 2) {
                 1.0
             } else {
                 2.0
             };
-            er += weight * r.norm_sqr() as f64;
-            et += weight * q.norm_sqr() as f64;
-            let p = r.conj() * *q;
-            *q = match self.opts.weighting {
-                Weighting::None => p,
-                Weighting::Phase => {
+            let col = u * h..(u + 1) * h;
+            let (mut sr, mut st) = (0.0f32, 0.0f32);
+            for (((r, t), re), im) in self.spec_r[col.clone()]
+                .iter()
+                .zip(
+                    if moved {
+                        &mut self.work[col.clone()]
+                    } else {
+                        &mut self.spec_t[col.clone()]
+                    }
+                    .iter_mut(),
+                )
+                .zip(&mut self.q_re[col.clone()])
+                .zip(&mut self.q_im[col.clone()])
+            {
+                sr += r.norm_sqr();
+                st += t.norm_sqr();
+                let mut p = r.conj() * *t;
+                if phase {
                     let m = p.norm();
-                    if m > 0.0 { p / m } else { Complex32::default() }
+                    p = if m > 0.0 { p / m } else { Complex32::default() };
                 }
-            };
+                (*re, *im) = (p.re, p.im);
+            }
+            er += weight * sr as f64;
+            et += weight * st as f64;
+        }
+        for ((q, &re), &im) in self.work.iter_mut().zip(&self.q_re).zip(&self.q_im) {
+            *q = Complex32::new(re, im);
         }
         (er, et)
     }
@@ -192,8 +232,7 @@ impl PhaseCorrelator {
     /// The integer peak of the correlation plane, refined by a parabola per axis (signed shift).
     fn coarse_peak(&mut self) -> (f64, f64) {
         let (w, h) = (self.w, self.h);
-        // Transform a copy: Q is kept for the Newton refinement.
-        self.work.copy_from_slice(&self.q);
+        // `work` holds Q (a copy: Newton reads `q_re`, `q_im`).
         let plane = &mut self.plane;
         self.fft.inverse_rows(
             &mut self.work,
@@ -226,17 +265,39 @@ impl ShiftEstimator for PhaseCorrelator {
         current: &[f32],
     ) -> Result<ShiftEstimate, ShiftError> {
         let (w, h) = (self.w, self.h);
-        let mr = check_frame("reference", reference, w, h)?;
-        let mt = check_frame("current", current, w, h)?;
-        self.transform(reference, mr, false, (0.0, 0.0));
-        self.transform(current, mt, true, (0.0, 0.0));
-        let (mut er, mut et) = self.cross_power();
+        let reuse = self.last_valid && reference == self.last.as_slice();
+        if !reuse {
+            let mr = check_frame("reference", reference, w, h)?;
+            let mut spec = std::mem::take(&mut self.spec_r);
+            self.transform(reference, mr, (0.0, 0.0), &mut spec);
+            self.spec_r = spec;
+        }
+        let mt = match check_frame("current", current, w, h) {
+            Ok(m) => m,
+            Err(e) => {
+                self.last_valid = false;
+                return Err(e);
+            }
+        };
+        if reuse {
+            std::mem::swap(&mut self.spec_r, &mut self.spec_t);
+        }
+        let mut spec = std::mem::take(&mut self.spec_t);
+        self.transform(current, mt, (0.0, 0.0), &mut spec);
+        self.spec_t = spec;
+        self.last.copy_from_slice(current);
+        self.last_valid = true;
+        let (mut er, mut et) = self.cross_power(false);
         let (x0, y0) = self.coarse_peak();
-        let (mut x, mut y, mut c) = self.refine(x0, y0);
+        // With the window, the first estimate only places the moved window: 1e-3 px will do.
+        let first_tol = if self.opts.window { 1e-3 } else { 1e-6 };
+        let (mut x, mut y, mut c) = self.refine(x0, y0, first_tol);
         if self.opts.window {
-            self.transform(current, mt, true, (x, y));
-            (er, et) = self.cross_power();
-            (x, y, c) = self.refine(x, y);
+            let mut spec = std::mem::take(&mut self.work);
+            self.transform(current, mt, (x, y), &mut spec);
+            self.work = spec;
+            (er, et) = self.cross_power(true);
+            (x, y, c) = self.refine(x, y, 1e-6);
         }
         let norm = match self.opts.weighting {
             Weighting::None => (er * et).sqrt(),
@@ -266,5 +327,92 @@ fn fill_hann(t: &mut [f32], shift: f64) {
         } else {
             0.0
         };
+    }
+}
+
+/// [S0, S1, S2] (real and imaginary parts) of one column: S_n = sum_v Q_v e_v k_v^n with
+/// e_v = (cos, sin) and [cos, sin, k, k^2] per row in `rows`.
+fn column_sums(q_re: &[f32], q_im: &[f32], rows: [&[f32]; 4]) -> [f64; 6] {
+    const L: usize = 8;
+    let [ec, es, k1, k2] = rows;
+    let mut acc = [[0.0f32; L]; 6];
+    let n = q_re.len() / L * L;
+    let lanes = |s: &[f32], i: usize| -> [f32; L] {
+        let mut a = [0.0; L];
+        a.copy_from_slice(&s[i..i + L]);
+        a
+    };
+    for i in (0..n).step_by(L) {
+        let (qr, qi, c, s, a, b) = (
+            lanes(q_re, i),
+            lanes(q_im, i),
+            lanes(ec, i),
+            lanes(es, i),
+            lanes(k1, i),
+            lanes(k2, i),
+        );
+        for l in 0..L {
+            let pr = qr[l] * c[l] - qi[l] * s[l];
+            let pi = qr[l] * s[l] + qi[l] * c[l];
+            acc[0][l] += pr;
+            acc[1][l] += pi;
+            acc[2][l] += a[l] * pr;
+            acc[3][l] += a[l] * pi;
+            acc[4][l] += b[l] * pr;
+            acc[5][l] += b[l] * pi;
+        }
+    }
+    let mut out = acc.map(|a| a.iter().map(|&v| v as f64).sum::<f64>());
+    for v in n..q_re.len() {
+        let pr = (q_re[v] * ec[v] - q_im[v] * es[v]) as f64;
+        let pi = (q_re[v] * es[v] + q_im[v] * ec[v]) as f64;
+        let (a, b) = (k1[v] as f64, k2[v] as f64);
+        for (o, d) in out.iter_mut().zip([pr, pi, a * pr, a * pi, b * pr, b * pi]) {
+            *o += d;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shift::sim::{add_noise, shifted_linear};
+    use aerorect_core::ImageSize;
+    use rand::SeedableRng;
+
+    /// A track (each frame against the previous one, whose spectrum is reused) gives exactly
+    /// what a fresh estimator gives for each pair, for every option; a refused frame leaves no
+    /// stale spectrum behind.
+    #[test]
+    fn reusing_the_previous_spectrum_changes_nothing() {
+        let (w, h) = (64, 48);
+        let size = ImageSize::new(400, 400);
+        let texture = aerorect_testkit::textured_scene::<f32>(size, 1, 1.0, 9);
+        let scene = crate::Raster::from_planes(size, vec![texture.plane(0).to_vec()]).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let frames: Vec<Vec<f32>> = [(0.0, 0.0), (1.3, -0.7), (2.1, -1.2), (0.4, 0.9)]
+            .iter()
+            .map(|&(dx, dy)| {
+                let mut f = shifted_linear(&scene, 80.0, 90.0, ImageSize::new(w, h), dx, dy);
+                add_noise(&mut f, 10.0, &mut rng);
+                f
+            })
+            .collect();
+        for weighting in [Weighting::None, Weighting::Phase] {
+            for window in [false, true] {
+                let opts = PhaseOptions { weighting, window };
+                let mut track = PhaseCorrelator::new(w, h, opts).unwrap();
+                for pair in frames.windows(2) {
+                    let reused = track.estimate(&pair[0], &pair[1]).unwrap();
+                    let mut fresh = PhaseCorrelator::new(w, h, opts).unwrap();
+                    assert_eq!(reused, fresh.estimate(&pair[0], &pair[1]).unwrap());
+                }
+                assert!(track.estimate(&frames[3], &vec![2.0; w * h]).is_err());
+                let again = track.estimate(&frames[1], &frames[2]).unwrap();
+                let mut fresh = PhaseCorrelator::new(w, h, opts).unwrap();
+                assert_eq!(again, fresh.estimate(&frames[1], &frames[2]).unwrap());
+            }
+        }
     }
 }
