@@ -93,7 +93,8 @@ pub(crate) struct RowOut<'a, 'b, T> {
     /// Index of the row's first pixel in each chunk.
     pub(crate) start: usize,
     pub(crate) row: usize,
-    pub(crate) width: usize,
+    /// The columns of the row to resample (a tile's share of it).
+    pub(crate) cols: std::ops::Range<usize>,
     pub(crate) alpha: bool,
 }
 
@@ -157,7 +158,7 @@ fn same_type<'s, 'a, 'b, T: Sample, S: Sample>(
         chunks,
         start: out.start,
         row: out.row,
-        width: out.width,
+        cols: out.cols,
         alpha: out.alpha,
     };
     Ok((src, out, nodata))
@@ -197,9 +198,9 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
         simd,
         ..
     } = scratch;
-    let mut c0 = 0;
-    while c0 < out.width {
-        let n = BLOCK.min(out.width - c0);
+    let mut c0 = out.cols.start;
+    while c0 < out.cols.end {
+        let n = BLOCK.min(out.cols.end - c0);
         let range = out.start + c0..out.start + c0 + n;
         let (xs, ys, valid) = (&mut xs[..n], &mut ys[..n], &mut valid[..n]);
         map.source_row(out.row, c0, xs, ys);
@@ -255,9 +256,9 @@ fn row_body<T: Sample, K: Kernel, M: PixelMap>(
         valid,
         ..
     } = scratch;
-    let mut c0 = 0;
-    while c0 < out.width {
-        let n = BLOCK.min(out.width - c0);
+    let mut c0 = out.cols.start;
+    while c0 < out.cols.end {
+        let n = BLOCK.min(out.cols.end - c0);
         let (xs, ys, taps, valid) = (&mut xs[..n], &mut ys[..n], &mut taps[..n], &mut valid[..n]);
         map.source_row(out.row, c0, xs, ys);
         for (((x, y), tap), ok) in xs

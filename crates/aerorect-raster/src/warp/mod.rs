@@ -187,8 +187,13 @@ fn dispatch<T: Sample, M: PixelMap>(
     }
 }
 
-/// About this many destination pixels per rayon task.
+/// About this many destination pixels per rayon task ...
 const PIXELS_PER_TASK: usize = 32 * 1024;
+/// ... and at least this many rows: a task walks its rows tile by tile (`TILE_COLS` columns),
+/// so that the source pixels of a tile stay in cache from one row to the next even when the
+/// destination rows cross the source at an angle (as OpenCV's warp blocks do).
+const MIN_ROWS_PER_TASK: usize = 16;
+const TILE_COLS: usize = 256;
 
 fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
     src: &Raster<T>,
@@ -199,7 +204,7 @@ fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
     dst: &mut Raster<T>,
 ) {
     let width = dst.width();
-    let rows_per_task = (PIXELS_PER_TASK / width).max(1);
+    let rows_per_task = (PIXELS_PER_TASK / width).max(MIN_ROWS_PER_TASK);
     let n_tasks = dst.height().div_ceil(rows_per_task);
     let mut tasks: Vec<Vec<&mut [T]>> = (0..n_tasks).map(|_| Vec::new()).collect();
     for plane in dst.planes_mut() {
@@ -215,15 +220,17 @@ fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
         |scratch, (t, mut chunks)| {
             let first_row = t * rows_per_task;
             let rows = chunks[0].len() / width;
-            for r in 0..rows {
-                let out = kernel::RowOut {
-                    chunks: &mut chunks,
-                    start: r * width,
-                    row: first_row + r,
-                    width,
-                    alpha,
-                };
-                kernel::row::<T, K, M>(src, map, g, scratch, nodata, out);
+            for c0 in (0..width).step_by(TILE_COLS) {
+                for r in 0..rows {
+                    let out = kernel::RowOut {
+                        chunks: &mut chunks,
+                        start: r * width,
+                        row: first_row + r,
+                        cols: c0..(c0 + TILE_COLS).min(width),
+                        alpha,
+                    };
+                    kernel::row::<T, K, M>(src, map, g, scratch, nodata, out);
+                }
             }
         },
     );
