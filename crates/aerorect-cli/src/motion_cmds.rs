@@ -18,7 +18,8 @@ pub struct ShiftArgs {
     /// Current frame, same size.
     current: PathBuf,
     /// jtc (the paper's processing, Gaussian peak fit), jtc-centroid (the paper's centroid),
-    /// jtc-parabola, jtc-plain, phase, xcorr.
+    /// jtc-parabola, jtc-linear (not binarised: the fast cross-spectrum form), jtc-plain, phase,
+    /// xcorr.
     #[arg(long, default_value = "jtc")]
     method: String,
     /// Print JSON with keys dx, dy, confidence.
