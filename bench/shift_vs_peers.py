@@ -7,9 +7,14 @@ true shift and our estimates and times; this script runs
   - cv2.phaseCorrelate(ref, cur, window=Hann)
 on the same files, and prints per scene and SNR the error RMS and median time of each method.
 Each peer's sign convention is calibrated first on a whole-pixel shift (no assumption).
+OpenCV runs on one thread (`opencv`, as ours: one core) and on its default threads (`opencv-mt`).
+
+Timing is interleaved in one run: --rounds times (default 3) our motion-sim (which times each of
+our estimators on each pair) and then the peers on the same pairs; the medians are over all
+rounds, so load from other processes falls on both sides alike.
 
 Creates its own venv (bench/.venv) with opencv-python-headless, scikit-image, numpy.
-usage: python3 bench/shift_vs_peers.py [--trials N] [--snr-db LIST] [--fourier] [--data ../shared/data/aerial]
+usage: python3 bench/shift_vs_peers.py [--trials N] [--rounds N] [--snr-db LIST] [--fourier] [--data ../shared/data/aerial]
 """
 import argparse, csv, os, subprocess, sys, time
 
@@ -30,11 +35,24 @@ from skimage.registration import phase_cross_correlation  # noqa: E402
 SCENES = {"airport": "sipi_5.3.02.tiff", "coast": "sipi_2.1.05.tiff", "roads": "sipi_2.2.17.tiff", "urban": "sipi_5.2.09.tiff"}
 
 
+OURS = ["jtc", "jtc-linear", "xcorr", "phase"]
+CV_THREADS = cv2.getNumThreads()
+
+
+def on_threads(n, fn):
+    def run(r, c):
+        cv2.setNumThreads(n)
+        return fn(r, c)
+    return run
+
+
 def peers(n):
     hann = cv2.createHanningWindow((n, n), cv2.CV_32F)
+    cv = lambda r, c: cv2.phaseCorrelate(r, c, hann)[0]
     return {
         "skimage": lambda r, c: tuple(phase_cross_correlation(r, c, upsample_factor=100)[0][::-1]),
-        "opencv": lambda r, c: cv2.phaseCorrelate(r, c, hann)[0],
+        "opencv": on_threads(1, cv),
+        "opencv-mt": on_threads(CV_THREADS, cv),
     }
 
 
@@ -51,6 +69,7 @@ def calibrate(fn, n):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--trials", type=int, default=20)
+    ap.add_argument("--rounds", type=int, default=3, help="interleaved timing rounds (ours, then the peers)")
     ap.add_argument("--snr-db", default="-2,4,10,20")
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--fourier", action="store_true", help="band-limited (Fourier) shifts instead of linear interpolation")
@@ -68,48 +87,65 @@ def main():
         if not os.path.exists(link):
             os.symlink(os.path.abspath(os.path.join(args.data, f)), link)
         linked.append(link)
-    subprocess.check_call([exe, "motion-sim", *linked, "--trials", str(args.trials), f"--snr-db={args.snr_db}",
-                           "--size", str(args.size), "--method", "jtc,xcorr,phase", "--dump-dir", out,
-                           "--plot", os.path.join(HERE, "out", "shift_vs_peers.svg")] + (["--fourier"] if args.fourier else []),
-                          stdout=subprocess.DEVNULL)
     fns = peers(args.size)
     signs = {k: calibrate(f, args.size) for k, f in fns.items()}
     if any(0.0 in s for s in signs.values()):
         sys.exit(f"a peer failed the whole-pixel calibration: {signs}")
-    cells = {}
-    with open(os.path.join(out, "manifest.csv")) as fh:
-        for row in csv.DictReader(fh):
+    errs, times, frames = {}, {}, {}
+    for round_ in range(args.rounds):
+        for f in os.listdir(out) if os.path.isdir(out) else []:
+            os.remove(os.path.join(out, f))
+        subprocess.check_call([exe, "motion-sim", *linked, "--trials", str(args.trials), f"--snr-db={args.snr_db}",
+                               "--size", str(args.size), "--method", ",".join(OURS), "--dump-dir", out,
+                               "--plot", os.path.join(HERE, "out", "shift_vs_peers.svg")] + (["--fourier"] if args.fourier else []),
+                              stdout=subprocess.DEVNULL)
+        with open(os.path.join(out, "manifest.csv")) as fh:
+            rows = list(csv.DictReader(fh))
+        for row in rows:
             key = (row["scene"], float(row["snr_db"]))
             stem = f"{row['scene']}_{row['snr_db']}_{row['trial']}"
-            ref = cv2.imread(os.path.join(out, stem + "_ref.tif"), cv2.IMREAD_UNCHANGED)
-            cur = cv2.imread(os.path.join(out, stem + "_cur.tif"), cv2.IMREAD_UNCHANGED)
+            if stem not in frames:
+                frames[stem] = (cv2.imread(os.path.join(out, stem + "_ref.tif"), cv2.IMREAD_UNCHANGED),
+                                cv2.imread(os.path.join(out, stem + "_cur.tif"), cv2.IMREAD_UNCHANGED))
+            ref, cur = frames[stem]
             dx, dy = float(row["dx"]), float(row["dy"])
-            c = cells.setdefault(key, {})
-            for m in ("jtc", "xcorr", "phase"):
-                e = (float(row[f"{m}_dx"]) - dx) ** 2 + (float(row[f"{m}_dy"]) - dy) ** 2
-                c.setdefault(m, []).append((e, float(row[f"{m}_seconds"])))
+            for m in OURS:
+                if round_ == 0:
+                    errs.setdefault(key, {}).setdefault(m, []).append((float(row[f"{m}_dx"]) - dx) ** 2 + (float(row[f"{m}_dy"]) - dy) ** 2)
+                times.setdefault(key, {}).setdefault(m, []).append(float(row[f"{m}_seconds"]))
             for name, fn in fns.items():
                 t = time.perf_counter()
                 ex, ey = fn(ref, cur)
                 secs = time.perf_counter() - t
                 sx, sy = signs[name]
-                c.setdefault(name, []).append(((sx * ex - dx) ** 2 + (sy * ey - dy) ** 2, secs))
-    methods = ["jtc", "xcorr", "phase", "skimage", "opencv"]
-    print(f"skimage {skimage.__version__}, cv2 {cv2.__version__}; {args.size} x {args.size} frames, {args.trials} trials per cell, shifts by {'Fourier shift' if args.fourier else 'linear interpolation'}")
+                if round_ == 0:
+                    errs[key].setdefault(name, []).append((sx * ex - dx) ** 2 + (sy * ey - dy) ** 2)
+                times[key].setdefault(name, []).append(secs)
+    methods = OURS + list(fns)
+    print(f"skimage {skimage.__version__}, cv2 {cv2.__version__} (opencv: 1 thread, opencv-mt: {CV_THREADS}); {args.size} x {args.size} frames, {args.trials} trials per cell, shifts by {'Fourier shift' if args.fourier else 'linear interpolation'}; times: medians over {args.rounds} interleaved rounds")
     print("error RMS in px (median ms per pair)")
     print(f"{'scene':<9}{'SNR':>5}" + "".join(f"{m:>18}" for m in methods))
-    totals = {m: [] for m in methods}
-    for (scene, snr), c in sorted(cells.items()):
+    all_t = {m: [] for m in methods}
+    all_e = {m: [] for m in methods}
+    for key in sorted(errs):
+        scene, snr = key
         line = f"{scene:<9}{snr:>5.0f}"
         for m in methods:
-            errs = np.array([e for e, _ in c[m]])
-            secs = np.median([s for _, s in c[m]])
-            totals[m] += [s for _, s in c[m]]
-            line += f"{np.sqrt(errs.mean()):>10.4f} ({secs * 1e3:4.2f})"
+            e = np.array(errs[key][m])
+            all_e[m] += list(e)
+            all_t[m] += times[key][m]
+            line += f"{np.sqrt(e.mean()):>10.4f} ({np.median(times[key][m]) * 1e3:4.2f})"
         print(line)
-    med = {m: np.median(v) for m, v in totals.items()}
-    print("median time per pair, all cells: " + ", ".join(f"{m} {med[m] * 1e3:.2f} ms" for m in methods))
-    print(f"time ratios: skimage / aerorect-xcorr = {med['skimage'] / med['xcorr']:.1f}x, opencv / aerorect-xcorr = {med['opencv'] / med['xcorr']:.2f}x")
+    med = {m: np.median(v) for m, v in all_t.items()}
+    print("all cells: error RMS px / median ms per pair")
+    for m in methods:
+        print(f"  {m:<10} {np.sqrt(np.mean(all_e[m])):8.4f} px  {med[m] * 1e3:6.3f} ms")
+    print("time ratios (peer / ours, > 1: ours faster): "
+          + ", ".join(f"{p} / {o} = {med[p] / med[o]:.2f}" for p in ("opencv", "opencv-mt") for o in ("xcorr", "phase"))
+          + f", skimage / xcorr = {med['skimage'] / med['xcorr']:.1f}")
+    print("error RMS per SNR (all scenes): " + "; ".join(
+        f"{snr:g} dB: " + ", ".join(f"{m} {np.sqrt(np.mean([e for k in errs if k[1] == snr for e in errs[k][m]])):.4f}" for m in ("jtc", "jtc-linear", "xcorr", "phase", "opencv"))
+        for snr in sorted({k[1] for k in errs})))
 
 
 if __name__ == "__main__":
