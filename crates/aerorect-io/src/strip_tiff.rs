@@ -209,15 +209,17 @@ fn strip_bytes<T: StripSample>(r: &Raster<T>, strips: Strips, s: usize) -> Vec<u
 }
 
 /// `N` planes of rows of `w` samples into `px`, pixel-interleaved, each sample replaced by its
-/// predictor difference.
+/// predictor difference; one pass writing each pixel once.
 fn interleave<T: StripSample, const N: usize>(planes: &[&[T]], w: usize, px: &mut [T]) {
     let (pixels, _) = px.as_chunks_mut::<N>();
-    for (b, plane) in planes.iter().enumerate().take(N) {
-        for (dst, src) in pixels.chunks_exact_mut(w).zip(plane.chunks_exact(w)) {
-            dst[0][b] = src[0];
-            let pairs = src[1..].iter().zip(src);
-            for (p, (&v, &left)) in dst[1..].iter_mut().zip(pairs) {
-                p[b] = v.delta(left);
+    for (row, dst) in pixels.chunks_exact_mut(w).enumerate() {
+        let src: [&[T]; N] = std::array::from_fn(|b| &planes[b][row * w..][..w]);
+        for b in 0..N {
+            dst[0][b] = src[b][0];
+        }
+        for x in 1..w.min(dst.len()) {
+            for b in 0..N {
+                dst[x][b] = src[b][x].delta(src[b][x - 1]);
             }
         }
     }
