@@ -55,33 +55,26 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
 ) {
     let width = dst.width();
     let rows_per_task = (PIXELS_PER_TASK / width).max(1);
-    let n_tasks = dst.height().div_ceil(rows_per_task);
-    let mut tasks: Vec<Vec<&mut [T]>> = (0..n_tasks).map(|_| Vec::new()).collect();
-    for plane in dst.planes_mut() {
-        for (task, chunk) in tasks
-            .iter_mut()
-            .zip(plane.chunks_mut(rows_per_task * width))
-        {
-            task.push(chunk);
-        }
-    }
-    tasks.into_par_iter().enumerate().for_each_init(
-        || Scratch::new(width),
-        |s, (t, mut chunks)| {
-            let first_row = t * rows_per_task;
-            let rows = chunks[0].len() / width;
-            for r in 0..rows {
-                fill_positions(map, first_row + r, width, s);
-                let row = RowOut {
-                    start: r * width,
-                    width,
-                    alpha,
-                    nodata,
-                };
-                average_row(src, s, &mut chunks, row);
-            }
-        },
-    );
+    super::row_strips(dst, rows_per_task)
+        .into_par_iter()
+        .enumerate()
+        .for_each_init(
+            || Scratch::new(width),
+            |s, (t, mut chunks)| {
+                let first_row = t * rows_per_task;
+                let rows = chunks[0].len() / width;
+                for r in 0..rows {
+                    fill_positions(map, first_row + r, width, s);
+                    let row = RowOut {
+                        start: r * width,
+                        width,
+                        alpha,
+                        nodata,
+                    };
+                    average_row(src, s, &mut chunks, row);
+                }
+            },
+        );
 }
 
 /// Source positions of rows `row - 1`, `row`, `row + 1` (columns 0..=width; `prev` unused on

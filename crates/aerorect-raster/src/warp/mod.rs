@@ -195,6 +195,20 @@ const PIXELS_PER_TASK: usize = 32 * 1024;
 const MIN_ROWS_PER_TASK: usize = 16;
 const TILE_COLS: usize = 256;
 
+/// The destination cut into strips of `rows` rows, one task each: per strip, its part of every
+/// band (alpha last).
+pub(crate) fn row_strips<T: Sample>(dst: &mut Raster<T>, rows: usize) -> Vec<Vec<&mut [T]>> {
+    let width = dst.width();
+    let n_tasks = dst.height().div_ceil(rows);
+    let mut tasks: Vec<Vec<&mut [T]>> = (0..n_tasks).map(|_| Vec::new()).collect();
+    for plane in dst.planes_mut() {
+        for (task, chunk) in tasks.iter_mut().zip(plane.chunks_mut(rows * width)) {
+            task.push(chunk);
+        }
+    }
+    tasks
+}
+
 fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
     src: &Raster<T>,
     map: &M,
@@ -205,19 +219,10 @@ fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
 ) {
     let width = dst.width();
     let rows_per_task = (PIXELS_PER_TASK / width).max(MIN_ROWS_PER_TASK);
-    let n_tasks = dst.height().div_ceil(rows_per_task);
-    let mut tasks: Vec<Vec<&mut [T]>> = (0..n_tasks).map(|_| Vec::new()).collect();
-    for plane in dst.planes_mut() {
-        for (task, chunk) in tasks
-            .iter_mut()
-            .zip(plane.chunks_mut(rows_per_task * width))
-        {
-            task.push(chunk);
-        }
-    }
-    tasks.into_par_iter().enumerate().for_each_init(
-        kernel::Scratch::<K>::new,
-        |scratch, (t, mut chunks)| {
+    row_strips(dst, rows_per_task)
+        .into_par_iter()
+        .enumerate()
+        .for_each_init(kernel::Scratch::<K>::new, |scratch, (t, mut chunks)| {
             let first_row = t * rows_per_task;
             let rows = chunks[0].len() / width;
             for c0 in (0..width).step_by(TILE_COLS) {
@@ -232,8 +237,7 @@ fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
                     kernel::row::<T, K, M>(src, map, g, scratch, nodata, out);
                 }
             }
-        },
-    );
+        });
 }
 
 impl WarpOptions {
