@@ -4,25 +4,9 @@
 
 use aerorect_core::ImageSize;
 use aerorect_core::distortion::Distortion;
-use aerorect_solve::calib::{CalibrationOptions, Observation, calibrate};
+use aerorect_solve::calib::{CalibrationOptions, calibrate};
+use aerorect_testkit::opencv_corners;
 use criterion::{Criterion, criterion_group, criterion_main};
-
-fn opencv_corners() -> Vec<Observation> {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/calib/left_corners.csv");
-    let mut rdr = csv::Reader::from_path(path).unwrap();
-    rdr.records()
-        .map(|r| {
-            let r = r.unwrap();
-            let f = |i: usize| r[i].parse::<f64>().unwrap();
-            Observation {
-                image: r[0].to_string(),
-                world: [f(1), f(2), f(3)],
-                pixel: [f(4), f(5)],
-            }
-        })
-        .collect()
-}
 
 fn bench(c: &mut Criterion) {
     let obs = opencv_corners();

@@ -11,21 +11,6 @@ use aerorect_core::distortion::Distortion;
 use aerorect_solve::calib::{CalibrationOptions, Observation, calibrate};
 use std::io::BufRead;
 
-fn read(path: &str) -> Vec<Observation> {
-    let mut rdr = csv::Reader::from_path(path).expect("a control point CSV");
-    rdr.records()
-        .map(|r| {
-            let r = r.unwrap();
-            let f = |i: usize| r[i].trim().parse::<f64>().unwrap();
-            Observation {
-                image: r[0].to_string(),
-                world: [f(1), f(2), f(3)],
-                pixel: [f(4), f(5)],
-            }
-        })
-        .collect()
-}
-
 fn solve_line(obs: &[Observation], opts: &CalibrationOptions) -> String {
     let t = std::time::Instant::now();
     let r = calibrate(obs, opts).expect("a calibration");
@@ -44,7 +29,7 @@ fn solve_line(obs: &[Observation], opts: &CalibrationOptions) -> String {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let arg = |i: usize, d: &str| args.get(i).cloned().unwrap_or_else(|| d.to_string());
-    let obs = read(&arg(0, "data/calib/left_corners.csv"));
+    let obs = aerorect_testkit::read_observations(arg(0, "data/calib/left_corners.csv").as_ref());
     let (w, h) = arg(1, "640x480")
         .split_once('x')
         .map(|(w, h)| (w.parse().unwrap(), h.parse().unwrap()))

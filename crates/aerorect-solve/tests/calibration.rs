@@ -4,23 +4,7 @@
 use aerorect_core::ImageSize;
 use aerorect_core::distortion::Distortion;
 use aerorect_solve::calib::{CalibrationError, CalibrationOptions, Observation, calibrate};
-use std::path::Path;
-
-fn opencv_corners() -> Vec<Observation> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/calib/left_corners.csv");
-    let mut rdr = csv::Reader::from_path(path).unwrap();
-    rdr.records()
-        .map(|r| {
-            let r = r.unwrap();
-            let f = |i: usize| r[i].parse::<f64>().unwrap();
-            Observation {
-                image: r[0].to_string(),
-                world: [f(1), f(2), f(3)],
-                pixel: [f(4), f(5)],
-            }
-        })
-        .collect()
-}
+use aerorect_testkit::opencv_corners;
 
 /// OpenCV 5.0 calibrateCamera on these 702 points, 5 coefficients, no flags (data/README):
 /// RMS 0.40869, fx 536.0734, fy 536.0163, cx 342.3705, cy 235.5369.

@@ -180,3 +180,27 @@ pub fn skip(why: &str) {
         }
     }
 }
+
+/// Control points from a CSV `image,X,Y,Z,u,v` (a header line first), as `calibrate --points`
+/// reads them.
+pub fn read_observations(path: &std::path::Path) -> Vec<aerorect_solve::calib::Observation> {
+    let mut rdr = csv::Reader::from_path(path).unwrap();
+    rdr.records()
+        .map(|r| {
+            let r = r.unwrap();
+            let f = |i: usize| r[i].trim().parse::<f64>().unwrap();
+            aerorect_solve::calib::Observation {
+                image: r[0].to_string(),
+                world: [f(1), f(2), f(3)],
+                pixel: [f(4), f(5)],
+            }
+        })
+        .collect()
+}
+
+/// OpenCV's 13 chessboard views of `data/calib/left_corners.csv` (702 corners).
+pub fn opencv_corners() -> Vec<aerorect_solve::calib::Observation> {
+    read_observations(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/calib/left_corners.csv"),
+    )
+}
