@@ -11,34 +11,25 @@
 //! The rotation's derivative: R(w + dw) X = R X - [R X]x R J_r(w) dw to first order, with
 //! J_r the right Jacobian of SO(3).
 
+use aerorect_core::Intrinsics;
 use aerorect_core::distortion::{Direction, DistortionModel};
 use nalgebra::{Matrix2, Matrix2x3, Matrix2x6, Matrix3, Rotation3, Vector2, Vector3};
 
-/// fx, fy, cx, cy, skew.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Intrinsics {
-    pub fx: f64,
-    pub fy: f64,
-    pub cx: f64,
-    pub cy: f64,
-    pub skew: f64,
+/// The intrinsics of the parameter vector's first five entries (fx, fy, cx, cy, skew), unchecked:
+/// an iterate may wander where `Intrinsics::new` would refuse it.
+pub(crate) fn intrinsics_from_slice(x: &[f64]) -> Intrinsics {
+    Intrinsics {
+        fx: x[0],
+        fy: x[1],
+        cx: x[2],
+        cy: x[3],
+        skew: x[4],
+    }
 }
 
-impl Intrinsics {
-    /// From the parameter vector's first five entries.
-    pub fn from_slice(x: &[f64]) -> Self {
-        Intrinsics {
-            fx: x[0],
-            fy: x[1],
-            cx: x[2],
-            cy: x[3],
-            skew: x[4],
-        }
-    }
-
-    fn a(&self) -> Matrix2<f64> {
-        Matrix2::new(self.fx, self.skew, 0.0, self.fy)
-    }
+/// [[fx, skew], [0, fy]]: d pixel / d normalised point.
+fn pixel_from_normalized_jacobian(k: &Intrinsics) -> Matrix2<f64> {
+    Matrix2::new(k.fx, k.skew, 0.0, k.fy)
 }
 
 /// A view's pose for one evaluation: X_c = R X + t, and R J_r(w).
@@ -80,12 +71,6 @@ fn mat2(d: [[f64; 2]; 2]) -> Matrix2<f64> {
     Matrix2::new(d[0][0], d[0][1], d[1][0], d[1][1])
 }
 
-/// The measured pixel in normalised coordinates (skew removed).
-fn normalised(k: &Intrinsics, pixel: [f64; 2]) -> [f64; 2] {
-    let yo = (pixel[1] - k.cy) / k.fy;
-    [(pixel[0] - k.cx - k.skew * yo) / k.fx, yo]
-}
-
 /// The residual of world point `world` measured at `pixel`.
 pub(crate) fn residual(
     k: &Intrinsics,
@@ -99,13 +84,11 @@ pub(crate) fn residual(
     match m.direction() {
         Direction::ObservedFromIdeal => {
             let d = m.value(p);
-            [
-                k.fx * d[0] + k.skew * d[1] + k.cx - pixel[0],
-                k.fy * d[1] + k.cy - pixel[1],
-            ]
+            let u = k.pixel_from_normalized(d[0], d[1]);
+            [u[0] - pixel[0], u[1] - pixel[1]]
         }
         Direction::IdealFromObserved => {
-            let ideal = m.value(normalised(k, pixel));
+            let ideal = m.value(k.normalized_from_pixel(pixel[0], pixel[1]));
             let (ex, ey) = (p[0] - ideal[0], p[1] - ideal[1]);
             [k.fx * ex + k.skew * ey, k.fy * ey]
         }
@@ -146,7 +129,7 @@ pub(crate) fn residual_jacobian(
     let iz = 1.0 / xc.z;
     let p = [xc.x * iz, xc.y * iz];
     let dp = Matrix2x3::new(iz, 0.0, -p[0] * iz, 0.0, iz, -p[1] * iz);
-    let a = k.a();
+    let a = pixel_from_normalized_jacobian(k);
     let h = match m.direction() {
         Direction::ObservedFromIdeal => {
             let (d, d_point) = m.closed_into(p, dtheta);
@@ -161,7 +144,7 @@ pub(crate) fn residual_jacobian(
             a * mat2(d_point) * dp
         }
         Direction::IdealFromObserved => {
-            let q = normalised(k, pixel);
+            let q = k.normalized_from_pixel(pixel[0], pixel[1]);
             let (ideal, d_point) = m.closed_into(q, dtheta);
             let (ex, ey) = (p[0] - ideal[0], p[1] - ideal[1]);
             // d r / d q = -A M; q's derivatives by each intrinsic.

@@ -4,7 +4,9 @@
 use super::CalibrationError;
 use super::blocks::{BlockNormal, ViewBlock};
 use super::init::{PlaneView, Pose, dlt, zhang};
-use super::jacobian::{Intrinsics, PointScratch, PoseFrame, residual, residual_jacobian};
+use super::jacobian::{
+    PointScratch, PoseFrame, intrinsics_from_slice, residual, residual_jacobian,
+};
 use super::lm::{Problem, StopReason, minimise};
 use aerorect_core::distortion::Distortion;
 use aerorect_core::{Camera, GeometryError, ImageSize};
@@ -217,7 +219,7 @@ impl<'a> Calib<'a> {
     /// Residuals of the full vector `x`, two per observation in input order.
     fn residuals_full(&self, x: &[f64], r: &mut [f64]) {
         let model = self.model_at(x);
-        let k = Intrinsics::from_slice(x);
+        let k = intrinsics_from_slice(x);
         for v in 0..self.views.len() {
             let pose = self.pose(x, v);
             for (k_in_view, &i) in self.views[v].iter().enumerate() {
@@ -244,7 +246,7 @@ impl<'a> Calib<'a> {
         s: &mut PointScratch,
         b: &mut ViewBlock,
     ) {
-        let k = Intrinsics::from_slice(x);
+        let k = intrinsics_from_slice(x);
         let pose = self.pose(x, v);
         let globals = &self.free[..self.free_globals];
         for (n, &i) in self.views[v].iter().enumerate() {
