@@ -8,26 +8,14 @@
 use aerorect_core::ImageSize;
 use aerorect_raster::shift::sim::shifted_linear;
 use aerorect_raster::shift::{
-    JointTransformCorrelator, JtcOptions, PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting,
+    JointTransformCorrelator, JtcOptions, PhaseCorrelator, PhaseOptions, ShiftEstimator,
 };
 use aerorect_testkit::textured_scene;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::time::Duration;
 
 fn estimator(name: &str, n: usize) -> Box<dyn ShiftEstimator> {
-    let phase = |weighting| {
-        Box::new(
-            PhaseCorrelator::new(
-                n,
-                n,
-                PhaseOptions {
-                    weighting,
-                    window: true,
-                },
-            )
-            .unwrap(),
-        )
-    };
+    let phase = |opts| Box::new(PhaseCorrelator::new(n, n, opts).unwrap());
     match name {
         "jtc" => Box::new(JointTransformCorrelator::new(n, n, JtcOptions::default()).unwrap()),
         "jtc-linear" => Box::new(
@@ -41,8 +29,8 @@ fn estimator(name: &str, n: usize) -> Box<dyn ShiftEstimator> {
             )
             .unwrap(),
         ),
-        "xcorr" => phase(Weighting::None),
-        _ => phase(Weighting::Phase),
+        "xcorr" => phase(PhaseOptions::xcorr()),
+        _ => phase(PhaseOptions::phase()),
     }
 }
 

@@ -273,6 +273,7 @@ fn match_patches(
         PhaseOptions {
             weighting: Weighting::Phase,
             window: true,
+            smooth: 0.0,
         },
     )
     .map_err(|e| Error::Invalid(e.to_string()))?;

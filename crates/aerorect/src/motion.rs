@@ -6,7 +6,7 @@ use aerorect_core::ImageSize;
 use aerorect_raster::shift::sim::{add_noise, crlb_rms, shifted_fourier, shifted_linear};
 use aerorect_raster::shift::{
     JointTransformCorrelator, JtcOptions, PhaseCorrelator, PhaseOptions, ShiftEstimate,
-    ShiftEstimator, SubPixel, Weighting,
+    ShiftEstimator, SubPixel,
 };
 use aerorect_raster::{AnyRaster, Raster};
 use rand::{Rng, SeedableRng};
@@ -60,14 +60,8 @@ impl Method {
                 subpixel: SubPixel::Parabola,
                 ..JtcOptions::default()
             }),
-            "phase" => Method::Phase(PhaseOptions {
-                weighting: Weighting::Phase,
-                window: true,
-            }),
-            "xcorr" => Method::Phase(PhaseOptions {
-                weighting: Weighting::None,
-                window: true,
-            }),
+            "phase" => Method::Phase(PhaseOptions::phase()),
+            "xcorr" => Method::Phase(PhaseOptions::xcorr()),
             other => {
                 return Err(Error::Invalid(format!(
                     "unknown method '{other}': expected one of {}",

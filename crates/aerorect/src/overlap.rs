@@ -96,6 +96,7 @@ pub fn overlap_shift(
         PhaseOptions {
             weighting: Weighting::Phase,
             window: true,
+            smooth: 0.0,
         },
     )
     .map_err(|e| Error::Invalid(e.to_string()))?;

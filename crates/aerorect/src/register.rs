@@ -287,6 +287,7 @@ fn coarse_search(
     let phase = PhaseOptions {
         weighting: Weighting::Phase,
         window: true,
+        smooth: 0.0,
     };
     let similarity = |deg: f64, s: f64, d: [f64; 2]| {
         let (c, sn) = (deg.to_radians().cos() * s, deg.to_radians().sin() * s);
@@ -396,6 +397,7 @@ fn match_patches(
     let phase = PhaseOptions {
         weighting: Weighting::Phase,
         window: true,
+        smooth: 0.0,
     };
     let ties = origins
         .par_iter()

@@ -25,6 +25,35 @@ pub struct PhaseOptions {
     pub weighting: Weighting,
     /// Multiply both frames by a Hann window before the transform (against edge effects).
     pub window: bool,
+    /// Standard deviation in px of a Gaussian that smooths the correlation surface (the
+    /// cross-power spectrum weighted by exp(-smooth^2 |k|^2 / 2), k in rad/px); 0: none.
+    /// Only the low frequencies' phase measures a translation well: resampling (any
+    /// interpolation kernel's phase is not linear in k), aliasing and noise corrupt the high
+    /// ones, and the peak of the unsmoothed surface is pulled towards whole pixels (the
+    /// low-pass filter of Foroosh, Zerubia & Berthod 2002, IEEE TIP 11(3)).
+    pub smooth: f64,
+}
+
+impl PhaseOptions {
+    /// Phase correlation as `motion-sim` and `track` use it: Hann window, correlation surface
+    /// smoothed by 1.5 px (chosen on `bench/shift_vs_peers.py`'s frames).
+    pub fn phase() -> Self {
+        Self {
+            weighting: Weighting::Phase,
+            window: true,
+            smooth: 1.5,
+        }
+    }
+
+    /// Cross-correlation as `motion-sim` and `track` use it: Hann window, surface smoothed by
+    /// 1 px (its |R| |T| weights already favour the low frequencies).
+    pub fn xcorr() -> Self {
+        Self {
+            weighting: Weighting::None,
+            window: true,
+            smooth: 1.0,
+        }
+    }
 }
 
 /// Planned for one frame size; reuse it for every pair.
@@ -59,6 +88,11 @@ pub struct PhaseCorrelator {
     ex: Vec<(f64, f64)>,
     /// 2 pi k_v / h for every row v (signed frequency).
     kv: Vec<f64>,
+    /// The smoothing Gaussian's factors per column u and per row v, and its sum over the
+    /// whole spectrum (the phase correlation peak of a frame against itself).
+    gx: Vec<f32>,
+    gy: Vec<f32>,
+    g_sum: f64,
 }
 
 impl PhaseCorrelator {
@@ -69,6 +103,15 @@ impl PhaseCorrelator {
         let kv: Vec<f64> = (0..height)
             .map(|v| 2.0 * PI * signed(v, height) / height as f64)
             .collect();
+        let gauss = |k: f64| (-0.5 * (opts.smooth * k).powi(2)).exp();
+        let gx: Vec<f32> = (0..=width / 2)
+            .map(|u| gauss(2.0 * PI * u as f64 / width as f64) as f32)
+            .collect();
+        let gy: Vec<f32> = kv.iter().map(|&k| gauss(k) as f32).collect();
+        let g_sum = (0..width)
+            .map(|u| gauss(2.0 * PI * signed(u, width) / width as f64))
+            .sum::<f64>()
+            * gy.iter().map(|&g| g as f64).sum::<f64>();
         Ok(Self {
             w: width,
             h: height,
@@ -90,6 +133,9 @@ impl PhaseCorrelator {
             k2: kv.iter().map(|&k| (k * k) as f32).collect(),
             ex: vec![(0.0, 0.0); width / 2 + 1],
             kv,
+            gx,
+            gy,
+            g_sum,
         })
     }
 
@@ -186,7 +232,8 @@ impl PhaseCorrelator {
 impl PhaseCorrelator {
     /// Q = conj(R) T (weighted as configured) from the reference's spectrum and the current
     /// frame's (`spec_t`, or with `moved` the moved-window one in `work`): into `q_re`, `q_im`
-    /// (Newton's) and `work` (the coarse peak's inverse transform); returns sum |R|^2, sum |T|^2.
+    /// (Newton's) and `work` (the coarse peak's inverse transform), smoothed; returns
+    /// sum G |R|^2, sum G |T|^2 (G the smoothing Gaussian).
     fn cross_power(&mut self, moved: bool) -> (f64, f64) {
         let (w, h, phase) = (self.w, self.h, self.opts.weighting == Weighting::Phase);
         let (mut er, mut et) = (0.0f64, 0.0f64);
@@ -197,8 +244,9 @@ impl PhaseCorrelator {
                 2.0
             };
             let col = u * h..(u + 1) * h;
+            let gu = self.gx[u];
             let (mut sr, mut st) = (0.0f32, 0.0f32);
-            for (((r, t), re), im) in self.spec_r[col.clone()]
+            for ((((r, t), re), im), &gv) in self.spec_r[col.clone()]
                 .iter()
                 .zip(
                     if moved {
@@ -210,18 +258,22 @@ impl PhaseCorrelator {
                 )
                 .zip(&mut self.q_re[col.clone()])
                 .zip(&mut self.q_im[col.clone()])
+                .zip(&self.gy)
             {
-                sr += r.norm_sqr();
-                st += t.norm_sqr();
+                let g = gu * gv;
+                sr += g * r.norm_sqr();
+                st += g * t.norm_sqr();
                 let mut p = r.conj() * *t;
                 if phase {
                     // 1 / |p| by a square root of the squared norm (hypot is several times slower).
                     let m2 = p.norm_sqr();
                     p = if m2 > 0.0 {
-                        p * m2.sqrt().recip()
+                        p * (g * m2.sqrt().recip())
                     } else {
                         Complex32::default()
                     };
+                } else {
+                    p *= g;
                 }
                 (*re, *im) = (p.re, p.im);
             }
@@ -306,7 +358,7 @@ impl ShiftEstimator for PhaseCorrelator {
         }
         let norm = match self.opts.weighting {
             Weighting::None => (er * et).sqrt(),
-            Weighting::Phase => (w * h) as f64,
+            Weighting::Phase => self.g_sum,
         };
         Ok(ShiftEstimate {
             dx: x,
@@ -406,7 +458,11 @@ mod tests {
             .collect();
         for weighting in [Weighting::None, Weighting::Phase] {
             for window in [false, true] {
-                let opts = PhaseOptions { weighting, window };
+                let opts = PhaseOptions {
+                    weighting,
+                    window,
+                    smooth: 1.0,
+                };
                 let mut track = PhaseCorrelator::new(w, h, opts).unwrap();
                 for pair in frames.windows(2) {
                     let reused = track.estimate(&pair[0], &pair[1]).unwrap();
