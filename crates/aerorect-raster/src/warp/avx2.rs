@@ -16,7 +16,6 @@ use std::arch::x86_64::*;
 
 /// Per-task buffers for the AVX2 builds, one block long.
 pub(crate) struct SimdScratch {
-    pub(crate) idx: Vec<u32>,
     pub(crate) cubic: Vec<CubicTap>,
     pub(crate) base: Vec<u32>,
     /// Per pixel: 0 outside, 1 interior (all 16 taps inside), 2 on the border (taps clamped).
@@ -26,7 +25,6 @@ pub(crate) struct SimdScratch {
 impl SimdScratch {
     pub(crate) fn new() -> Self {
         Self {
-            idx: vec![0; BLOCK],
             cubic: vec![CubicTap::default(); BLOCK],
             base: vec![0; BLOCK],
             state: vec![0; BLOCK],
@@ -54,7 +52,6 @@ pub(crate) struct Consts {
     i0max_x: __m128i,
     i0max_y: __m128i,
     width: __m256i,
-    width128: __m128i,
     w_minus_2: __m256i,
     byte: __m256i,
     half: __m256,
@@ -77,7 +74,6 @@ impl Consts {
             i0max_x: _mm_set1_epi32(w as i32 - 2),
             i0max_y: _mm_set1_epi32(h as i32 - 2),
             width: _mm256_set1_epi32(w as i32),
-            width128: _mm_set1_epi32(w as i32),
             w_minus_2: _mm256_set1_epi32(w as i32 - 2),
             byte: _mm256_set1_epi32(0xFF),
             half: _mm256_set1_ps(0.5),
@@ -497,9 +493,7 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample>(
                 unsafe { T::bilinear8(&k, &t, plane, out, i, nodata) };
             }
         }
-        for (b, v) in valid[i..i + 8].iter_mut().enumerate() {
-            *v = t.mask >> b & 1 == 1;
-        }
+        store_flags(valid, i, t.mask);
         i += 8;
     }
     // The tail through the portable kernel (same arithmetic).
@@ -516,19 +510,72 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample>(
     }
 }
 
-/// Nearest taps (`Nearest::prepare`) of a block: source indices and inside flags.
+/// Nearest at eight pixels by scalar loads (they beat a gather on single samples): the
+/// samples at `at`, nodata where `mask` is clear, written to `out[..8]`.
 ///
 /// # Safety
-/// AVX2.
+/// Every index in `at` below `plane.len()`; `out.len() >= 8`.
+#[inline(always)]
+unsafe fn scalar_nearest8<T: Sample>(
+    plane: &[T],
+    at: &[u32; 8],
+    mask: i32,
+    out: &mut [T],
+    nodata: T,
+) {
+    for (d, &a) in out.iter_mut().zip(at.iter()) {
+        debug_assert!((a as usize) < plane.len());
+        // SAFETY: a < plane.len() (the contract).
+        *d = unsafe { *plane.get_unchecked(a as usize) };
+    }
+    let mut outside = !mask & 0xFF;
+    while outside != 0 {
+        out[outside.trailing_zeros() as usize] = nodata;
+        outside &= outside - 1;
+    }
+}
+
+/// Per 8-bit mask, the eight inside flags as the bytes of a `[bool; 8]` (bit b -> byte b).
+const FLAG_BYTES: [u64; 256] = {
+    let mut t = [0u64; 256];
+    let mut m = 0;
+    while m < 256 {
+        let mut b = 0;
+        while b < 8 {
+            t[m] |= ((m as u64 >> b) & 1) << (8 * b);
+            b += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
+/// Writes the eight inside flags of `mask` to `valid[i..i + 8]` with one store.
+#[inline(always)]
+fn store_flags(valid: &mut [bool], i: usize, mask: i32) {
+    let flags = &mut valid[i..i + 8];
+    // SAFETY: `flags` is 8 bools; every byte written is 0 or 1, a valid bool.
+    unsafe { (flags.as_mut_ptr() as *mut u64).write_unaligned(FLAG_BYTES[(mask & 0xFF) as usize]) };
+}
+
+/// Nearest for one block (`Nearest::prepare` and `apply`): `xs`, `ys` source positions,
+/// `planes` the source bands, `outs` the destination bands (as long as `xs`); `valid` receives
+/// the inside flags. Eight indices at a time, then one scalar load per pixel and band, straight
+/// into the output (no index buffer, no insert chain).
+///
+/// # Safety
+/// AVX2; every plane `g.width * g.height` samples.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn nearest_taps(
+pub(crate) unsafe fn nearest_block<T: Sample>(
     g: &SourceGeometry,
     xs: &[f64],
     ys: &[f64],
-    idx: &mut [u32],
+    planes: &[&[T]],
+    outs: &mut [&mut [T]],
     valid: &mut [bool],
+    nodata: T,
 ) {
-    let n = xs.len().min(ys.len()).min(idx.len()).min(valid.len());
+    let n = xs.len().min(ys.len()).min(valid.len());
     let k = Consts::new(g);
     let half = _mm256_set1_pd(0.5);
     let round = |v: __m256d, vmax: __m256d| {
@@ -537,44 +584,41 @@ pub(crate) unsafe fn nearest_taps(
             vmax,
         ))
     };
+    let mut at = [0u32; 8];
     let mut i = 0;
-    while i + 4 <= n {
-        // SAFETY: i + 4 <= n.
-        let (x, y) = unsafe { load4(xs, ys, i) };
-        let mask = _mm256_movemask_pd(k.inside(x, y));
-        let at = _mm_add_epi32(
-            _mm_mullo_epi32(round(y, k.max_y), k.width128),
-            round(x, k.max_x),
-        );
-        // SAFETY: i + 4 <= n <= idx.len().
-        unsafe { _mm_storeu_si128(idx.as_mut_ptr().add(i) as *mut __m128i, at) };
-        for (b, v) in valid[i..i + 4].iter_mut().enumerate() {
-            *v = mask >> b & 1 == 1;
+    while i + 8 <= n {
+        // SAFETY: i + 8 <= n.
+        let ((x_lo, y_lo), (x_hi, y_hi)) = unsafe { (load4(xs, ys, i), load4(xs, ys, i + 4)) };
+        let mask = _mm256_movemask_pd(k.inside(x_lo, y_lo))
+            | (_mm256_movemask_pd(k.inside(x_hi, y_hi)) << 4);
+        let ix = _mm256_set_m128i(round(x_hi, k.max_x), round(x_lo, k.max_x));
+        let iy = _mm256_set_m128i(round(y_hi, k.max_y), round(y_lo, k.max_y));
+        let idx = _mm256_add_epi32(_mm256_mullo_epi32(iy, k.width), ix);
+        // SAFETY: `at` holds eight u32.
+        unsafe { _mm256_storeu_si256(at.as_mut_ptr() as *mut __m256i, idx) };
+        for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+            let out = &mut out[i..i + 8];
+            if mask == 0 {
+                out.fill(nodata);
+                continue;
+            }
+            // SAFETY: indices are clamped into [0, w - 1] x [0, h - 1]: below plane.len().
+            unsafe { scalar_nearest8(plane, &at, mask, out, nodata) };
         }
-        i += 4;
+        store_flags(valid, i, mask);
+        i += 8;
     }
-    for k in i..n {
-        valid[k] = Nearest::prepare(g, xs[k], ys[k], &mut idx[k]);
-    }
-}
-
-/// One band of nearest from prepared taps.
-///
-/// # Safety
-/// Every `idx` below `plane.len()` (as `nearest_taps` makes them).
-#[inline]
-pub(crate) unsafe fn nearest_apply<T: Sample>(
-    plane: &[T],
-    idx: &[u32],
-    valid: &[bool],
-    nodata: T,
-    out: &mut [T],
-) {
-    for ((d, &i), &ok) in out.iter_mut().zip(idx).zip(valid) {
-        debug_assert!((i as usize) < plane.len());
-        // SAFETY: i < plane.len() (the contract).
-        let v = unsafe { *plane.get_unchecked(i as usize) };
-        *d = if ok { v } else { nodata };
+    // The tail through the portable kernel (same arithmetic).
+    for j in i..n {
+        let mut tap = 0;
+        valid[j] = Nearest::prepare(g, xs[j], ys[j], &mut tap);
+        for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+            out[j] = if valid[j] {
+                Nearest::apply(plane, g, &tap)
+            } else {
+                nodata
+            };
+        }
     }
 }
 

@@ -212,11 +212,7 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
         // SAFETY (all three arms): AVX2 is enabled; the source is at least 4 x 4 with full
         // planes; taps come from the matching `*_taps` call on the same positions.
         if kernel == TypeId::of::<Nearest>() {
-            let idx = &mut simd.idx[..n];
-            unsafe { avx2::nearest_taps(g, xs, ys, idx, valid) };
-            for (plane, o) in planes.iter().zip(outs.iter_mut()) {
-                unsafe { avx2::nearest_apply(plane, idx, valid, nodata, o) };
-            }
+            unsafe { avx2::nearest_block(g, xs, ys, planes, outs, valid, nodata) };
         } else if kernel == TypeId::of::<Bilinear>() {
             unsafe { avx2::bilinear_block(g, xs, ys, planes, outs, valid, nodata) };
         } else {
