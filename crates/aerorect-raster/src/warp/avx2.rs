@@ -496,16 +496,38 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample>(
         store_flags(valid, i, t.mask);
         i += 8;
     }
-    // The tail through the portable kernel (same arithmetic).
-    for k in i..n {
-        let mut tap = Default::default();
-        valid[k] = Bilinear::prepare(g, xs[k], ys[k], &mut tap);
-        for (plane, out) in planes.iter().zip(outs.iter_mut()) {
-            out[k] = if valid[k] {
-                Bilinear::apply(plane, g, &tap)
-            } else {
-                nodata
-            };
+    let tail = Tail { xs, ys, from: i };
+    tail.run::<Bilinear, T>(g, planes, outs, valid, nodata);
+}
+
+/// The last pixels of a block (fewer than a step), through the portable kernel: the same
+/// arithmetic, so the builds still agree to the bit.
+struct Tail<'a> {
+    xs: &'a [f64],
+    ys: &'a [f64],
+    from: usize,
+}
+
+impl Tail<'_> {
+    fn run<K: Kernel, T: Sample>(
+        &self,
+        g: &SourceGeometry,
+        planes: &[&[T]],
+        outs: &mut [&mut [T]],
+        valid: &mut [bool],
+        nodata: T,
+    ) {
+        let n = self.xs.len().min(self.ys.len()).min(valid.len());
+        for k in self.from..n {
+            let mut tap = K::Tap::default();
+            valid[k] = K::prepare(g, self.xs[k], self.ys[k], &mut tap);
+            for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+                out[k] = if valid[k] {
+                    K::apply(plane, g, &tap)
+                } else {
+                    nodata
+                };
+            }
         }
     }
 }
@@ -608,18 +630,8 @@ pub(crate) unsafe fn nearest_block<T: Sample>(
         store_flags(valid, i, mask);
         i += 8;
     }
-    // The tail through the portable kernel (same arithmetic).
-    for j in i..n {
-        let mut tap = 0;
-        valid[j] = Nearest::prepare(g, xs[j], ys[j], &mut tap);
-        for (plane, out) in planes.iter().zip(outs.iter_mut()) {
-            out[j] = if valid[j] {
-                Nearest::apply(plane, g, &tap)
-            } else {
-                nodata
-            };
-        }
-    }
+    let tail = Tail { xs, ys, from: i };
+    tail.run::<Nearest, T>(g, planes, outs, valid, nodata);
 }
 
 /// The four Keys weights of eight fractions, as `keys_weights_f32` (same operations and order),
