@@ -114,8 +114,28 @@ impl Fft2 {
     }
 }
 
-/// `dst[c * rows + r] = src[r * cols + c]` for a `rows x cols` source, in cache-friendly tiles.
+/// `dst[c * rows + r] = src[r * cols + c]` for a `rows x cols` source, in cache-friendly tiles:
+/// a tall source (the forward pass, `rows >= cols`) in strips of 64 rows, eight columns at a
+/// time, each written as a contiguous run of its destination row; a wide one in 16 x 16 tiles.
+/// (Measured on 512 x 257 and 256 x 129: the strips take 0.2 to 0.55 of the tiles' time; the
+/// other way round the tiles are faster.)
 fn transpose(src: &[Complex32], dst: &mut [Complex32], rows: usize, cols: usize) {
+    if rows >= cols {
+        const R: usize = 64;
+        const B: usize = 8;
+        for r0 in (0..rows).step_by(R) {
+            let r1 = (r0 + R).min(rows);
+            for c0 in (0..cols).step_by(B) {
+                for c in c0..(c0 + B).min(cols) {
+                    let d = &mut dst[c * rows + r0..c * rows + r1];
+                    for (k, o) in d.iter_mut().enumerate() {
+                        *o = src[(r0 + k) * cols + c];
+                    }
+                }
+            }
+        }
+        return;
+    }
     const T: usize = 16;
     for r0 in (0..rows).step_by(T) {
         for c0 in (0..cols).step_by(T) {
@@ -145,6 +165,23 @@ mod tests {
             }
         }
         (re, im)
+    }
+
+    /// Both tilings against the index definition, on shapes that leave partial tiles.
+    #[test]
+    fn transpose_moves_every_element_to_its_place() {
+        for (rows, cols) in [(130, 67), (67, 130), (9, 9), (200, 3)] {
+            let src: Vec<Complex32> = (0..rows * cols)
+                .map(|i| Complex32::new(i as f32, -(i as f32)))
+                .collect();
+            let mut dst = vec![Complex32::default(); rows * cols];
+            transpose(&src, &mut dst, rows, cols);
+            for r in 0..rows {
+                for c in 0..cols {
+                    assert_eq!(dst[c * rows + r], src[r * cols + c]);
+                }
+            }
+        }
     }
 
     #[test]

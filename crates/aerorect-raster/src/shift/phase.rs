@@ -69,7 +69,9 @@ pub struct PhaseCorrelator {
     spec_r: Vec<Complex32>,
     /// The current frame's spectrum with the unmoved window (the next pair's reference).
     spec_t: Vec<Complex32>,
-    /// Scratch for the inverse transform (it destroys its input) and the moved-window pass.
+    /// The current frame's spectrum with the moved window (the second pass).
+    spec_m: Vec<Complex32>,
+    /// The weighted cross-power spectrum for the inverse transform (which destroys it).
     work: Vec<Complex32>,
     plane: Vec<f32>,
     /// The last `current` frame, whose spectrum `spec_t` holds (when `last_valid`): a track
@@ -121,6 +123,7 @@ impl PhaseCorrelator {
             win_y: hann_table(height, 0.0),
             spec_r: vec![Complex32::default(); n],
             spec_t: vec![Complex32::default(); n],
+            spec_m: vec![Complex32::default(); n],
             work: vec![Complex32::default(); n],
             plane: vec![0.0; width * height],
             last: vec![0.0; width * height],
@@ -176,33 +179,9 @@ impl PhaseCorrelator {
             let (sn, cs) = (k * y).sin_cos();
             (*c, *s) = (cs as f32, sn as f32);
         }
-        let mut t = [0.0f64; 6]; // c, cx, cy, cxx, cyy, cxy
-        for u in 0..=w / 2 {
-            let weight = if u == 0 || (w % 2 == 0 && u == w / 2) {
-                1.0
-            } else {
-                2.0
-            };
-            let col = u * h..(u + 1) * h;
-            // S_n = sum_v Q e_y k_v^n; a0 = S0, a1 = i S1, a2 = -S2.
-            let [s0r, s0i, s1r, s1i, s2r, s2i] = column_sums(
-                &self.q_re[col.clone()],
-                &self.q_im[col],
-                [&self.ey_c, &self.ey_s, &self.k1, &self.k2],
-            );
-            let (a0, a1, a2) = ((s0r, s0i), (-s1i, s1r), (-s2r, -s2i));
-            let (c, s) = self.ex[u];
-            let kx = 2.0 * PI * u as f64 / w as f64;
-            let re = |a: (f64, f64)| a.0 * c - a.1 * s; // Re(e_x a)
-            let im = |a: (f64, f64)| a.0 * s + a.1 * c; // Im(e_x a)
-            t[0] += weight * re(a0);
-            t[1] += weight * -kx * im(a0);
-            t[2] += weight * re(a1);
-            t[3] += weight * -kx * kx * re(a0);
-            t[4] += weight * re(a2);
-            t[5] += weight * -kx * im(a1);
-        }
-        t
+        let rows = [&self.ey_c[..], &self.ey_s, &self.k1, &self.k2];
+        let (q_re, q_im, ex) = (&self.q_re[..], &self.q_im[..], &self.ex[..]);
+        newton_sums_fast((q_re, q_im), rows, ex, w, h)
     }
 
     /// Newton's method from (x, y) to the nearest maximum of the continuous correlation, until
@@ -231,59 +210,23 @@ impl PhaseCorrelator {
 
 impl PhaseCorrelator {
     /// Q = conj(R) T (weighted as configured) from the reference's spectrum and the current
-    /// frame's (`spec_t`, or with `moved` the moved-window one in `work`): into `q_re`, `q_im`
+    /// frame's (`spec_t`, or with `moved` the moved-window one in `spec_m`): into `q_re`, `q_im`
     /// (Newton's) and `work` (the coarse peak's inverse transform), smoothed; returns
     /// sum G |R|^2, sum G |T|^2 (G the smoothing Gaussian).
     fn cross_power(&mut self, moved: bool) -> (f64, f64) {
-        let (w, h, phase) = (self.w, self.h, self.opts.weighting == Weighting::Phase);
-        let (mut er, mut et) = (0.0f64, 0.0f64);
-        for u in 0..=w / 2 {
-            let weight = if u == 0 || (w % 2 == 0 && u == w / 2) {
-                1.0
-            } else {
-                2.0
-            };
-            let col = u * h..(u + 1) * h;
-            let gu = self.gx[u];
-            let (mut sr, mut st) = (0.0f32, 0.0f32);
-            for ((((r, t), re), im), &gv) in self.spec_r[col.clone()]
-                .iter()
-                .zip(
-                    if moved {
-                        &mut self.work[col.clone()]
-                    } else {
-                        &mut self.spec_t[col.clone()]
-                    }
-                    .iter_mut(),
-                )
-                .zip(&mut self.q_re[col.clone()])
-                .zip(&mut self.q_im[col.clone()])
-                .zip(&self.gy)
-            {
-                let g = gu * gv;
-                sr += g * r.norm_sqr();
-                st += g * t.norm_sqr();
-                let mut p = r.conj() * *t;
-                if phase {
-                    // 1 / |p| by a square root of the squared norm (hypot is several times slower).
-                    let m2 = p.norm_sqr();
-                    p = if m2 > 0.0 {
-                        p * (g * m2.sqrt().recip())
-                    } else {
-                        Complex32::default()
-                    };
-                } else {
-                    p *= g;
-                }
-                (*re, *im) = (p.re, p.im);
-            }
-            er += weight * sr as f64;
-            et += weight * st as f64;
+        let t = if moved { &self.spec_m } else { &self.spec_t };
+        let spectra = Spectra {
+            r: &self.spec_r,
+            t,
+            gx: &self.gx,
+            gy: &self.gy,
+            w: self.w,
+        };
+        let out = (&mut self.work[..], &mut self.q_re[..], &mut self.q_im[..]);
+        match self.opts.weighting {
+            Weighting::Phase => cross_power_fast::<true>(&spectra, out),
+            Weighting::None => cross_power_fast::<false>(&spectra, out),
         }
-        for ((q, &re), &im) in self.work.iter_mut().zip(&self.q_re).zip(&self.q_im) {
-            *q = Complex32::new(re, im);
-        }
-        (er, et)
     }
 
     /// The integer peak of the correlation plane, refined by a parabola per axis (signed shift).
@@ -346,13 +289,14 @@ impl ShiftEstimator for PhaseCorrelator {
         self.last_valid = true;
         let (mut er, mut et) = self.cross_power(false);
         let (x0, y0) = self.coarse_peak();
-        // With the window, the first estimate only places the moved window: 1e-3 px will do.
-        let first_tol = if self.opts.window { 1e-3 } else { 1e-6 };
+        // With the window, the first estimate only places the moved window: a last step under
+        // 1e-2 px will do (Newton's convergence is quadratic: it leaves about 1e-6 px here).
+        let first_tol = if self.opts.window { 1e-2 } else { 1e-6 };
         let (mut x, mut y, mut c) = self.refine(x0, y0, first_tol);
         if self.opts.window {
-            let mut spec = std::mem::take(&mut self.work);
+            let mut spec = std::mem::take(&mut self.spec_m);
             self.transform(current, mt, (x, y), &mut spec);
-            self.work = spec;
+            self.spec_m = spec;
             (er, et) = self.cross_power(true);
             (x, y, c) = self.refine(x, y, 1e-6);
         }
@@ -366,6 +310,185 @@ impl ShiftEstimator for PhaseCorrelator {
             confidence: (c / norm).clamp(0.0, 1.0),
         })
     }
+}
+
+/// Whether the lane loops below may run compiled for AVX2: the same operations in the same
+/// order (no fused multiply-add), so the results do not depend on it.
+fn avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// [`cross_power`] compiled for AVX2 where the CPU has it.
+fn cross_power_fast<const PHASE: bool>(
+    s: &Spectra,
+    out: (&mut [Complex32], &mut [f32], &mut [f32]),
+) -> (f64, f64) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2() {
+        #[target_feature(enable = "avx2")]
+        unsafe fn run<const PHASE: bool>(
+            s: &Spectra,
+            out: (&mut [Complex32], &mut [f32], &mut [f32]),
+        ) -> (f64, f64) {
+            cross_power::<PHASE>(s, out)
+        }
+        // SAFETY: the CPU has AVX2.
+        return unsafe { run::<PHASE>(s, out) };
+    }
+    cross_power::<PHASE>(s, out)
+}
+
+/// [`newton_sums`] compiled for AVX2 where the CPU has it.
+fn newton_sums_fast(
+    q: (&[f32], &[f32]),
+    rows: [&[f32]; 4],
+    ex: &[(f64, f64)],
+    w: usize,
+    h: usize,
+) -> [f64; 6] {
+    #[cfg(target_arch = "x86_64")]
+    if avx2() {
+        #[target_feature(enable = "avx2")]
+        unsafe fn run(
+            q: (&[f32], &[f32]),
+            rows: [&[f32]; 4],
+            ex: &[(f64, f64)],
+            w: usize,
+            h: usize,
+        ) -> [f64; 6] {
+            newton_sums(q, rows, ex, w, h)
+        }
+        // SAFETY: the CPU has AVX2.
+        return unsafe { run(q, rows, ex, w, h) };
+    }
+    newton_sums(q, rows, ex, w, h)
+}
+
+/// The two spectra and the smoothing Gaussian's factors (per column u, per row v).
+struct Spectra<'a> {
+    r: &'a [Complex32],
+    t: &'a [Complex32],
+    gx: &'a [f32],
+    gy: &'a [f32],
+    w: usize,
+}
+
+/// Q = G conj(R) T, divided by |R| |T| with `PHASE`, into `out` = (interleaved, real parts,
+/// imaginary parts); returns sum G |R|^2, sum G |T|^2 over the whole spectrum.
+#[inline(always)]
+fn cross_power<const PHASE: bool>(
+    s: &Spectra,
+    out: (&mut [Complex32], &mut [f32], &mut [f32]),
+) -> (f64, f64) {
+    let (q, q_re, q_im) = out;
+    let (w, h) = (s.w, s.gy.len());
+    let (mut er, mut et) = (0.0f64, 0.0f64);
+    for (u, &gu) in s.gx.iter().enumerate() {
+        let weight = if u == 0 || (w.is_multiple_of(2) && u == w / 2) {
+            1.0
+        } else {
+            2.0
+        };
+        let col = u * h..(u + 1) * h;
+        let (sr, st) = cross_column::<PHASE>(
+            (&s.r[col.clone()], &s.t[col.clone()], s.gy, gu),
+            (&mut q[col.clone()], &mut q_re[col.clone()], &mut q_im[col]),
+        );
+        er += weight * sr;
+        et += weight * st;
+    }
+    (er, et)
+}
+
+/// One column of [`cross_power`], eight lanes at a time.
+#[inline(always)]
+fn cross_column<const PHASE: bool>(
+    (r, t, gy, gu): (&[Complex32], &[Complex32], &[f32], f32),
+    (q, q_re, q_im): (&mut [Complex32], &mut [f32], &mut [f32]),
+) -> (f64, f64) {
+    const L: usize = 8;
+    let one = |a: Complex32, b: Complex32, g: f32| {
+        let (ra, tb) = (a.norm_sqr(), b.norm_sqr());
+        let scale = if !PHASE {
+            g
+        } else {
+            // 1 / |R* T| as 1 / (|R| |T|): no overflow of the squared product.
+            let m = ra.sqrt() * tb.sqrt();
+            if m > 0.0 { g / m } else { 0.0 }
+        };
+        (a.conj() * b * scale, g * ra, g * tb)
+    };
+    let (mut sr, mut st) = ([0.0f32; L], [0.0f32; L]);
+    let n = r.len() / L * L;
+    let lanes = r[..n]
+        .chunks_exact(L)
+        .zip(t[..n].chunks_exact(L))
+        .zip(gy[..n].chunks_exact(L))
+        .zip(q[..n].chunks_exact_mut(L))
+        .zip(q_re[..n].chunks_exact_mut(L))
+        .zip(q_im[..n].chunks_exact_mut(L));
+    for (((((rc, tc), gc), qc), rec), imc) in lanes {
+        let (mut pr, mut pi) = ([0.0f32; L], [0.0f32; L]);
+        for l in 0..L {
+            let (p, a, b) = one(rc[l], tc[l], gu * gc[l]);
+            (pr[l], pi[l]) = (p.re, p.im);
+            sr[l] += a;
+            st[l] += b;
+        }
+        rec.copy_from_slice(&pr);
+        imc.copy_from_slice(&pi);
+        for l in 0..L {
+            qc[l] = Complex32::new(pr[l], pi[l]);
+        }
+    }
+    let (mut er, mut et) = (
+        sr.iter().map(|&v| v as f64).sum::<f64>(),
+        st.iter().map(|&v| v as f64).sum::<f64>(),
+    );
+    for v in n..r.len() {
+        let (p, a, b) = one(r[v], t[v], gu * gy[v]);
+        (q[v], q_re[v], q_im[v]) = (p, p.re, p.im);
+        er += a as f64;
+        et += b as f64;
+    }
+    (er, et)
+}
+
+/// c, its gradient and Hessian (see `newton_terms`) from Q's parts, the per-row tables
+/// [cos, sin, k, k^2] and the per-column phase factors `ex`.
+#[inline(always)]
+fn newton_sums(
+    (q_re, q_im): (&[f32], &[f32]),
+    rows: [&[f32]; 4],
+    ex: &[(f64, f64)],
+    w: usize,
+    h: usize,
+) -> [f64; 6] {
+    let mut t = [0.0f64; 6]; // c, cx, cy, cxx, cyy, cxy
+    for (u, &(c, s)) in ex.iter().enumerate() {
+        let weight = if u == 0 || (w.is_multiple_of(2) && u == w / 2) {
+            1.0
+        } else {
+            2.0
+        };
+        let col = u * h..(u + 1) * h;
+        // S_n = sum_v Q e_y k_v^n; a0 = S0, a1 = i S1, a2 = -S2.
+        let [s0r, s0i, s1r, s1i, s2r, s2i] = column_sums(&q_re[col.clone()], &q_im[col], rows);
+        let (a0, a1, a2) = ((s0r, s0i), (-s1i, s1r), (-s2r, -s2i));
+        let kx = 2.0 * PI * u as f64 / w as f64;
+        let re = |a: (f64, f64)| a.0 * c - a.1 * s; // Re(e_x a)
+        let im = |a: (f64, f64)| a.0 * s + a.1 * c; // Im(e_x a)
+        t[0] += weight * re(a0);
+        t[1] += weight * -kx * im(a0);
+        t[2] += weight * re(a1);
+        t[3] += weight * -kx * kx * re(a0);
+        t[4] += weight * re(a2);
+        t[5] += weight * -kx * im(a1);
+    }
+    t
 }
 
 /// Hann weights of n samples, the window moved by `shift` (zero outside [-0.5, n - 0.5)).
@@ -389,6 +512,7 @@ fn fill_hann(t: &mut [f32], shift: f64) {
 
 /// [S0, S1, S2] (real and imaginary parts) of one column: S_n = sum_v Q_v e_v k_v^n with
 /// e_v = (cos, sin) and [cos, sin, k, k^2] per row in `rows`.
+#[inline(always)]
 fn column_sums(q_re: &[f32], q_im: &[f32], rows: [&[f32]; 4]) -> [f64; 6] {
     const L: usize = 8;
     let [ec, es, k1, k2] = rows;
@@ -437,6 +561,48 @@ mod tests {
     use crate::shift::sim::{add_noise, shifted_linear};
     use aerorect_core::ImageSize;
     use rand::SeedableRng;
+
+    /// The lane loops compiled for AVX2 give the plain build's results to the bit (same
+    /// operations in the same order), on spectra with a column length that leaves a tail.
+    #[test]
+    fn the_avx2_build_of_the_lane_loops_changes_nothing() {
+        let (w, h) = (10, 21);
+        let n = (w / 2 + 1) * h;
+        let spec = |k: f32| -> Vec<Complex32> {
+            (0..n)
+                .map(|i| Complex32::new((i as f32 * k).sin() * 3.0, (i as f32 * 0.7 + k).cos()))
+                .collect()
+        };
+        let (r, t) = (spec(0.37), spec(1.13));
+        let gx: Vec<f32> = (0..=w / 2).map(|u| 1.0 / (1.0 + u as f32)).collect();
+        let gy: Vec<f32> = (0..h)
+            .map(|v| 0.5 + (v as f32 * 0.1).cos() * 0.25)
+            .collect();
+        let s = Spectra {
+            r: &r,
+            t: &t,
+            gx: &gx,
+            gy: &gy,
+            w,
+        };
+        let mut a = (vec![Complex32::default(); n], vec![0.0; n], vec![0.0; n]);
+        let mut b = a.clone();
+        let ea = cross_power::<true>(&s, (&mut a.0, &mut a.1, &mut a.2));
+        let eb = cross_power_fast::<true>(&s, (&mut b.0, &mut b.1, &mut b.2));
+        assert_eq!((ea, &a), (eb, &b));
+        let ea = cross_power::<false>(&s, (&mut a.0, &mut a.1, &mut a.2));
+        let eb = cross_power_fast::<false>(&s, (&mut b.0, &mut b.1, &mut b.2));
+        assert_eq!((ea, &a), (eb, &b));
+        let rows: Vec<Vec<f32>> = (0..4)
+            .map(|k| (0..h).map(|v| (v as f32 * 0.3 + k as f32).sin()).collect())
+            .collect();
+        let rows = [&rows[0][..], &rows[1], &rows[2], &rows[3]];
+        let ex: Vec<(f64, f64)> = (0..=w / 2).map(|u| (u as f64).sin_cos()).collect();
+        assert_eq!(
+            newton_sums((&a.1, &a.2), rows, &ex, w, h),
+            newton_sums_fast((&a.1, &a.2), rows, &ex, w, h)
+        );
+    }
 
     /// A track (each frame against the previous one, whose spectrum is reused) gives exactly
     /// what a fresh estimator gives for each pair, for every option; a refused frame leaves no
