@@ -135,22 +135,8 @@ pub(super) fn prepare(
     laplacian: bool,
     dst: &mut [f32],
 ) {
-    if !laplacian {
-        for (d, s) in dst.iter_mut().zip(src) {
-            *d = s - mean;
-        }
-        return;
-    }
-    for y in 0..h {
-        for x in 0..w {
-            let p = |xx: usize, yy: usize| src[yy * w + xx];
-            let c = p(x, y);
-            let sum = p(x.saturating_sub(1), y)
-                + p((x + 1).min(w - 1), y)
-                + p(x, y.saturating_sub(1))
-                + p(x, (y + 1).min(h - 1));
-            dst[y * w + x] = 4.0 * c - sum;
-        }
+    for (y, out) in dst.chunks_exact_mut(w).take(h).enumerate() {
+        super::jtc_cross::prepared_row(src, w, h, y, mean, laplacian, out);
     }
 }
 

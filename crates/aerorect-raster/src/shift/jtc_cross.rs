@@ -178,7 +178,7 @@ impl CrossJtc {
 }
 
 /// Row y of the prepared frame: mean removed, or the 4-neighbour Laplacian (edges repeated).
-fn prepared_row(
+pub(super) fn prepared_row(
     src: &[f32],
     w: usize,
     h: usize,
