@@ -7,7 +7,8 @@
 
 use super::fft2::Fft2;
 use super::jtc::{JtcOptions, Plane};
-use super::{ShiftError, ShiftEstimate, check_frame};
+use super::pair::PairSpectra;
+use super::{ShiftError, ShiftEstimate};
 use rustfft::num_complex::Complex32;
 use std::f64::consts::PI;
 
@@ -16,13 +17,10 @@ pub(crate) struct CrossJtc {
     h: usize,
     opts: JtcOptions,
     fft: Fft2,
-    spec_r: Vec<Complex32>,
-    spec_t: Vec<Complex32>,
+    /// The frames' spectra, the current one kept for the next pair.
+    pair: PairSpectra,
     /// conj(R) T, destroyed by the inverse transform.
     work: Vec<Complex32>,
-    /// The last `current` frame, whose spectrum `spec_t` still holds (when `last_valid`).
-    last: Vec<f32>,
-    last_valid: bool,
     /// The linear cross-correlation k(s, dy) for s in -w..=w (column s + w) and dy in
     /// -h/2..=h/2 (row dy + h/2).
     window: Vec<f32>,
@@ -53,11 +51,8 @@ impl CrossJtc {
             h: height,
             opts,
             fft,
-            spec_r: vec![Complex32::default(); n],
-            spec_t: vec![Complex32::default(); n],
+            pair: PairSpectra::new(n, width, height),
             work: vec![Complex32::default(); n],
-            last: vec![0.0; width * height],
-            last_valid: false,
             window: vec![0.0; (2 * (height / 2) + 1) * cols],
             plane: vec![0.0; height * cols],
             weight,
@@ -70,28 +65,12 @@ impl CrossJtc {
         current: &[f32],
     ) -> Result<ShiftEstimate, ShiftError> {
         let (w, h) = (self.w, self.h);
-        let reuse = self.last_valid && reference == self.last.as_slice();
-        if !reuse {
-            let mr = check_frame("reference", reference, w, h)?;
-            let mut spec = std::mem::take(&mut self.spec_r);
-            self.transform(reference, mr, &mut spec);
-            self.spec_r = spec;
-        }
-        let mt = match check_frame("current", current, w, h) {
-            Ok(m) => m,
-            Err(e) => {
-                self.last_valid = false;
-                return Err(e);
-            }
-        };
-        if reuse {
-            std::mem::swap(&mut self.spec_r, &mut self.spec_t);
-        }
-        let mut spec = std::mem::take(&mut self.spec_t);
-        self.transform(current, mt, &mut spec);
-        self.spec_t = spec;
-        self.last.copy_from_slice(current);
-        self.last_valid = true;
+        let mut pair = std::mem::take(&mut self.pair);
+        let checked = pair.update((reference, current), (w, h), |f, m, out| {
+            self.transform(f, m, out)
+        });
+        self.pair = pair;
+        checked?;
         self.correlate();
         let forward = self.one_way(false);
         let backward = self.one_way(true);
@@ -120,7 +99,7 @@ impl CrossJtc {
     /// The window of the linear cross-correlation from conj(R) T.
     fn correlate(&mut self) {
         let (w, h, half) = (self.w, self.h, self.h / 2);
-        for ((q, r), t) in self.work.iter_mut().zip(&self.spec_r).zip(&self.spec_t) {
+        for ((q, r), t) in self.work.iter_mut().zip(&self.pair.r).zip(&self.pair.t) {
             *q = r.conj() * t;
         }
         let (hh, cols) = (2 * h, 2 * w + 1);
@@ -206,7 +185,7 @@ pub(super) fn prepared_row(
 mod tests {
     use super::super::jtc::{JointTransformCorrelator, SubPixel};
     use super::super::sim::{add_noise, shifted_linear};
-    use super::super::{ShiftEstimate, ShiftEstimator};
+    use super::super::{ShiftEstimate, ShiftEstimator, check_frame};
     use super::*;
     use aerorect_core::ImageSize;
     use rand::SeedableRng;

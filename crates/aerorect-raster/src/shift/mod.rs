@@ -12,6 +12,7 @@ mod fft2;
 mod jtc;
 mod jtc_cross;
 mod jtc_paper;
+mod pair;
 mod phase;
 pub mod sim;
 

@@ -4,9 +4,8 @@
 //! Guizar-Sicairos et al. (2008) as the upsampling factor grows without bound.
 
 use super::fft2::Fft2;
-use super::{
-    ShiftError, ShiftEstimate, ShiftEstimator, check_frame, check_size, parabola_vertex, signed,
-};
+use super::pair::PairSpectra;
+use super::{ShiftError, ShiftEstimate, ShiftEstimator, check_size, parabola_vertex, signed};
 use rustfft::num_complex::Complex32;
 use std::f64::consts::PI;
 
@@ -66,18 +65,14 @@ pub struct PhaseCorrelator {
     /// first estimate on the second pass).
     win_x: Vec<f32>,
     win_y: Vec<f32>,
-    spec_r: Vec<Complex32>,
-    /// The current frame's spectrum with the unmoved window (the next pair's reference).
-    spec_t: Vec<Complex32>,
+    /// The frames' spectra with the unmoved window; the current one is kept for the next pair
+    /// (a track's next reference, which is then not transformed again).
+    pair: PairSpectra,
     /// The current frame's spectrum with the moved window (the second pass).
     spec_m: Vec<Complex32>,
     /// The weighted cross-power spectrum for the inverse transform (which destroys it).
     work: Vec<Complex32>,
     plane: Vec<f32>,
-    /// The last `current` frame, whose spectrum `spec_t` holds (when `last_valid`): a track
-    /// hands it back as the next reference, which is then not transformed again.
-    last: Vec<f32>,
-    last_valid: bool,
     /// Newton workspace: Q's real and imaginary parts (same layout), per row v the phase
     /// factor cos, sin of k_v y, and k_v, k_v^2 (k_v = 2 pi signed(v) / h); per column u the
     /// phase factor of k_u x.
@@ -121,13 +116,10 @@ impl PhaseCorrelator {
             fft,
             win_x: hann_table(width, 0.0),
             win_y: hann_table(height, 0.0),
-            spec_r: vec![Complex32::default(); n],
-            spec_t: vec![Complex32::default(); n],
+            pair: PairSpectra::new(n, width, height),
             spec_m: vec![Complex32::default(); n],
             work: vec![Complex32::default(); n],
             plane: vec![0.0; width * height],
-            last: vec![0.0; width * height],
-            last_valid: false,
             q_re: vec![0.0; n],
             q_im: vec![0.0; n],
             ey_c: vec![0.0; height],
@@ -210,13 +202,13 @@ impl PhaseCorrelator {
 
 impl PhaseCorrelator {
     /// Q = conj(R) T (weighted as configured) from the reference's spectrum and the current
-    /// frame's (`spec_t`, or with `moved` the moved-window one in `spec_m`): into `q_re`, `q_im`
+    /// frame's (`pair.t`, or with `moved` the moved-window one in `spec_m`): into `q_re`, `q_im`
     /// (Newton's) and `work` (the coarse peak's inverse transform), smoothed; returns
     /// sum G |R|^2, sum G |T|^2 (G the smoothing Gaussian).
     fn cross_power(&mut self, moved: bool) -> (f64, f64) {
-        let t = if moved { &self.spec_m } else { &self.spec_t };
+        let t = if moved { &self.spec_m } else { &self.pair.t };
         let spectra = Spectra {
-            r: &self.spec_r,
+            r: &self.pair.r,
             t,
             gx: &self.gx,
             gy: &self.gy,
@@ -265,28 +257,12 @@ impl ShiftEstimator for PhaseCorrelator {
         current: &[f32],
     ) -> Result<ShiftEstimate, ShiftError> {
         let (w, h) = (self.w, self.h);
-        let reuse = self.last_valid && reference == self.last.as_slice();
-        if !reuse {
-            let mr = check_frame("reference", reference, w, h)?;
-            let mut spec = std::mem::take(&mut self.spec_r);
-            self.transform(reference, mr, (0.0, 0.0), &mut spec);
-            self.spec_r = spec;
-        }
-        let mt = match check_frame("current", current, w, h) {
-            Ok(m) => m,
-            Err(e) => {
-                self.last_valid = false;
-                return Err(e);
-            }
-        };
-        if reuse {
-            std::mem::swap(&mut self.spec_r, &mut self.spec_t);
-        }
-        let mut spec = std::mem::take(&mut self.spec_t);
-        self.transform(current, mt, (0.0, 0.0), &mut spec);
-        self.spec_t = spec;
-        self.last.copy_from_slice(current);
-        self.last_valid = true;
+        let mut pair = std::mem::take(&mut self.pair);
+        let checked = pair.update((reference, current), (w, h), |f, m, out| {
+            self.transform(f, m, (0.0, 0.0), out)
+        });
+        self.pair = pair;
+        let mt = checked?;
         let (mut er, mut et) = self.cross_power(false);
         let (x0, y0) = self.coarse_peak();
         // With the window, the first estimate only places the moved window: a last step under
