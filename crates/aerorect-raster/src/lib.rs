@@ -5,6 +5,7 @@
 //! fixed-point tables) and samples it with a kernel chosen once per call.
 
 pub mod chessboard;
+mod cpu;
 pub mod error;
 pub mod map;
 pub mod pyramid;

@@ -288,14 +288,9 @@ impl ShiftEstimator for PhaseCorrelator {
     }
 }
 
-/// Whether the lane loops below may run compiled for AVX2: the same operations in the same
-/// order (no fused multiply-add), so the results do not depend on it.
-fn avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    return std::arch::is_x86_feature_detected!("avx2");
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
+// The lane loops below may run compiled for AVX2: the same operations in the same order (no
+// fused multiply-add), so the results do not depend on it. (A generic runner taking a closure
+// does not work: the closure is not inlined into the AVX2 frame and runs plain.)
 
 /// [`cross_power`] compiled for AVX2 where the CPU has it.
 fn cross_power_fast<const PHASE: bool>(
@@ -303,7 +298,7 @@ fn cross_power_fast<const PHASE: bool>(
     out: (&mut [Complex32], &mut [f32], &mut [f32]),
 ) -> (f64, f64) {
     #[cfg(target_arch = "x86_64")]
-    if avx2() {
+    if crate::cpu::avx2() {
         #[target_feature(enable = "avx2")]
         unsafe fn run<const PHASE: bool>(
             s: &Spectra,
@@ -326,7 +321,7 @@ fn newton_sums_fast(
     h: usize,
 ) -> [f64; 6] {
     #[cfg(target_arch = "x86_64")]
-    if avx2() {
+    if crate::cpu::avx2() {
         #[target_feature(enable = "avx2")]
         unsafe fn run(
             q: (&[f32], &[f32]),

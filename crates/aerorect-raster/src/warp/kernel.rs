@@ -32,7 +32,7 @@ impl SourceGeometry {
             height,
             step_x: usize::from(width > 1),
             step_y: if height > 1 { width } else { 0 },
-            simd: allow_simd && simd_available(),
+            simd: allow_simd && crate::cpu::avx2(),
         }
     }
 
@@ -41,16 +41,6 @@ impl SourceGeometry {
     fn inside(&self, x: f64, y: f64) -> bool {
         x >= -0.5 && x < self.width as f64 - 0.5 && y >= -0.5 && y < self.height as f64 - 0.5
     }
-}
-
-#[cfg(target_arch = "x86_64")]
-fn simd_available() -> bool {
-    is_x86_feature_detected!("avx2")
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-fn simd_available() -> bool {
-    false
 }
 
 /// A resampling kernel: per-pixel taps, prepared once and applied to each band.
@@ -98,6 +88,18 @@ pub(crate) struct RowOut<'a, 'b, T> {
     pub(crate) alpha: bool,
 }
 
+impl<T: Sample> RowOut<'_, '_, T> {
+    /// With an alpha band (the last chunk): opaque where `valid`, transparent elsewhere, over
+    /// `range` of the chunk.
+    fn write_alpha(&mut self, range: std::ops::Range<usize>, valid: &[bool]) {
+        if let (true, Some(alpha)) = (self.alpha, self.chunks.last_mut()) {
+            for (d, &ok) in alpha[range].iter_mut().zip(valid) {
+                *d = if ok { T::OPAQUE } else { T::default() };
+            }
+        }
+    }
+}
+
 /// Resamples one destination row. Uses the AVX2 build of the kernels where the CPU has it.
 pub(crate) fn row<T: Sample, K: Kernel, M: PixelMap>(
     src: &Raster<T>,
@@ -109,7 +111,7 @@ pub(crate) fn row<T: Sample, K: Kernel, M: PixelMap>(
 ) {
     #[cfg(target_arch = "x86_64")]
     if g.simd && g.width >= 4 && g.height >= 4 && src.bands() <= MAX_SIMD_BANDS {
-        // SAFETY: `g.simd` is only set after `is_x86_feature_detected!("avx2")` returned true;
+        // SAFETY: `g.simd` is only set after `crate::cpu::avx2()` returned true;
         // the source is at least 4 x 4.
         let out = match same_type::<T, u8>(src, out, nodata) {
             Ok((src, out, nodata)) => {
@@ -180,7 +182,7 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
     g: &SourceGeometry,
     scratch: &mut Scratch<K>,
     nodata: T,
-    out: RowOut<'_, '_, T>,
+    mut out: RowOut<'_, '_, T>,
 ) {
     use super::avx2;
     use std::any::TypeId;
@@ -210,7 +212,7 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
         }
         let outs = &mut outs[..bands];
         // SAFETY (all three arms): AVX2 is enabled; the source is at least 4 x 4 with full
-        // planes; taps come from the matching `*_taps` call on the same positions.
+        // planes; bicubic's taps come from `bicubic_taps` on the same positions.
         if kernel == TypeId::of::<Nearest>() {
             unsafe { avx2::nearest_block(g, xs, ys, planes, outs, valid, nodata) };
         } else if kernel == TypeId::of::<Bilinear>() {
@@ -227,11 +229,7 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
                 *v = s != 0;
             }
         }
-        if out.alpha {
-            for (d, &ok) in out.chunks[bands][range].iter_mut().zip(valid.iter()) {
-                *d = if ok { T::OPAQUE } else { T::default() };
-            }
-        }
+        out.write_alpha(range, valid);
         c0 += n;
     }
 }
@@ -243,7 +241,7 @@ fn row_body<T: Sample, K: Kernel, M: PixelMap>(
     g: &SourceGeometry,
     scratch: &mut Scratch<K>,
     nodata: T,
-    out: RowOut<'_, '_, T>,
+    mut out: RowOut<'_, '_, T>,
 ) {
     let Scratch {
         xs,
@@ -273,12 +271,7 @@ fn row_body<T: Sample, K: Kernel, M: PixelMap>(
                 *d = if ok { K::apply(plane, g, tap) } else { nodata };
             }
         }
-        if out.alpha {
-            let dst = &mut out.chunks[src.bands()][range];
-            for (d, &ok) in dst.iter_mut().zip(valid.iter()) {
-                *d = if ok { T::OPAQUE } else { T::default() };
-            }
-        }
+        out.write_alpha(range, valid);
         c0 += n;
     }
 }
