@@ -241,6 +241,15 @@ fn blend(t: &Taps8, p00: __m256, p01: __m256, p10: __m256, p11: __m256) -> __m25
     _mm256_add_ps(top, _mm256_mul_ps(t.fy, _mm256_sub_ps(bottom, top)))
 }
 
+/// Eight blended values of an integer type rounded as `Sample::from_f32` rounds (v + 0.5,
+/// truncated) in 32-bit lanes, `nodata` where the pixel is outside.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn rounded(k: &Consts, t: &Taps8, v: __m256, nodata: i32) -> __m256i {
+    let q = _mm256_cvttps_epi32(_mm256_add_ps(v, k.half));
+    _mm256_blendv_epi8(_mm256_set1_epi32(nodata), q, t.lanes)
+}
+
 /// A sample type with an AVX2 bilinear step and a four-sample row load.
 pub(crate) trait SimdSample: Sample {
     /// Whether `bilinear8` reads byte windows (`Window`) where they apply.
@@ -299,9 +308,7 @@ impl SimdSample for u8 {
         let p01 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<8>(top), k.byte));
         let p10 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<16>(low), k.byte));
         let p11 = _mm256_cvtepi32_ps(_mm256_srli_epi32::<24>(low));
-        let v = blend(t, p00, p01, p10, p11);
-        let q = _mm256_cvttps_epi32(_mm256_add_ps(v, k.half));
-        let q = _mm256_blendv_epi8(_mm256_set1_epi32(i32::from(nodata)), q, t.lanes);
+        let q = rounded(k, t, blend(t, p00, p01, p10, p11), i32::from(nodata));
         let bytes = _mm256_shuffle_epi8(q, k.pick);
         let packed = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
             bytes,
@@ -380,9 +387,7 @@ impl SimdSample for u16 {
         let p01 = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(top));
         let p10 = _mm256_cvtepi32_ps(_mm256_and_si256(low, lo16));
         let p11 = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(low));
-        let v = blend(t, p00, p01, p10, p11);
-        let q = _mm256_cvttps_epi32(_mm256_add_ps(v, k.half));
-        let q = _mm256_blendv_epi8(_mm256_set1_epi32(i32::from(nodata)), q, t.lanes);
+        let q = rounded(k, t, blend(t, p00, p01, p10, p11), i32::from(nodata));
         // Lanes [q0..q3 q0..q3 | q4..q7 q4..q7] as u16, then the two low quarters together.
         let packed = _mm256_permute4x64_epi64::<0b1000>(_mm256_packus_epi32(q, q));
         debug_assert!(at + 8 <= out.len());
