@@ -11,12 +11,13 @@ Peers: cv2.resize INTER_AREA and INTER_LINEAR, cv2.warpPerspective INTER_LINEAR 
 
 usage: python3 bench/downsample_vs_peers.py [--size 1024] [--repeats 5] [--threads 1]
 """
-import argparse, json, os, subprocess, sys, tempfile, time
+import argparse, json, os, subprocess, sys, tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 from peer_env import ensure_venv  # noqa: E402
+from bench_util import median_time  # noqa: E402
 
 ensure_venv(["opencv-python-headless", "numpy"], ["cv2", "numpy"])
 import cv2  # noqa: E402
@@ -49,14 +50,6 @@ def errors(out, truth, high):
     d = out.astype(np.float64) - truth
     return float(np.sqrt(np.mean(d**2))), float(np.sqrt(np.mean(d[high] ** 2)))
 
-
-def timed(fn, repeats):
-    ts, out = [], None
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        ts.append(time.perf_counter() - t)
-    return float(np.median(ts)), out
 
 
 def main():
@@ -96,7 +89,7 @@ def main():
             src, m, (n_out, n_out), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP),
     }
     for name, fn in peers.items():
-        t, out = timed(fn, a.repeats)
+        t, out = median_time(fn, a.repeats)
         rows.append((name, t, *errors(out, truth, high)))
     area = dict((r[0], r[1]) for r in rows)["cv2.resize INTER_AREA"]
     print(f"zone plate {n_in}^2 -> {n_out}^2 (x{F}), u8, {a.threads} thread(s), median of {a.repeats}; "

@@ -28,17 +28,17 @@ other processes share the cores, so quote medians from one run.
 usage: python3 bench/frame_path.py [--frame PATH] [--runs 5] [--gcp 16x9] [--no-build]
        [--binary PATH] [--keep DIR] [--tools ours,oty,gdalwarp]
 """
-import argparse, json, os, re, shutil, statistics, subprocess, sys, tempfile, time
+import argparse, json, os, shutil, statistics, subprocess, sys, tempfile, time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 from peer_env import ensure_venv  # noqa: E402
+from bench_util import write_flat_dem, xmp_float  # noqa: E402
 
 ensure_venv(["orthority"], ["orthority", "rasterio", "numpy"])
 import numpy as np  # noqa: E402
 import rasterio  # noqa: E402
-from rasterio.transform import Affine  # noqa: E402
 
 SHARED = os.path.join(ROOT, "..", "shared", "data")
 OTY = os.path.join(sys.prefix, "bin", "oty")
@@ -61,22 +61,6 @@ def timed(cmd, cwd=None):
         os.remove(rss_file)
     return wall, rss
 
-
-def xmp_float(path, name):
-    with open(path, "rb") as f:
-        head = f.read(1 << 20).decode("latin-1")
-    m = re.search(r'drone-dji:%s="([^"]+)"' % name, head) or re.search(
-        r"<drone-dji:%s>([^<]+)<" % name, head)
-    return float(m.group(1)) if m else None
-
-
-def write_flat_dem(path, crs, bounds, z, res=1.0):
-    e0, n0 = np.floor(bounds[0] / res) * res, np.floor(bounds[1] / res) * res
-    e1, n1 = np.ceil(bounds[2] / res) * res, np.ceil(bounds[3] / res) * res
-    w, h = int(round((e1 - e0) / res)), int(round((n1 - n0) / res))
-    with rasterio.open(path, "w", driver="GTiff", width=w, height=h, count=1, dtype="float32",
-                       crs=crs, transform=Affine(res, 0, e0, 0, -res, n1)) as ds:
-        ds.write(np.full((1, h, w), z, np.float32))
 
 
 def ground_of_pixels(report, u, v):

@@ -8,12 +8,13 @@
 Creates its own venv (bench/.venv) with opencv-python-headless and numpy.
 usage: python3 bench/lens_vs_opencv.py [--repeats N]
 """
-import argparse, json, os, subprocess, sys, time
+import argparse, json, os, subprocess, sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 from peer_env import ensure_venv  # noqa: E402
+from bench_util import median_time  # noqa: E402
 
 
 
@@ -22,15 +23,6 @@ ensure_venv(["opencv-python-headless", "numpy"], ["cv2", "numpy"])
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 
-
-def median_time(fn, repeats):
-    ts = []
-    out = None
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        ts.append(time.perf_counter() - t)
-    return float(np.median(ts)), out
 
 
 def main():

@@ -35,13 +35,13 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 from peer_env import ensure_venv  # noqa: E402
+from bench_util import write_flat_dem, xmp_float  # noqa: E402
 
 ensure_venv(["orthority"], ["orthority", "rasterio", "numpy", "yaml"])
 import numpy as np  # noqa: E402
 import rasterio  # noqa: E402
 import yaml  # noqa: E402
 from rasterio.crs import CRS  # noqa: E402
-from rasterio.transform import Affine  # noqa: E402
 from rasterio.warp import Resampling, reproject  # noqa: E402
 
 SHARED = os.path.join(ROOT, "..", "shared", "data")
@@ -205,23 +205,6 @@ def find_key(d, key):
     return None
 
 
-def xmp_float(path, name):
-    with open(path, "rb") as f:
-        head = f.read(1 << 20).decode("latin-1")
-    m = re.search(r'drone-dji:%s="([^"]+)"' % name, head) or re.search(
-        r"<drone-dji:%s>([^<]+)<" % name, head)
-    return float(m.group(1)) if m else None
-
-
-def write_flat_dem(path, crs, bounds, z, res=1.0):
-    """A constant DEM over bounds (e0, n0, e1, n1), pixel corners at multiples of res."""
-    e0, n0 = np.floor(bounds[0] / res) * res, np.floor(bounds[1] / res) * res
-    e1, n1 = np.ceil(bounds[2] / res) * res, np.ceil(bounds[3] / res) * res
-    w, h = int(round((e1 - e0) / res)), int(round((n1 - n0) / res))
-    with rasterio.open(path, "w", driver="GTiff", width=w, height=h, count=1, dtype="float32",
-                       crs=crs, transform=Affine(res, 0, e0, 0, -res, n1), compress="deflate") as ds:
-        ds.write(np.full((1, h, w), z, np.float32))
-
 
 def dji_frame(photo, args, work):
     from orthority.exif import Exif
@@ -243,7 +226,8 @@ def dji_frame(photo, args, work):
     ground = alt - rel
     margin = max(50.0, 0.1 * max(b.right - b.left, b.top - b.bottom))
     dem = os.path.join(work, f"{name}_dem.tif")
-    write_flat_dem(dem, crs, (b.left - margin, b.bottom - margin, b.right + margin, b.top + margin), ground)
+    write_flat_dem(dem, crs, (b.left - margin, b.bottom - margin, b.right + margin, b.top + margin), ground,
+                   compress="deflate")
     crs_arg = f"EPSG:{crs.to_epsg()}" if crs.to_epsg() else crs.to_wkt()
     results = []
     # Orthority from EXIF/XMP alone
