@@ -6,27 +6,16 @@
 
 use aerorect_core::{Homography, ImageSize, Mat3};
 use aerorect_raster::{Interp, Raster, WarpOptions, warp_into};
+use aerorect_testkit::zone_plate::ZonePlate;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use std::time::Duration;
 
 const OUT: usize = 1024;
 const SCALE: usize = 4;
 
-/// 0.5 + 0.5 cos(k r^2), up to 0.45 cycles/px at the corners, as u8.
-fn zone_plate(n: usize) -> Raster<u8> {
-    let c = 0.5 * (n as f64 - 1.0);
-    let k = 0.45 * std::f64::consts::PI / ((n as f64 - 1.0) / std::f64::consts::SQRT_2);
-    let plane = (0..n * n)
-        .map(|i| {
-            let (x, y) = ((i % n) as f64 - c, (i / n) as f64 - c);
-            (255.0 * (0.5 + 0.5 * (k * (x * x + y * y)).cos()) + 0.5) as u8
-        })
-        .collect();
-    Raster::from_planes(ImageSize::new(n, n), vec![plane]).unwrap()
-}
-
 fn downsample_benches(c: &mut Criterion) {
-    let src = zone_plate(OUT * SCALE);
+    // 0.5 + 0.5 cos(k r^2), up to 0.45 cycles/px at the corners, as u8.
+    let src: Raster<u8> = ZonePlate::new(OUT * SCALE, 0.45).raster(255.0);
     let (s, o) = (SCALE as f64, 0.5 * (SCALE as f64 - 1.0));
     let map = Homography::new(Mat3::new(s, 0.0, o, 0.0, s, o, 0.0, 0.0, 1.0)).unwrap();
     let size = ImageSize::new(OUT, OUT);

@@ -6,6 +6,7 @@
 
 use aerorect_core::{Homography, ImageSize, Mat3};
 use aerorect_raster::{Interp, PixelMap, Raster, WarpOptions, warp};
+use aerorect_testkit::zone_plate::ZonePlate;
 
 fn opts(interp: Interp, prefilter: bool) -> WarpOptions {
     WarpOptions {
@@ -135,63 +136,6 @@ fn no_source_or_outside_gives_nodata() {
     }
 }
 
-/// The zone plate 0.5 + 0.5 cos(k r^2) about the image centre of an n x n source; its local
-/// frequency k r / pi cycles a pixel reaches `f_max` at the corners.
-struct ZonePlate {
-    n: usize,
-    k: f64,
-}
-
-impl ZonePlate {
-    fn new(n: usize, f_max: f64) -> Self {
-        let r_max = (n as f64 - 1.0) / std::f64::consts::SQRT_2;
-        Self {
-            n,
-            k: f_max * std::f64::consts::PI / r_max,
-        }
-    }
-
-    fn at(&self, x: f64, y: f64) -> f64 {
-        let c = 0.5 * (self.n as f64 - 1.0);
-        let r2 = (x - c).powi(2) + (y - c).powi(2);
-        0.5 + 0.5 * (self.k * r2).cos()
-    }
-
-    /// Local frequency at (x, y), cycles per source pixel.
-    fn frequency(&self, x: f64, y: f64) -> f64 {
-        let c = 0.5 * (self.n as f64 - 1.0);
-        self.k * ((x - c).powi(2) + (y - c).powi(2)).sqrt() / std::f64::consts::PI
-    }
-
-    fn raster(&self) -> Raster<f32> {
-        let n = self.n;
-        let plane = (0..n * n)
-            .map(|i| self.at((i % n) as f64, (i / n) as f64) as f32)
-            .collect();
-        Raster::from_planes(ImageSize::new(n, n), vec![plane]).unwrap()
-    }
-
-    /// The truth at the output resolution: the analytic function averaged over each destination
-    /// pixel's footprint (s x s points of the destination square, mapped exactly).
-    fn box_filtered<M: PixelMap>(&self, map: &M, size: ImageSize, s: usize) -> Vec<f64> {
-        (0..size.pixels())
-            .map(|i| {
-                let (c, r) = ((i % size.width) as f64, (i / size.width) as f64);
-                let mut acc = 0.0;
-                for j in 0..s {
-                    for k in 0..s {
-                        let dc = (k as f64 + 0.5) / s as f64 - 0.5;
-                        let dr = (j as f64 + 0.5) / s as f64 - 0.5;
-                        let [x, y] = map.source_of(c + dc, r + dr).unwrap();
-                        acc += self.at(x, y);
-                    }
-                }
-                acc / (s * s) as f64
-            })
-            .collect()
-    }
-}
-
 /// RMS of out - truth over the valid pixels whose local frequency (cycles per destination pixel)
 /// is in `band`.
 fn rms_in_band<M: PixelMap>(
@@ -224,7 +168,7 @@ fn rms_in_band<M: PixelMap>(
 #[test]
 fn zone_plate_aliasing_is_gone_with_average_and_prefilter() {
     let zp = ZonePlate::new(1024, 0.45);
-    let src = zp.raster();
+    let src: Raster<f32> = zp.raster(1.0);
     let h = Homography::new(Mat3::new(3.9, 0.1, 2.0, 0.05, 3.9, 2.0, 1e-5, 2e-5, 1.0)).unwrap();
     let size = ImageSize::new(256, 256);
     let truth = zp.box_filtered(&h, size, 8);
