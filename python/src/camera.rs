@@ -37,6 +37,7 @@ fn warp_options(interp: &str, nodata: f64, alpha: bool) -> PyResult<WarpOptions>
         nodata,
         alpha,
         prefilter: true,
+        ..WarpOptions::default()
     })
 }
 

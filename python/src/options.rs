@@ -79,6 +79,7 @@ impl PhotoArgs {
             nodata: self.nodata,
             alpha: self.alpha,
             prefilter: true,
+            ..WarpOptions::default()
         })
     }
 

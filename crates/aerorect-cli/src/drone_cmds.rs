@@ -178,6 +178,7 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
         nodata: a.nodata,
         alpha: a.alpha,
         prefilter: !a.no_prefilter,
+        coordinates: crate::commands::coordinates(a.exact_coordinates),
     };
     let limits = RectifyLimits {
         max_output_px: a.max_output_px,
@@ -435,6 +436,7 @@ pub fn batch(a: BatchArgs) -> Result<()> {
             nodata: a.nodata,
             alpha: false,
             prefilter: !a.no_prefilter,
+            ..WarpOptions::default()
         },
     )?;
     if a.cog {

@@ -77,6 +77,7 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
             nodata: 0.0,
             alpha: false,
             prefilter: !a.no_prefilter,
+            ..WarpOptions::default()
         },
     )?;
     let (frames, crs) = if a.flight.adjust {

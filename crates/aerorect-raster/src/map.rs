@@ -1,6 +1,6 @@
 //! Destination pixel -> source pixel maps for the warp engine.
 
-use aerorect_core::{Homography, PiecewiseAffine, PlaneTransform, Polynomial};
+use aerorect_core::{Homography, Mat3, PiecewiseAffine, PlaneTransform, Polynomial};
 
 /// Where each destination pixel comes from in the source image (pixel-centre coordinates).
 pub trait PixelMap: Sync {
@@ -17,12 +17,22 @@ pub trait PixelMap: Sync {
             (*x, *y) = (p[0], p[1]);
         }
     }
+
+    /// The map's matrix when it is a homography (source = M (col, row, 1), divided by w, and no
+    /// source where w <= 0), which lets the warp evaluate it in fast relative coordinates.
+    fn projective(&self) -> Option<Mat3> {
+        None
+    }
 }
 
 /// A homography used as `source_from_destination`; w <= 0 has no source (beyond the horizon).
 impl PixelMap for Homography {
     fn source_of(&self, col: f64, row: f64) -> Option<[f64; 2]> {
         self.map(col, row)
+    }
+
+    fn projective(&self) -> Option<Mat3> {
+        Some(*self.matrix())
     }
 
     #[inline]
@@ -79,6 +89,13 @@ impl PixelMap for PlaneTransform {
             PlaneTransform::Polynomial(p) => p.source_row(row, col0, xs, ys),
             PlaneTransform::Projective(h) => h.source_row(row, col0, xs, ys),
             PlaneTransform::Piecewise(p) => p.source_row(row, col0, xs, ys),
+        }
+    }
+
+    fn projective(&self) -> Option<Mat3> {
+        match self {
+            PlaneTransform::Projective(h) => h.projective(),
+            _ => None,
         }
     }
 }

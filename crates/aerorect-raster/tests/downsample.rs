@@ -14,6 +14,7 @@ fn opts(interp: Interp, prefilter: bool) -> WarpOptions {
         nodata: 7.0,
         alpha: true,
         prefilter,
+        ..WarpOptions::default()
     }
 }
 

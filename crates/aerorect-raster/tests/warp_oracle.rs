@@ -2,10 +2,12 @@
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)]
 
 use aerorect_core::{Homography, ImageSize, Mat3};
-use aerorect_raster::{Interp, Raster, Sample, WarpOptions, warp};
+use aerorect_raster::{Coordinates, Interp, Raster, Sample, WarpOptions, warp};
 use aerorect_testkit::{oracle_warp, textured_scene};
 
 const INTERPS: [Interp; 3] = [Interp::Nearest, Interp::Bilinear, Interp::Bicubic];
+/// Exact f64 positions, and the fast ones (f32 offsets within 5e-4 px of them).
+const COORDINATES: [Coordinates; 2] = [Coordinates::Exact, Coordinates::Fast];
 
 /// A homography with rotation, shear and perspective that leaves part of the output uncovered.
 fn test_homography() -> Homography {
@@ -16,6 +18,12 @@ fn test_homography() -> Homography {
 }
 
 fn compare<T: Sample>(src: &Raster<T>, interp: Interp, tol: f64) {
+    for coordinates in COORDINATES {
+        compare_with(src, interp, coordinates, tol);
+    }
+}
+
+fn compare_with<T: Sample>(src: &Raster<T>, interp: Interp, coordinates: Coordinates, tol: f64) {
     let h = test_homography();
     let size = ImageSize::new(83, 71);
     let opts = WarpOptions {
@@ -23,6 +31,7 @@ fn compare<T: Sample>(src: &Raster<T>, interp: Interp, tol: f64) {
         nodata: 7.0,
         alpha: true,
         prefilter: true,
+        coordinates,
     };
     let fast = warp(src, &h, size, &opts).unwrap();
     let slow = oracle_warp(src, &h, size, interp);
@@ -37,7 +46,7 @@ fn compare<T: Sample>(src: &Raster<T>, interp: Interp, tol: f64) {
                     // integers: the oracle's exact value rounds to within 1 of ours
                     assert!(
                         (f - v).abs() <= tol,
-                        "{interp:?} {} band {b} px {i}: {f} vs {v}",
+                        "{interp:?} {coordinates:?} {} band {b} px {i}: {f} vs {v}",
                         T::NAME
                     );
                     assert_eq!(alpha, T::OPAQUE);
@@ -140,6 +149,7 @@ fn footprint_edges_follow_the_convention() {
         nodata: 99.0,
         alpha: false,
         prefilter: true,
+        ..WarpOptions::default()
     };
     let out = warp(
         &src,
@@ -186,7 +196,8 @@ fn builds_agree<T: Sample>(src: &Raster<T>, h: &Homography, size: ImageSize, opt
     let mut b = Raster::new(size, bands).unwrap();
     aerorect_raster::warp_into(src, h, opts, &mut a).unwrap();
     aerorect_raster::warp_into_portable(src, h, opts, &mut b).unwrap();
-    assert_eq!(a, b, "{:?} {} x {}", opts.interp, T::NAME, src.bands());
+    let what = (opts.interp, opts.coordinates, T::NAME, src.bands());
+    assert_eq!(a, b, "{what:?}");
 }
 
 #[test]
@@ -198,13 +209,17 @@ fn simd_and_portable_builds_agree_exactly() {
     ))
     .unwrap();
     let size = ImageSize::new(700, 90);
-    for h in [test_homography(), mild] {
+    for (h, coordinates) in [test_homography(), mild]
+        .into_iter()
+        .flat_map(|h| COORDINATES.map(|c| (h, c)))
+    {
         for interp in INTERPS {
             let opts = WarpOptions {
                 interp,
                 nodata: 3.0,
                 alpha: true,
                 prefilter: true,
+                coordinates,
             };
             for bands in [1, 3, 4] {
                 let src8: Raster<u8> =
@@ -238,6 +253,7 @@ fn tiny_sources_match_the_oracle() {
                     nodata: 1.0,
                     alpha: false,
                     prefilter: true,
+                    ..WarpOptions::default()
                 },
             )
             .unwrap();
@@ -255,4 +271,32 @@ fn tiny_sources_match_the_oracle() {
             }
         }
     }
+}
+
+#[test]
+fn fast_coordinates_change_u8_outputs_by_at_most_one_level() {
+    // Positions within 5e-4 px move a bilinear value by at most 255 x 5e-4 < 0.13 before
+    // rounding, so a sample can only round the other way, by one level, and rarely.
+    let h = Homography::new(Mat3::new(
+        0.95, 0.08, 20.0, -0.06, 0.9, 40.0, 5e-5, 8e-5, 1.0,
+    ))
+    .unwrap();
+    let src: Raster<u8> = textured_scene(ImageSize::new(1024, 1024), 1, 255.0, 5);
+    let size = ImageSize::new(1024, 1024);
+    let run = |coordinates| {
+        let opts = WarpOptions {
+            coordinates,
+            ..WarpOptions::default()
+        };
+        warp(&src, &h, size, &opts).unwrap()
+    };
+    let (exact, fast) = (run(Coordinates::Exact), run(Coordinates::Fast));
+    let (mut differ, mut inside) = (0usize, 0usize);
+    for (a, b) in exact.plane(0).iter().zip(fast.plane(0)) {
+        assert!(a.abs_diff(*b) <= 1, "{a} vs {b}");
+        differ += usize::from(a != b);
+        inside += usize::from(*a != 0);
+    }
+    assert!(inside > 500_000, "{inside} pixels inside");
+    assert!(differ * 1000 < inside, "{differ} of {inside} pixels differ");
 }

@@ -88,6 +88,7 @@ pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
             nodata: 0.0,
             alpha: true,
             prefilter: true,
+            ..WarpOptions::default()
         };
         let limits = RectifyLimits::default();
         let plan = RectifyPlan::new(camera.clone(), attitude, None, limits, warp)?;

@@ -202,6 +202,7 @@ fn plan_frame(
             nodata: f64::NAN,
             alpha: false,
             prefilter: true,
+            ..WarpOptions::default()
         },
         limits: aerorect_core::RectifyLimits {
             max_output_px: 4_000_000,
@@ -613,6 +614,7 @@ impl FlightPlan {
             nodata: f64::NAN,
             alpha: false,
             prefilter: true,
+            ..WarpOptions::default()
         };
         plan_ortho(&req, warp).map_err(|e| Error::Invalid(format!("{}: {e}", f.input.display())))
     }

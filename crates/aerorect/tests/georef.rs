@@ -102,6 +102,7 @@ fn plan(cam: &Camera, pose: Pose, ground: &Ground) -> OrthoPlan {
         nodata: f64::NAN,
         alpha: false,
         prefilter: true,
+        ..WarpOptions::default()
     };
     plan_ortho(&req, warp).unwrap()
 }

@@ -74,6 +74,7 @@ fn plan(cam: &Camera, pose: Pose) -> OrthoPlan {
         nodata: f64::NAN,
         alpha: false,
         prefilter: true,
+        ..WarpOptions::default()
     };
     plan_ortho(&req, warp).unwrap()
 }

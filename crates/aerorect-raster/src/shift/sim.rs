@@ -6,7 +6,7 @@
 //! noise variance, for each frame separately.
 
 use super::fft2::Fft2;
-use crate::{Interp, Raster, WarpOptions, warp};
+use crate::{Coordinates, Interp, Raster, WarpOptions, warp};
 use aerorect_core::{Homography, ImageSize};
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
@@ -30,6 +30,8 @@ pub fn shifted_linear(
         nodata: 0.0,
         alpha: false,
         prefilter: true,
+        // A simulator's shift is the truth the estimators are scored against.
+        coordinates: Coordinates::Exact,
     };
     match warp(scene, &map, size, &opts) {
         Ok(r) => r.plane(0).to_vec(),

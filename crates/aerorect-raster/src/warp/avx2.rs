@@ -11,6 +11,7 @@
 //!   vector and then horizontally; taps that cross the border go through the portable kernel.
 
 use super::kernel::{BLOCK, Bicubic, Bilinear, Kernel, Nearest, SourceGeometry};
+use super::relative::RelativeBlock;
 use crate::raster::Sample;
 use std::arch::x86_64::*;
 
@@ -20,11 +21,16 @@ pub(crate) struct SimdScratch {
     pub(crate) base: Vec<u32>,
     /// Per pixel: 0 outside, 1 interior (all 16 taps inside), 2 on the border (taps clamped).
     pub(crate) state: Vec<u8>,
+    /// Fast offsets of a block (`Buffered`).
+    pub(crate) px: Vec<f32>,
+    pub(crate) py: Vec<f32>,
 }
 
 impl SimdScratch {
     pub(crate) fn new() -> Self {
         Self {
+            px: vec![0.0; BLOCK],
+            py: vec![0.0; BLOCK],
             cubic: vec![CubicTap::default(); BLOCK],
             base: vec![0; BLOCK],
             state: vec![0; BLOCK],
@@ -466,27 +472,26 @@ impl SimdSample for f32 {
     }
 }
 
-/// Bilinear for one block: `xs`, `ys` source positions, `planes` the source bands, `outs` the
-/// destination bands (as long as `xs`); `valid` receives the inside flags.
+/// Bilinear for one block: `pos` the source positions, `planes` the source bands, `outs` the
+/// destination bands (as long as `pos`); `valid` receives the inside flags.
 ///
 /// # Safety
 /// AVX2; the source at least 2 x 2 (`g.width, g.height >= 2`), every plane `g.width * g.height`.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn bilinear_block<T: SimdSample>(
+pub(crate) unsafe fn bilinear_block<T: SimdSample, P: Positions>(
     g: &SourceGeometry,
-    xs: &[f64],
-    ys: &[f64],
+    pos: &P,
     planes: &[&[T]],
     outs: &mut [&mut [T]],
     valid: &mut [bool],
     nodata: T,
 ) {
-    let n = xs.len().min(ys.len()).min(valid.len());
+    let n = pos.len().min(valid.len());
     let k = Consts::new(g);
     let mut i = 0;
     while i + 8 <= n {
         // SAFETY: i + 8 <= n.
-        let t = unsafe { bilinear_taps8(&k, xs, ys, i, T::WINDOWS) };
+        let t = unsafe { pos.bilinear8(&k, i, T::WINDOWS) };
         if t.mask == 0 {
             // All eight outside (common around an ortho's footprint): no loads.
             for out in outs.iter_mut() {
@@ -501,19 +506,304 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample>(
         store_flags(valid, i, t.mask);
         i += 8;
     }
-    let tail = Tail { xs, ys, from: i };
-    tail.run::<Bilinear, T>(g, planes, outs, valid, nodata);
+    pos.tail(i)
+        .run::<Bilinear, T>(g, planes, outs, valid, nodata);
+}
+
+/// The source positions of one block, eight at a time as kernel taps.
+pub(crate) trait Positions {
+    fn len(&self) -> usize;
+
+    /// The nearest kernel's sample indices of pixels i..i + 8 (clamped into the image) and
+    /// their inside bits.
+    ///
+    /// # Safety
+    /// AVX2; i + 8 <= len.
+    unsafe fn nearest8(&self, k: &Consts, i: usize) -> (__m256i, i32);
+
+    /// The bilinear taps of pixels i..i + 8.
+    ///
+    /// # Safety
+    /// AVX2; i + 8 <= len.
+    unsafe fn bilinear8(&self, k: &Consts, i: usize, with_window: bool) -> Taps8;
+
+    /// The pixels from `from` on (fewer than eight), as f64 positions.
+    fn tail(&self, from: usize) -> Tail;
+}
+
+/// Positions given in f64 (`Coordinates::Exact`, or a block the fast ones do not cover).
+pub(crate) struct Exact<'a> {
+    pub(crate) xs: &'a [f64],
+    pub(crate) ys: &'a [f64],
+}
+
+impl Positions for Exact<'_> {
+    fn len(&self) -> usize {
+        self.xs.len().min(self.ys.len())
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn nearest8(&self, k: &Consts, i: usize) -> (__m256i, i32) {
+        let half = _mm256_set1_pd(0.5);
+        let round = |v: __m256d, vmax: __m256d| {
+            _mm256_cvttpd_epi32(_mm256_min_pd(
+                _mm256_max_pd(_mm256_add_pd(v, half), k.zero),
+                vmax,
+            ))
+        };
+        // SAFETY: i + 8 <= len (the contract).
+        let ((x_lo, y_lo), (x_hi, y_hi)) =
+            unsafe { (load4(self.xs, self.ys, i), load4(self.xs, self.ys, i + 4)) };
+        let mask = _mm256_movemask_pd(k.inside(x_lo, y_lo))
+            | (_mm256_movemask_pd(k.inside(x_hi, y_hi)) << 4);
+        let ix = _mm256_set_m128i(round(x_hi, k.max_x), round(x_lo, k.max_x));
+        let iy = _mm256_set_m128i(round(y_hi, k.max_y), round(y_lo, k.max_y));
+        (_mm256_add_epi32(_mm256_mullo_epi32(iy, k.width), ix), mask)
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bilinear8(&self, k: &Consts, i: usize, with_window: bool) -> Taps8 {
+        // SAFETY: the contract.
+        unsafe { bilinear_taps8(k, self.xs, self.ys, i, with_window) }
+    }
+
+    fn tail(&self, from: usize) -> Tail {
+        let mut tail = Tail::new(from, self.len());
+        let n = tail.n;
+        tail.xs[..n].copy_from_slice(&self.xs[from..from + n]);
+        tail.ys[..n].copy_from_slice(&self.ys[from..from + n]);
+        tail
+    }
+}
+
+/// Fast positions (`relative::RelativeBlock`): f32 offsets from the block's integer origin,
+/// compared against the image's limits moved by the origin. Every operation is that of
+/// `RelativeBlock::offset` and of the portable kernels on `origin + offset`, so the builds agree
+/// bit for bit.
+pub(crate) struct Relative {
+    block: RelativeBlock,
+    n: usize,
+    first: [__m256; 2],
+    slope: [__m256; 2],
+    c: __m256,
+    one: __m256,
+    lanes: __m256,
+    /// Inside: shift - 0.5 - origin <= offset < n + shift - 0.5 - origin, per axis.
+    lo: [__m256; 2],
+    hi: [__m256; 2],
+    /// Clamped positions: [-origin, n - 1 - origin], per axis.
+    cmin: [__m256; 2],
+    cmax: [__m256; 2],
+    origin: [__m256i; 2],
+}
+
+impl Relative {
+    /// The vectors of `block`'s `n` pixels on the source of `g`.
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn new(g: &SourceGeometry, block: &RelativeBlock, n: usize) -> Self {
+        let size = [g.width() as f32, g.height() as f32];
+        let o = block.origin.map(|v| v as f32);
+        // Inside: -0.5 <= x < n - 0.5, with x = origin + offset - shift.
+        let edge = block.shift as f32 - 0.5;
+        let per_axis = |f: &dyn Fn(usize) -> f32| [_mm256_set1_ps(f(0)), _mm256_set1_ps(f(1))];
+        Self {
+            block: *block,
+            n,
+            first: per_axis(&|a| block.first[a]),
+            slope: per_axis(&|a| block.slope[a]),
+            c: _mm256_set1_ps(block.c),
+            one: _mm256_set1_ps(1.0),
+            lanes: _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0),
+            lo: per_axis(&|a| edge - o[a]),
+            hi: per_axis(&|a| size[a] + edge - o[a]),
+            cmin: per_axis(&|a| -o[a]),
+            cmax: per_axis(&|a| size[a] - 1.0 - o[a]),
+            origin: block.origin.map(|v| _mm256_set1_epi32(v)),
+        }
+    }
+
+    /// The offsets of pixels i..i + 8 (`RelativeBlock::offset`).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn offsets8(&self, i: usize) -> [__m256; 2] {
+        let k = _mm256_add_ps(_mm256_set1_ps(i as f32), self.lanes);
+        let den = _mm256_add_ps(self.one, _mm256_mul_ps(self.c, k));
+        let kr = _mm256_mul_ps(k, _mm256_div_ps(self.one, den));
+        [0, 1].map(|a| _mm256_add_ps(self.first[a], _mm256_mul_ps(self.slope[a], kr)))
+    }
+
+    /// The offsets of the first `px.len()` pixels (a multiple of eight), ahead of a kernel
+    /// whose loads should not wait on the division (`Buffered`).
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn fill_offsets(&self, px: &mut [f32], py: &mut [f32]) {
+        let n = px.len().min(py.len());
+        let mut i = 0;
+        while i + 8 <= n {
+            let p = self.offsets8(i);
+            // SAFETY: i + 8 <= n, the length of both.
+            unsafe {
+                _mm256_storeu_ps(px.as_mut_ptr().add(i), p[0]);
+                _mm256_storeu_ps(py.as_mut_ptr().add(i), p[1]);
+            }
+            i += 8;
+        }
+    }
+
+    /// The lanes of offsets `p` inside the image.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn inside8(&self, p: &[__m256; 2]) -> __m256 {
+        let inside = |a: usize| {
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GE_OQ>(p[a], self.lo[a]),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(p[a], self.hi[a]),
+            )
+        };
+        _mm256_and_ps(inside(0), inside(1))
+    }
+
+    /// With the nearest kernel's shift (`Nearest::FAST_SHIFT`), floor(x + 0.5) is
+    /// origin + floor(offset), and x is inside where 0 <= origin + offset < n: `lo` and `hi`
+    /// are -origin and n - origin here. Lanes outside get index 0 (their output is nodata).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn nearest_taps(&self, k: &Consts, p: [__m256; 2]) -> (__m256i, i32) {
+        let inside = self.inside8(&p);
+        let index = |a: usize| {
+            let f = _mm256_cvttps_epi32(_mm256_floor_ps(p[a]));
+            _mm256_add_epi32(f, self.origin[a])
+        };
+        let idx = _mm256_add_epi32(_mm256_mullo_epi32(index(1), k.width), index(0));
+        let idx = _mm256_and_si256(idx, _mm256_castps_si256(inside));
+        (idx, _mm256_movemask_ps(inside))
+    }
+
+    /// `left_neighbour` on origin + offset: the clamp, floor and fraction in f32 are exact.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn bilinear_taps(&self, k: &Consts, p: [__m256; 2], with_window: bool) -> Taps8 {
+        let inside = self.inside8(&p);
+        let split = |a: usize, imax: i32| {
+            let c = _mm256_min_ps(_mm256_max_ps(p[a], self.cmin[a]), self.cmax[a]);
+            let rel = _mm256_cvttps_epi32(_mm256_floor_ps(c));
+            let i0 = _mm256_min_epi32(
+                _mm256_add_epi32(rel, self.origin[a]),
+                _mm256_set1_epi32(imax),
+            );
+            let f = _mm256_sub_ps(c, _mm256_cvtepi32_ps(_mm256_sub_epi32(i0, self.origin[a])));
+            (i0, f)
+        };
+        let (x0, fx) = split(0, k.size.0 - 2);
+        let (y0, fy) = split(1, k.size.1 - 2);
+        Taps8 {
+            off: _mm256_add_epi32(_mm256_mullo_epi32(y0, k.width), x0),
+            fx,
+            fy,
+            lanes: _mm256_castps_si256(inside),
+            mask: _mm256_movemask_ps(inside),
+            window: if with_window { window(k, x0, y0) } else { None },
+        }
+    }
+}
+
+/// Fused: each step computes its eight offsets (best for nearest, whose loads are cheap).
+impl Positions for Relative {
+    fn len(&self) -> usize {
+        self.n
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn nearest8(&self, k: &Consts, i: usize) -> (__m256i, i32) {
+        self.nearest_taps(k, self.offsets8(i))
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bilinear8(&self, k: &Consts, i: usize, with_window: bool) -> Taps8 {
+        self.bilinear_taps(k, self.offsets8(i), with_window)
+    }
+
+    fn tail(&self, from: usize) -> Tail {
+        let mut tail = Tail::new(from, self.n);
+        let n = tail.n;
+        self.block.fill(from, &mut tail.xs[..n], &mut tail.ys[..n]);
+        tail
+    }
+}
+
+/// Offsets computed ahead (`Relative::fill_offsets`) and read back eight at a time: best for
+/// bilinear, whose gathers then do not wait on the division.
+pub(crate) struct Buffered<'a> {
+    pub(crate) rel: &'a Relative,
+    /// At least `rel.len()` rounded down to a multiple of eight (every whole step).
+    pub(crate) px: &'a [f32],
+    pub(crate) py: &'a [f32],
+}
+
+impl Buffered<'_> {
+    /// # Safety
+    /// AVX2; i + 8 <= px.len(), py.len().
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn load8(&self, i: usize) -> [__m256; 2] {
+        debug_assert!(i + 8 <= self.px.len() && i + 8 <= self.py.len());
+        // SAFETY: the contract.
+        unsafe {
+            [
+                _mm256_loadu_ps(self.px.as_ptr().add(i)),
+                _mm256_loadu_ps(self.py.as_ptr().add(i)),
+            ]
+        }
+    }
+}
+
+impl Positions for Buffered<'_> {
+    fn len(&self) -> usize {
+        self.rel.n
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn nearest8(&self, k: &Consts, i: usize) -> (__m256i, i32) {
+        // SAFETY: i + 8 <= len, so within the buffers.
+        self.rel.nearest_taps(k, unsafe { self.load8(i) })
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bilinear8(&self, k: &Consts, i: usize, with_window: bool) -> Taps8 {
+        // SAFETY: i + 8 <= len, so within the buffers.
+        self.rel
+            .bilinear_taps(k, unsafe { self.load8(i) }, with_window)
+    }
+
+    fn tail(&self, from: usize) -> Tail {
+        self.rel.tail(from)
+    }
 }
 
 /// The last pixels of a block (fewer than a step), through the portable kernel: the same
 /// arithmetic, so the builds still agree to the bit.
-struct Tail<'a> {
-    xs: &'a [f64],
-    ys: &'a [f64],
+pub(crate) struct Tail {
     from: usize,
+    n: usize,
+    xs: [f64; 8],
+    ys: [f64; 8],
 }
 
-impl Tail<'_> {
+impl Tail {
+    fn new(from: usize, len: usize) -> Self {
+        Self {
+            from,
+            n: len.saturating_sub(from).min(8),
+            xs: [0.0; 8],
+            ys: [0.0; 8],
+        }
+    }
+
     fn run<K: Kernel, T: Sample>(
         &self,
         g: &SourceGeometry,
@@ -522,12 +812,12 @@ impl Tail<'_> {
         valid: &mut [bool],
         nodata: T,
     ) {
-        let n = self.xs.len().min(self.ys.len()).min(valid.len());
-        for k in self.from..n {
+        for j in 0..self.n {
+            let at = self.from + j;
             let mut tap = K::Tap::default();
-            valid[k] = K::prepare(g, self.xs[k], self.ys[k], &mut tap);
+            valid[at] = K::prepare(g, self.xs[j], self.ys[j], &mut tap);
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
-                out[k] = if valid[k] {
+                out[at] = if valid[at] {
                     K::apply(plane, g, &tap)
                 } else {
                     nodata
@@ -585,42 +875,29 @@ fn store_flags(valid: &mut [bool], i: usize, mask: i32) {
     unsafe { (flags.as_mut_ptr() as *mut u64).write_unaligned(FLAG_BYTES[(mask & 0xFF) as usize]) };
 }
 
-/// Nearest for one block (`Nearest::prepare` and `apply`): `xs`, `ys` source positions,
-/// `planes` the source bands, `outs` the destination bands (as long as `xs`); `valid` receives
+/// Nearest for one block (`Nearest::prepare` and `apply`): `pos` the source positions,
+/// `planes` the source bands, `outs` the destination bands (as long as `pos`); `valid` receives
 /// the inside flags. Eight indices at a time, then one scalar load per pixel and band, straight
 /// into the output (no index buffer, no insert chain).
 ///
 /// # Safety
 /// AVX2; every plane `g.width * g.height` samples.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn nearest_block<T: Sample>(
+pub(crate) unsafe fn nearest_block<T: Sample, P: Positions>(
     g: &SourceGeometry,
-    xs: &[f64],
-    ys: &[f64],
+    pos: &P,
     planes: &[&[T]],
     outs: &mut [&mut [T]],
     valid: &mut [bool],
     nodata: T,
 ) {
-    let n = xs.len().min(ys.len()).min(valid.len());
+    let n = pos.len().min(valid.len());
     let k = Consts::new(g);
-    let half = _mm256_set1_pd(0.5);
-    let round = |v: __m256d, vmax: __m256d| {
-        _mm256_cvttpd_epi32(_mm256_min_pd(
-            _mm256_max_pd(_mm256_add_pd(v, half), k.zero),
-            vmax,
-        ))
-    };
     let mut at = [0u32; 8];
     let mut i = 0;
     while i + 8 <= n {
         // SAFETY: i + 8 <= n.
-        let ((x_lo, y_lo), (x_hi, y_hi)) = unsafe { (load4(xs, ys, i), load4(xs, ys, i + 4)) };
-        let mask = _mm256_movemask_pd(k.inside(x_lo, y_lo))
-            | (_mm256_movemask_pd(k.inside(x_hi, y_hi)) << 4);
-        let ix = _mm256_set_m128i(round(x_hi, k.max_x), round(x_lo, k.max_x));
-        let iy = _mm256_set_m128i(round(y_hi, k.max_y), round(y_lo, k.max_y));
-        let idx = _mm256_add_epi32(_mm256_mullo_epi32(iy, k.width), ix);
+        let (idx, mask) = unsafe { pos.nearest8(&k, i) };
         // SAFETY: `at` holds eight u32.
         unsafe { _mm256_storeu_si256(at.as_mut_ptr() as *mut __m256i, idx) };
         for (plane, out) in planes.iter().zip(outs.iter_mut()) {
@@ -635,8 +912,8 @@ pub(crate) unsafe fn nearest_block<T: Sample>(
         store_flags(valid, i, mask);
         i += 8;
     }
-    let tail = Tail { xs, ys, from: i };
-    tail.run::<Nearest, T>(g, planes, outs, valid, nodata);
+    pos.tail(i)
+        .run::<Nearest, T>(g, planes, outs, valid, nodata);
 }
 
 /// The four Keys weights of eight fractions, as `keys_weights_f32` (same operations and order),

@@ -1,7 +1,9 @@
 //! Resampling kernels: prepare each destination pixel's taps once, then apply them to every band.
 
+use super::relative::RelativeBlock;
 use crate::map::PixelMap;
 use crate::raster::{Raster, Sample};
+use aerorect_core::Mat3;
 
 /// What the kernels need to know of the source image.
 pub(crate) struct SourceGeometry {
@@ -46,6 +48,9 @@ impl SourceGeometry {
 /// A resampling kernel: per-pixel taps, prepared once and applied to each band.
 pub(crate) trait Kernel: 'static {
     type Tap: Copy + Default + Send;
+    /// Added to fast positions before they are split into an integer origin and an f32
+    /// offset (`RelativeBlock::new`): the kernel's own rounding then falls on the offset.
+    const FAST_SHIFT: f64 = 0.0;
     /// Writes the taps of source position (x, y); false when (x, y) is outside the image.
     fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut Self::Tap) -> bool;
     fn apply<T: Sample>(plane: &[T], g: &SourceGeometry, tap: &Self::Tap) -> T;
@@ -77,6 +82,34 @@ impl<K: Kernel> Scratch<K> {
     }
 }
 
+/// What every row of one warp shares: the map, its matrix when positions are fast
+/// (`Coordinates::Fast` on a projective map), the nodata value and whether alpha is written.
+pub(crate) struct RowPlan<'a, M, T> {
+    pub(crate) map: &'a M,
+    pub(crate) fast: Option<&'a Mat3>,
+    pub(crate) nodata: T,
+    pub(crate) alpha: bool,
+}
+
+impl<M: PixelMap, T> RowPlan<'_, M, T> {
+    /// The block's fast positions for kernel `K` where they apply (`RelativeBlock::new`).
+    #[inline]
+    fn relative<K: Kernel>(&self, row: usize, col0: usize, n: usize) -> Option<RelativeBlock> {
+        self.fast
+            .and_then(|m| RelativeBlock::new(m, row, col0, n, K::FAST_SHIFT))
+    }
+
+    /// Fills the source positions of `xs.len()` pixels from (`col0`, `row`) for kernel `K`:
+    /// fast where the block allows, exact otherwise.
+    #[inline]
+    fn positions<K: Kernel>(&self, row: usize, col0: usize, xs: &mut [f64], ys: &mut [f64]) {
+        match self.relative::<K>(row, col0, xs.len()) {
+            Some(block) => block.fill(0, xs, ys),
+            None => self.map.source_row(row, col0, xs, ys),
+        }
+    }
+}
+
 /// One destination row inside a task's chunks (one chunk per band, alpha last).
 pub(crate) struct RowOut<'a, 'b, T> {
     pub(crate) chunks: &'a mut [&'b mut [T]],
@@ -103,47 +136,46 @@ impl<T: Sample> RowOut<'_, '_, T> {
 /// Resamples one destination row. Uses the AVX2 build of the kernels where the CPU has it.
 pub(crate) fn row<T: Sample, K: Kernel, M: PixelMap>(
     src: &Raster<T>,
-    map: &M,
+    plan: &RowPlan<'_, M, T>,
     g: &SourceGeometry,
     scratch: &mut Scratch<K>,
-    nodata: T,
     out: RowOut<'_, '_, T>,
 ) {
     #[cfg(target_arch = "x86_64")]
     if g.simd && g.width >= 4 && g.height >= 4 && src.bands() <= MAX_SIMD_BANDS {
         // SAFETY: `g.simd` is only set after `crate::cpu::avx2()` returned true;
         // the source is at least 4 x 4.
-        let out = match same_type::<T, u8>(src, out, nodata) {
-            Ok((src, out, nodata)) => {
-                return unsafe { row_avx2::<u8, K, M>(src, map, g, scratch, nodata, out) };
+        let out = match same_type::<T, u8, M>(src, plan, out) {
+            Ok((src, plan, out)) => {
+                return unsafe { row_avx2::<u8, K, M>(src, &plan, g, scratch, out) };
             }
             Err(out) => out,
         };
-        let out = match same_type::<T, u16>(src, out, nodata) {
-            Ok((src, out, nodata)) => {
-                return unsafe { row_avx2::<u16, K, M>(src, map, g, scratch, nodata, out) };
+        let out = match same_type::<T, u16, M>(src, plan, out) {
+            Ok((src, plan, out)) => {
+                return unsafe { row_avx2::<u16, K, M>(src, &plan, g, scratch, out) };
             }
             Err(out) => out,
         };
-        let out = match same_type::<T, f32>(src, out, nodata) {
-            Ok((src, out, nodata)) => {
-                return unsafe { row_avx2::<f32, K, M>(src, map, g, scratch, nodata, out) };
+        let out = match same_type::<T, f32, M>(src, plan, out) {
+            Ok((src, plan, out)) => {
+                return unsafe { row_avx2::<f32, K, M>(src, &plan, g, scratch, out) };
             }
             Err(out) => out,
         };
-        return row_body::<T, K, M>(src, map, g, scratch, nodata, out);
+        return row_body::<T, K, M>(src, plan, g, scratch, out);
     }
-    row_body::<T, K, M>(src, map, g, scratch, nodata, out);
+    row_body::<T, K, M>(src, plan, g, scratch, out);
 }
 
-/// The source, row and nodata as sample type `S` when `T` is `S`; the row back otherwise.
+/// The source, plan and row as sample type `S` when `T` is `S`; the row back otherwise.
 #[cfg(target_arch = "x86_64")]
 #[allow(clippy::type_complexity)]
-fn same_type<'s, 'a, 'b, T: Sample, S: Sample>(
+fn same_type<'s, 'p, 'a, 'b, T: Sample, S: Sample, M>(
     src: &'s Raster<T>,
+    plan: &RowPlan<'p, M, T>,
     out: RowOut<'a, 'b, T>,
-    nodata: T,
-) -> Result<(&'s Raster<S>, RowOut<'a, 'b, S>, S), RowOut<'a, 'b, T>> {
+) -> Result<(&'s Raster<S>, RowPlan<'p, M, S>, RowOut<'a, 'b, S>), RowOut<'a, 'b, T>> {
     use std::any::TypeId;
     if TypeId::of::<T>() != TypeId::of::<S>() {
         return Err(out);
@@ -153,8 +185,14 @@ fn same_type<'s, 'a, 'b, T: Sample, S: Sample>(
         (
             &*(src as *const Raster<T> as *const Raster<S>),
             &mut *(out.chunks as *mut [&'b mut [T]] as *mut [&'b mut [S]]),
-            *(&nodata as *const T as *const S),
+            *(&plan.nodata as *const T as *const S),
         )
+    };
+    let plan = RowPlan {
+        map: plan.map,
+        fast: plan.fast,
+        nodata,
+        alpha: plan.alpha,
     };
     let out = RowOut {
         chunks,
@@ -163,7 +201,7 @@ fn same_type<'s, 'a, 'b, T: Sample, S: Sample>(
         cols: out.cols,
         alpha: out.alpha,
     };
-    Ok((src, out, nodata))
+    Ok((src, plan, out))
 }
 
 /// Bands handled by the AVX2 kernels without allocating.
@@ -178,15 +216,15 @@ const MAX_SIMD_BANDS: usize = 8;
 #[target_feature(enable = "avx2")]
 unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
     src: &Raster<T>,
-    map: &M,
+    plan: &RowPlan<'_, M, T>,
     g: &SourceGeometry,
     scratch: &mut Scratch<K>,
-    nodata: T,
     mut out: RowOut<'_, '_, T>,
 ) {
-    use super::avx2;
+    use super::avx2::{self, Buffered, Exact, Relative};
     use std::any::TypeId;
     let kernel = TypeId::of::<K>();
+    let nodata = plan.nodata;
     let bands = src.bands();
     let mut planes: [&[T]; MAX_SIMD_BANDS] = [&[]; MAX_SIMD_BANDS];
     for (p, b) in planes.iter_mut().zip(0..bands) {
@@ -205,28 +243,52 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
         let n = BLOCK.min(out.cols.end - c0);
         let range = out.start + c0..out.start + c0 + n;
         let (xs, ys, valid) = (&mut xs[..n], &mut ys[..n], &mut valid[..n]);
-        map.source_row(out.row, c0, xs, ys);
         let mut outs: [&mut [T]; MAX_SIMD_BANDS] = Default::default();
         for (o, chunk) in outs.iter_mut().zip(out.chunks.iter_mut().take(bands)) {
             *o = &mut chunk[range.clone()];
         }
         let outs = &mut outs[..bands];
-        // SAFETY (all three arms): AVX2 is enabled; the source is at least 4 x 4 with full
-        // planes; bicubic's taps come from `bicubic_taps` on the same positions.
-        if kernel == TypeId::of::<Nearest>() {
-            unsafe { avx2::nearest_block(g, xs, ys, planes, outs, valid, nodata) };
-        } else if kernel == TypeId::of::<Bilinear>() {
-            unsafe { avx2::bilinear_block(g, xs, ys, planes, outs, valid, nodata) };
-        } else {
-            let (taps, bases) = (&mut simd.cubic[..n], &mut simd.base[..n]);
-            let state = &mut simd.state[..n];
-            unsafe { avx2::bicubic_taps(g, xs, ys, taps, bases, state) };
-            for (plane, o) in planes.iter().zip(outs.iter_mut()) {
-                let taps = (&taps[..], &bases[..], &state[..]);
-                unsafe { avx2::bicubic_apply(g, plane, xs, ys, taps, nodata, o) };
+        let fast = match kernel == TypeId::of::<Bicubic>() {
+            true => None,
+            false => plan.relative::<K>(out.row, c0, n),
+        };
+        // SAFETY (all arms): AVX2 is enabled; the source is at least 4 x 4 with full planes;
+        // positions and outputs are n long; bicubic's taps come from `bicubic_taps` on the
+        // same positions.
+        match fast {
+            Some(block) => {
+                let rel = Relative::new(g, &block, n);
+                if kernel == TypeId::of::<Nearest>() {
+                    unsafe { avx2::nearest_block(g, &rel, planes, outs, valid, nodata) };
+                } else {
+                    let whole = n / 8 * 8;
+                    let (px, py) = (&mut simd.px[..whole], &mut simd.py[..whole]);
+                    rel.fill_offsets(px, py);
+                    let pos = Buffered { rel: &rel, px, py };
+                    unsafe { avx2::bilinear_block(g, &pos, planes, outs, valid, nodata) };
+                }
             }
-            for (v, &s) in valid.iter_mut().zip(state.iter()) {
-                *v = s != 0;
+            None if kernel == TypeId::of::<Bicubic>() => {
+                plan.positions::<K>(out.row, c0, xs, ys);
+                let (taps, bases) = (&mut simd.cubic[..n], &mut simd.base[..n]);
+                let state = &mut simd.state[..n];
+                unsafe { avx2::bicubic_taps(g, xs, ys, taps, bases, state) };
+                for (plane, o) in planes.iter().zip(outs.iter_mut()) {
+                    let taps = (&taps[..], &bases[..], &state[..]);
+                    unsafe { avx2::bicubic_apply(g, plane, xs, ys, taps, nodata, o) };
+                }
+                for (v, &s) in valid.iter_mut().zip(state.iter()) {
+                    *v = s != 0;
+                }
+            }
+            None => {
+                plan.map.source_row(out.row, c0, xs, ys);
+                let pos = Exact { xs, ys };
+                if kernel == TypeId::of::<Nearest>() {
+                    unsafe { avx2::nearest_block(g, &pos, planes, outs, valid, nodata) };
+                } else {
+                    unsafe { avx2::bilinear_block(g, &pos, planes, outs, valid, nodata) };
+                }
             }
         }
         out.write_alpha(range, valid);
@@ -237,12 +299,12 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
 #[inline(always)]
 fn row_body<T: Sample, K: Kernel, M: PixelMap>(
     src: &Raster<T>,
-    map: &M,
+    plan: &RowPlan<'_, M, T>,
     g: &SourceGeometry,
     scratch: &mut Scratch<K>,
-    nodata: T,
     mut out: RowOut<'_, '_, T>,
 ) {
+    let nodata = plan.nodata;
     let Scratch {
         xs,
         ys,
@@ -254,7 +316,7 @@ fn row_body<T: Sample, K: Kernel, M: PixelMap>(
     while c0 < out.cols.end {
         let n = BLOCK.min(out.cols.end - c0);
         let (xs, ys, taps, valid) = (&mut xs[..n], &mut ys[..n], &mut taps[..n], &mut valid[..n]);
-        map.source_row(out.row, c0, xs, ys);
+        plan.positions::<K>(out.row, c0, xs, ys);
         for (((x, y), tap), ok) in xs
             .iter()
             .zip(ys.iter())
@@ -280,6 +342,8 @@ pub(crate) struct Nearest;
 
 impl Kernel for Nearest {
     type Tap = u32;
+    /// floor(x + 0.5) becomes origin + floor(offset).
+    const FAST_SHIFT: f64 = 0.5;
 
     /// Branch-free like the bilinear one: the index is always valid, the flag tells inside.
     #[inline(always)]

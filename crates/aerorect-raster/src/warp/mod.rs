@@ -12,6 +12,7 @@ mod area;
 mod avx2;
 mod kernel;
 mod prefilter;
+mod relative;
 
 use crate::error::RasterError;
 use crate::map::PixelMap;
@@ -20,6 +21,20 @@ use aerorect_core::ImageSize;
 use rayon::prelude::*;
 
 pub use kernel::keys_weights;
+pub use relative::FAST_MAX_ERROR;
+
+/// How the destination pixels' source positions are evaluated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Coordinates {
+    /// Every position in f64, as the map gives it.
+    Exact,
+    /// For projective maps (`PixelMap::projective`): per block of a row (at most 256 pixels),
+    /// the first position in f64 and the others as f32 offsets from it, where the block's own
+    /// error bound is at most `FAST_MAX_ERROR` (5e-4 px; see `relative`); other blocks and
+    /// other maps are exact.
+    #[default]
+    Fast,
+}
 
 /// The interpolation kernel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -72,6 +87,8 @@ pub struct WarpOptions {
     /// than twice coarser than the source, so they do not alias (see `prefilter`); false keeps
     /// the plain kernels everywhere. No effect at scales below 2 (bit for bit).
     pub prefilter: bool,
+    /// Exact or fast source positions (see `Coordinates`).
+    pub coordinates: Coordinates,
 }
 
 impl Default for WarpOptions {
@@ -81,6 +98,7 @@ impl Default for WarpOptions {
             nodata: 0.0,
             alpha: false,
             prefilter: true,
+            coordinates: Coordinates::Fast,
         }
     }
 }
@@ -164,7 +182,7 @@ fn warp_into_impl<T: Sample, M: PixelMap>(
     {
         return prefilter::run(src, map, opts, dst, &plan, allow_simd);
     }
-    dispatch(src, map, opts.interp, nodata, opts.alpha, dst, allow_simd);
+    dispatch(src, map, opts, nodata, dst, allow_simd);
     Ok(())
 }
 
@@ -172,18 +190,27 @@ fn warp_into_impl<T: Sample, M: PixelMap>(
 fn dispatch<T: Sample, M: PixelMap>(
     src: &Raster<T>,
     map: &M,
-    interp: Interp,
+    opts: &WarpOptions,
     nodata: T,
-    alpha: bool,
     dst: &mut Raster<T>,
     allow_simd: bool,
 ) {
     let g = kernel::SourceGeometry::of(src, allow_simd);
-    match interp {
-        Interp::Nearest => run::<T, M, kernel::Nearest>(src, map, &g, nodata, alpha, dst),
-        Interp::Bilinear => run::<T, M, kernel::Bilinear>(src, map, &g, nodata, alpha, dst),
-        Interp::Bicubic => run::<T, M, kernel::Bicubic>(src, map, &g, nodata, alpha, dst),
-        Interp::Average => area::run(src, map, nodata, alpha, dst),
+    let fast = match opts.coordinates {
+        Coordinates::Fast => map.projective(),
+        Coordinates::Exact => None,
+    };
+    let plan = kernel::RowPlan {
+        map,
+        fast: fast.as_ref(),
+        nodata,
+        alpha: opts.alpha,
+    };
+    match opts.interp {
+        Interp::Nearest => run::<T, M, kernel::Nearest>(src, &g, &plan, dst),
+        Interp::Bilinear => run::<T, M, kernel::Bilinear>(src, &g, &plan, dst),
+        Interp::Bicubic => run::<T, M, kernel::Bicubic>(src, &g, &plan, dst),
+        Interp::Average => area::run(src, map, nodata, opts.alpha, dst),
     }
 }
 
@@ -211,10 +238,8 @@ pub(crate) fn row_strips<T: Sample>(dst: &mut Raster<T>, rows: usize) -> Vec<Vec
 
 fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
     src: &Raster<T>,
-    map: &M,
     g: &kernel::SourceGeometry,
-    nodata: T,
-    alpha: bool,
+    plan: &kernel::RowPlan<'_, M, T>,
     dst: &mut Raster<T>,
 ) {
     let width = dst.width();
@@ -232,9 +257,9 @@ fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
                         start: r * width,
                         row: first_row + r,
                         cols: c0..(c0 + TILE_COLS).min(width),
-                        alpha,
+                        alpha: plan.alpha,
                     };
-                    kernel::row::<T, K, M>(src, map, g, scratch, nodata, out);
+                    kernel::row::<T, K, M>(src, plan, g, scratch, out);
                 }
             }
         });

@@ -209,16 +209,7 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
                     origin: origin(k),
                 };
                 let mut tile = Raster::new(ImageSize::new(cols, rows), bands)?;
-                let (interp, alpha) = (opts.interp, opts.alpha);
-                super::dispatch(
-                    level(k),
-                    &tmap,
-                    interp,
-                    nodata,
-                    alpha,
-                    &mut tile,
-                    allow_simd,
-                );
+                super::dispatch(level(k), &tmap, opts, nodata, &mut tile, allow_simd);
                 if k > 0 {
                     outside_level0(src.size(), &tmap, nodata, opts.alpha, &mut tile);
                 }
