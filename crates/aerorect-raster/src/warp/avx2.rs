@@ -213,6 +213,48 @@ fn window(k: &Consts, x0: __m256i, y0: __m256i) -> Option<Window> {
     })
 }
 
+/// Eight u8 nearest samples read as a byte shuffle of one or two 16-byte row loads instead of
+/// eight scalar loads (the `Window` layout): where all eight are inside, their columns lie
+/// within 16 bytes and their rows differ by at most one.
+pub(crate) struct NearestWindow {
+    /// Offset of the first byte of the first row.
+    start: usize,
+    /// Bytes 0..8: each pixel's column minus the first column (a `pshufb` control).
+    ctrl: __m128i,
+    /// Bytes 0..8: 0xFF where the pixel is on the first row.
+    first: __m128i,
+    /// Rows read: 1 when all eight rows are equal, else 2.
+    rows: usize,
+}
+
+/// The low byte of each 32-bit lane, packed into the low eight bytes.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn pack_low_bytes(k: &Consts, v: __m256i) -> __m128i {
+    let bytes = _mm256_shuffle_epi8(v, k.pick);
+    _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
+        bytes,
+        _mm256_setr_epi32(0, 4, 1, 1, 1, 1, 1, 1),
+    ))
+}
+
+/// The byte window of eight nearest samples at columns `ix`, rows `iy` (all inside).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn nearest_window(k: &Consts, ix: __m256i, iy: __m256i) -> Option<NearestWindow> {
+    let (xmin, xmax) = min_max8(ix);
+    let (ymin, ymax) = min_max8(iy);
+    if xmax - xmin > 15 || ymax - ymin > 1 || xmin + 16 > k.size.0 {
+        return None;
+    }
+    Some(NearestWindow {
+        start: (ymin * k.size.0 + xmin) as usize,
+        ctrl: pack_low_bytes(k, _mm256_sub_epi32(ix, _mm256_set1_epi32(xmin))),
+        first: pack_low_bytes(k, _mm256_cmpeq_epi32(iy, _mm256_set1_epi32(ymin))),
+        rows: if ymax == ymin { 1 } else { 2 },
+    })
+}
+
 /// # Safety
 /// AVX2; `i + 8 <= xs.len(), ys.len()`.
 #[target_feature(enable = "avx2")]
@@ -280,6 +322,26 @@ pub(crate) trait SimdSample: Sample {
     /// # Safety
     /// AVX2; the four samples from `p` on are readable.
     unsafe fn row4(p: *const Self) -> __m128;
+
+    /// The eight nearest samples of a window (`nearest_window`) into `out[..8]`; the
+    /// portable reading here, a shuffle for u8 (the only type with `WINDOWS`).
+    ///
+    /// # Safety
+    /// AVX2; `win.rows` rows of 16 samples from `win.start` (row stride `width`) are inside
+    /// `plane`; `out.len() >= 8`.
+    unsafe fn nearest_window8(win: &NearestWindow, width: usize, plane: &[Self], out: &mut [Self]) {
+        // SAFETY: both are 16 plain bytes.
+        let (ctrl, first): ([u8; 16], [u8; 16]) = unsafe {
+            (
+                std::mem::transmute::<__m128i, [u8; 16]>(win.ctrl),
+                std::mem::transmute::<__m128i, [u8; 16]>(win.first),
+            )
+        };
+        for (j, d) in out.iter_mut().take(8).enumerate() {
+            let row = usize::from(first[j] == 0);
+            *d = plane[win.start + row * width + usize::from(ctrl[j])];
+        }
+    }
 }
 
 impl SimdSample for u8 {
@@ -331,6 +393,21 @@ impl SimdSample for u8 {
         // SAFETY: four bytes from p are readable (the contract).
         let v = unsafe { (p as *const i32).read_unaligned() };
         _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(v)))
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn nearest_window8(win: &NearestWindow, width: usize, plane: &[u8], out: &mut [u8]) {
+        debug_assert!(win.start + (win.rows - 1) * width + 16 <= plane.len() && out.len() >= 8);
+        // SAFETY: the contract: `rows` rows of 16 bytes from `start` are inside the plane.
+        let row = |r: usize| unsafe {
+            _mm_loadu_si128(plane.as_ptr().add(win.start + r * width) as *const __m128i)
+        };
+        // Branch-free: with one row, the "second" is the first again (and `first` all set).
+        let v = _mm_shuffle_epi8(row(0), win.ctrl);
+        let v = _mm_blendv_epi8(_mm_shuffle_epi8(row(win.rows - 1), win.ctrl), v, win.first);
+        // SAFETY: out.len() >= 8 (the contract).
+        unsafe { _mm_storel_epi64(out.as_mut_ptr() as *mut __m128i, v) };
     }
 }
 
@@ -514,12 +591,11 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample, P: Positions>(
 pub(crate) trait Positions {
     fn len(&self) -> usize;
 
-    /// The nearest kernel's sample indices of pixels i..i + 8 (clamped into the image) and
-    /// their inside bits.
+    /// The nearest kernel's taps of pixels i..i + 8.
     ///
     /// # Safety
     /// AVX2; i + 8 <= len.
-    unsafe fn nearest8(&self, k: &Consts, i: usize) -> (__m256i, i32);
+    unsafe fn nearest8(&self, k: &Consts, i: usize) -> NearestTaps;
 
     /// The bilinear taps of pixels i..i + 8.
     ///
@@ -529,6 +605,17 @@ pub(crate) trait Positions {
 
     /// The pixels from `from` on (fewer than eight), as f64 positions.
     fn tail(&self, from: usize) -> Tail;
+}
+
+/// The nearest taps of eight pixels.
+pub(crate) struct NearestTaps {
+    /// Sample indices, inside the image (any inside index where the pixel is outside).
+    idx: __m256i,
+    /// Columns and rows of the samples (exact where the pixel is inside).
+    ix: __m256i,
+    iy: __m256i,
+    /// Inside bits.
+    mask: i32,
 }
 
 /// Positions given in f64 (`Coordinates::Exact`, or a block the fast ones do not cover).
@@ -544,7 +631,7 @@ impl Positions for Exact<'_> {
 
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn nearest8(&self, k: &Consts, i: usize) -> (__m256i, i32) {
+    unsafe fn nearest8(&self, k: &Consts, i: usize) -> NearestTaps {
         let half = _mm256_set1_pd(0.5);
         let round = |v: __m256d, vmax: __m256d| {
             _mm256_cvttpd_epi32(_mm256_min_pd(
@@ -559,7 +646,8 @@ impl Positions for Exact<'_> {
             | (_mm256_movemask_pd(k.inside(x_hi, y_hi)) << 4);
         let ix = _mm256_set_m128i(round(x_hi, k.max_x), round(x_lo, k.max_x));
         let iy = _mm256_set_m128i(round(y_hi, k.max_y), round(y_lo, k.max_y));
-        (_mm256_add_epi32(_mm256_mullo_epi32(iy, k.width), ix), mask)
+        let idx = _mm256_add_epi32(_mm256_mullo_epi32(iy, k.width), ix);
+        NearestTaps { idx, ix, iy, mask }
     }
 
     #[target_feature(enable = "avx2")]
@@ -669,15 +757,20 @@ impl Relative {
     /// are -origin and n - origin here. Lanes outside get index 0 (their output is nodata).
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn nearest_taps(&self, k: &Consts, p: [__m256; 2]) -> (__m256i, i32) {
+    fn nearest_taps(&self, k: &Consts, p: [__m256; 2]) -> NearestTaps {
         let inside = self.inside8(&p);
         let index = |a: usize| {
             let f = _mm256_cvttps_epi32(_mm256_floor_ps(p[a]));
             _mm256_add_epi32(f, self.origin[a])
         };
-        let idx = _mm256_add_epi32(_mm256_mullo_epi32(index(1), k.width), index(0));
-        let idx = _mm256_and_si256(idx, _mm256_castps_si256(inside));
-        (idx, _mm256_movemask_ps(inside))
+        let (ix, iy) = (index(0), index(1));
+        let idx = _mm256_add_epi32(_mm256_mullo_epi32(iy, k.width), ix);
+        NearestTaps {
+            idx: _mm256_and_si256(idx, _mm256_castps_si256(inside)),
+            ix,
+            iy,
+            mask: _mm256_movemask_ps(inside),
+        }
     }
 
     /// `left_neighbour` on origin + offset: the clamp, floor and fraction in f32 are exact.
@@ -716,7 +809,7 @@ impl Positions for Relative {
 
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn nearest8(&self, k: &Consts, i: usize) -> (__m256i, i32) {
+    unsafe fn nearest8(&self, k: &Consts, i: usize) -> NearestTaps {
         self.nearest_taps(k, self.offsets8(i))
     }
 
@@ -767,7 +860,7 @@ impl Positions for Buffered<'_> {
 
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn nearest8(&self, k: &Consts, i: usize) -> (__m256i, i32) {
+    unsafe fn nearest8(&self, k: &Consts, i: usize) -> NearestTaps {
         // SAFETY: i + 8 <= len, so within the buffers.
         self.rel.nearest_taps(k, unsafe { self.load8(i) })
     }
@@ -878,12 +971,14 @@ fn store_flags(valid: &mut [bool], i: usize, mask: i32) {
 /// Nearest for one block (`Nearest::prepare` and `apply`): `pos` the source positions,
 /// `planes` the source bands, `outs` the destination bands (as long as `pos`); `valid` receives
 /// the inside flags. Eight indices at a time, then one scalar load per pixel and band, straight
-/// into the output (no index buffer, no insert chain).
+/// into the output (no index buffer, no insert chain); u8 with three bands or more reads byte
+/// windows where they apply (`nearest_window`), whose set-up costs about what eight scalar loads
+/// do.
 ///
 /// # Safety
 /// AVX2; every plane `g.width * g.height` samples.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn nearest_block<T: Sample, P: Positions>(
+pub(crate) unsafe fn nearest_block<T: SimdSample, P: Positions>(
     g: &SourceGeometry,
     pos: &P,
     planes: &[&[T]],
@@ -891,13 +986,49 @@ pub(crate) unsafe fn nearest_block<T: Sample, P: Positions>(
     valid: &mut [bool],
     nodata: T,
 ) {
+    let from = match T::WINDOWS && planes.len() >= 3 {
+        // SAFETY: this function's contract.
+        true => unsafe { nearest_steps::<T, P, true>(g, pos, planes, outs, valid, nodata) },
+        false => unsafe { nearest_steps::<T, P, false>(g, pos, planes, outs, valid, nodata) },
+    };
+    pos.tail(from)
+        .run::<Nearest, T>(g, planes, outs, valid, nodata);
+}
+
+/// The whole eight-pixel steps of `nearest_block`, with or without windows; returns where the
+/// tail starts.
+///
+/// # Safety
+/// As `nearest_block`.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn nearest_steps<T: SimdSample, P: Positions, const WINDOWS: bool>(
+    g: &SourceGeometry,
+    pos: &P,
+    planes: &[&[T]],
+    outs: &mut [&mut [T]],
+    valid: &mut [bool],
+    nodata: T,
+) -> usize {
     let n = pos.len().min(valid.len());
     let k = Consts::new(g);
     let mut at = [0u32; 8];
     let mut i = 0;
     while i + 8 <= n {
         // SAFETY: i + 8 <= n.
-        let (idx, mask) = unsafe { pos.nearest8(&k, i) };
+        let NearestTaps { idx, ix, iy, mask } = unsafe { pos.nearest8(&k, i) };
+        if WINDOWS
+            && mask == 0xFF
+            && let Some(win) = nearest_window(&k, ix, iy)
+        {
+            for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+                // SAFETY: `nearest_window` checked the rows; i + 8 <= n = the output's length.
+                unsafe { T::nearest_window8(&win, g.width(), plane, &mut out[i..i + 8]) };
+            }
+            store_flags(valid, i, mask);
+            i += 8;
+            continue;
+        }
         // SAFETY: `at` holds eight u32.
         unsafe { _mm256_storeu_si256(at.as_mut_ptr() as *mut __m256i, idx) };
         for (plane, out) in planes.iter().zip(outs.iter_mut()) {
@@ -912,8 +1043,7 @@ pub(crate) unsafe fn nearest_block<T: Sample, P: Positions>(
         store_flags(valid, i, mask);
         i += 8;
     }
-    pos.tail(i)
-        .run::<Nearest, T>(g, planes, outs, valid, nodata);
+    i
 }
 
 /// The four Keys weights of eight fractions, as `keys_weights_f32` (same operations and order),
