@@ -187,6 +187,15 @@ fn min_max8(v: __m256i) -> (i32, i32) {
     (_mm256_cvtsi256_si32(lo), _mm256_cvtsi256_si32(hi))
 }
 
+/// The minimum and maximum of eight i32 lanes that are monotonic (in either direction): the
+/// first and the last lane.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn ends8(v: __m256i) -> (i32, i32) {
+    let (a, b) = (_mm256_cvtsi256_si32(v), _mm256_extract_epi32::<7>(v));
+    (a.min(b), a.max(b))
+}
+
 /// The byte window of eight u8 taps with upper-left neighbours (x0, y0), when there is one.
 #[target_feature(enable = "avx2")]
 #[inline]
@@ -241,9 +250,13 @@ fn pack_low_bytes(k: &Consts, v: __m256i) -> __m128i {
 /// The byte window of eight nearest samples at columns `ix`, rows `iy` (all inside).
 #[target_feature(enable = "avx2")]
 #[inline]
-fn nearest_window(k: &Consts, ix: __m256i, iy: __m256i) -> Option<NearestWindow> {
-    let (xmin, xmax) = min_max8(ix);
-    let (ymin, ymax) = min_max8(iy);
+fn nearest_window(k: &Consts, ix: __m256i, iy: __m256i, monotonic: bool) -> Option<NearestWindow> {
+    let range = |v: __m256i| match monotonic {
+        true => ends8(v),
+        false => min_max8(v),
+    };
+    let (xmin, xmax) = range(ix);
+    let (ymin, ymax) = range(iy);
     if xmax - xmin > 15 || ymax - ymin > 1 || xmin + 16 > k.size.0 {
         return None;
     }
@@ -589,6 +602,10 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample, P: Positions>(
 
 /// The source positions of one block, eight at a time as kernel taps.
 pub(crate) trait Positions {
+    /// Whether the sample columns and rows of eight consecutive pixels are monotonic, so that
+    /// their extremes are the first and the last (true of a projective block's positions).
+    const MONOTONIC: bool;
+
     fn len(&self) -> usize;
 
     /// The nearest kernel's taps of pixels i..i + 8.
@@ -625,6 +642,8 @@ pub(crate) struct Exact<'a> {
 }
 
 impl Positions for Exact<'_> {
+    const MONOTONIC: bool = false;
+
     fn len(&self) -> usize {
         self.xs.len().min(self.ys.len())
     }
@@ -803,6 +822,10 @@ impl Relative {
 
 /// Fused: each step computes its eight offsets (best for nearest, whose loads are cheap).
 impl Positions for Relative {
+    /// x(k) - x(0) = k a / (1 + c k) is monotonic in k (while 1 + c k > 0), and so are its
+    /// floor and its clamp.
+    const MONOTONIC: bool = true;
+
     fn len(&self) -> usize {
         self.n
     }
@@ -854,6 +877,8 @@ impl Buffered<'_> {
 }
 
 impl Positions for Buffered<'_> {
+    const MONOTONIC: bool = true;
+
     fn len(&self) -> usize {
         self.rel.n
     }
@@ -1019,7 +1044,7 @@ unsafe fn nearest_steps<T: SimdSample, P: Positions, const WINDOWS: bool>(
         let NearestTaps { idx, ix, iy, mask } = unsafe { pos.nearest8(&k, i) };
         if WINDOWS
             && mask == 0xFF
-            && let Some(win) = nearest_window(&k, ix, iy)
+            && let Some(win) = nearest_window(&k, ix, iy, P::MONOTONIC)
         {
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 // SAFETY: `nearest_window` checked the rows; i + 8 <= n = the output's length.
