@@ -1,9 +1,11 @@
 //! Warp engine throughput: gray8, rgb8, rgba8, gray16, f32 x nearest, bilinear, bicubic x 1 and 2 threads.
-//! Criterion reports elements/s: read it as output pixels per second.
+//! Criterion reports elements/s: read it as output pixels per second. Each kernel also runs
+//! once with `Coordinates::Exact` at 1 thread (`<kernel>-exact`), to show what the default fast
+//! coordinates save.
 #![allow(clippy::unwrap_used)]
 
 use aerorect_core::{Homography, ImageSize, Mat3};
-use aerorect_raster::{Interp, Raster, Sample, WarpOptions, warp_into};
+use aerorect_raster::{Coordinates, Interp, Raster, Sample, WarpOptions, warp_into};
 use aerorect_testkit::textured_scene;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use std::time::Duration;
@@ -33,12 +35,16 @@ fn group<T: Sample>(c: &mut Criterion, name: &str, bands: usize, peak: f32) {
             ..Default::default()
         };
         let mut dst = Raster::<T>::new(size, bands).unwrap();
-        for threads in [1, 2] {
+        let exact = WarpOptions {
+            coordinates: Coordinates::Exact,
+            ..opts
+        };
+        for (threads, opts, suffix) in [(1, opts, ""), (2, opts, ""), (1, exact, "-exact")] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            let id = BenchmarkId::new(interp.name(), format!("{threads}t"));
+            let id = BenchmarkId::new(format!("{}{suffix}", interp.name()), format!("{threads}t"));
             g.bench_function(id, |b| {
                 b.iter(|| pool.install(|| warp_into(&src, &h, &opts, &mut dst).unwrap()))
             });

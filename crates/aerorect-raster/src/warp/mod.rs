@@ -30,8 +30,8 @@ pub enum Coordinates {
     Exact,
     /// For projective maps (`PixelMap::projective`): per block of a row (at most 256 pixels),
     /// the first position in f64 and the others as f32 offsets from it, where the block's own
-    /// error bound is at most `FAST_MAX_ERROR` (5e-4 px; see `relative`); other blocks and
-    /// other maps are exact.
+    /// error bound is at most `FAST_MAX_ERROR` (5e-4 px; see `relative`); other blocks, other
+    /// maps, and the bicubic and average kernels (whose taps dominate) are exact.
     #[default]
     Fast,
 }
