@@ -4,8 +4,9 @@
 Creates its own venv (bench/.venv, opencv-python-headless + numpy) on first use, builds the
 `warp_timing` example in release mode, and prints, per case, both throughputs (output Mpix/s,
 median of REPEATS runs of the resampling alone), the ratio ours/OpenCV, and how far the two
-outputs differ on pixels well inside the source (OpenCV quantises coordinates to 1/32 px;
-aerorect uses exact f64 coordinates, so small differences are expected).
+outputs differ on pixels well inside the source (OpenCV 5 evaluates coordinates in f32, OpenCV 4
+quantises them to 1/32 px; aerorect's default fast coordinates are within 5e-4 px of the f64 map,
+so small differences are expected).
 
 usage: python3 bench/warp_vs_opencv.py [--repeats N] [--size N] [--cases gray8/bilinear,...]
 """

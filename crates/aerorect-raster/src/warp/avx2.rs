@@ -2,9 +2,12 @@
 //!
 //! Every routine here does the same arithmetic, operation for operation, as the portable kernel
 //! in `kernel.rs` (f64 positions, f32 blend, no FMA), so the two builds agree bit for bit (a test
-//! checks it). Loads are laid out per kernel:
+//! checks it). Positions come as f64 (`Exact`) or, for a projective block, as f32 offsets from an
+//! integer origin (`Relative`, `Buffered`: `relative.rs`), which the portable build sees as
+//! origin + offset in f64. Loads are laid out per kernel:
 //! - nearest: the tap index is computed eight at a time, then one scalar load per pixel and band
-//!   (scalar loads beat a gather for single samples);
+//!   (scalar loads beat a gather for single samples); u8 with three bands or more reads byte
+//!   windows of one or two rows where the eight samples lie within 16 columns;
 //! - bilinear: one gather brings the upper neighbour pair (2 adjacent samples) of eight pixels and
 //!   one the lower pair (u8, u16: 32-bit lanes; f32: 64-bit lanes, four pixels per gather);
 //! - bicubic: per pixel, four row loads of four adjacent samples, blended vertically as one 4-lane
