@@ -29,6 +29,16 @@ fn rectify(d: &std::path::Path, out: &str, extra: &[&str]) -> (AnyRaster, serde_
     )
 }
 
+/// The scene (aero1.jpg) and a 640 x 480 camera in `d`.
+fn scene_and_camera(d: &std::path::Path) {
+    std::fs::copy(data("aero1.jpg"), d.join("scene.jpg")).unwrap();
+    std::fs::write(
+        d.join("cam.toml"),
+        "focal_length_mm = 6.0\npixel_pitch_um = [15.0, 15.0]\nimage_size_px = [640, 480]\n",
+    )
+    .unwrap();
+}
+
 /// Sum of |difference| between horizontal neighbours of band 0: aliasing adds false detail.
 fn roughness(img: &AnyRaster) -> f64 {
     let w = img.size().width;
@@ -42,12 +52,7 @@ fn roughness(img: &AnyRaster) -> f64 {
 fn average_and_the_prefilter_reach_the_warp() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::copy(data("aero1.jpg"), d.join("scene.jpg")).unwrap();
-    std::fs::write(
-        d.join("cam.toml"),
-        "focal_length_mm = 6.0\npixel_pitch_um = [15.0, 15.0]\nimage_size_px = [640, 480]\n",
-    )
-    .unwrap();
+    scene_and_camera(d);
     let small = ["--altitude-m", "25", "--base-altitude-m", "100"];
     let (avg, r) = rectify(
         d,
@@ -74,12 +79,7 @@ fn average_and_the_prefilter_reach_the_warp() {
 fn exact_coordinates_reach_the_warp_and_change_at_most_one_level() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::copy(data("aero1.jpg"), d.join("scene.jpg")).unwrap();
-    std::fs::write(
-        d.join("cam.toml"),
-        "focal_length_mm = 6.0\npixel_pitch_um = [15.0, 15.0]\nimage_size_px = [640, 480]\n",
-    )
-    .unwrap();
+    scene_and_camera(d);
     for interp in ["nearest", "bilinear"] {
         let (fast, _) = rectify(d, "fast.png", &["--interp", interp]);
         let exact_args = ["--interp", interp, "--exact-coordinates"];
