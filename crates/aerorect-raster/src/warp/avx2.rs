@@ -1119,7 +1119,7 @@ fn cubic_split(v: __m256d, hi: __m256d) -> (__m128i, __m128) {
 /// # Safety
 /// AVX2; the source at least 4 x 4.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn bicubic_taps(
+unsafe fn bicubic_taps(
     g: &SourceGeometry,
     xs: &[f64],
     ys: &[f64],
@@ -1257,13 +1257,43 @@ unsafe fn cubic2<T: SimdSample>(
     }
 }
 
+/// Bicubic for one block: the taps of `pos` (in `simd`), then every band; `valid` receives the
+/// inside flags.
+///
+/// # Safety
+/// AVX2; the source at least 4 x 4, every plane `g.width * g.height`; outputs as long as `pos`.
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn bicubic_block<T: SimdSample>(
+    g: &SourceGeometry,
+    pos: &Exact<'_>,
+    planes: &[&[T]],
+    outs: &mut [&mut [T]],
+    valid: &mut [bool],
+    simd: &mut SimdScratch,
+    nodata: T,
+) {
+    let (xs, ys) = (pos.xs, pos.ys);
+    let n = pos.len();
+    let (taps, bases) = (&mut simd.cubic[..n], &mut simd.base[..n]);
+    let state = &mut simd.state[..n];
+    // SAFETY: the contract; the taps come from `bicubic_taps` on the same positions.
+    unsafe { bicubic_taps(g, xs, ys, taps, bases, state) };
+    for (plane, o) in planes.iter().zip(outs.iter_mut()) {
+        let taps = (&taps[..], &bases[..], &state[..]);
+        unsafe { bicubic_apply(g, plane, xs, ys, taps, nodata, o) };
+    }
+    for (v, &s) in valid.iter_mut().zip(state.iter()) {
+        *v = s != 0;
+    }
+}
+
 /// One band of bicubic from prepared taps; border pixels through the portable kernel.
 ///
 /// # Safety
 /// AVX2; `plane` holds `g.width * g.height` samples; taps and states from `bicubic_taps` for the
 /// same positions `xs`, `ys`.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn bicubic_apply<T: SimdSample>(
+unsafe fn bicubic_apply<T: SimdSample>(
     g: &SourceGeometry,
     plane: &[T],
     xs: &[f64],

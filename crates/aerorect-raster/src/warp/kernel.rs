@@ -256,8 +256,7 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
         let outs = &mut outs[..bands];
         let fast = plan.relative::<K>(out.row, c0, n);
         // SAFETY (all arms): AVX2 is enabled; the source is at least 4 x 4 with full planes;
-        // positions and outputs are n long; bicubic's taps come from `bicubic_taps` on the
-        // same positions.
+        // positions and outputs are n long.
         match fast {
             Some(block) => {
                 let rel = Relative::new(g, &block, n);
@@ -273,16 +272,8 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
             }
             None if kernel == TypeId::of::<Bicubic>() => {
                 plan.positions::<K>(out.row, c0, xs, ys);
-                let (taps, bases) = (&mut simd.cubic[..n], &mut simd.base[..n]);
-                let state = &mut simd.state[..n];
-                unsafe { avx2::bicubic_taps(g, xs, ys, taps, bases, state) };
-                for (plane, o) in planes.iter().zip(outs.iter_mut()) {
-                    let taps = (&taps[..], &bases[..], &state[..]);
-                    unsafe { avx2::bicubic_apply(g, plane, xs, ys, taps, nodata, o) };
-                }
-                for (v, &s) in valid.iter_mut().zip(state.iter()) {
-                    *v = s != 0;
-                }
+                let pos = Exact { xs, ys };
+                unsafe { avx2::bicubic_block(g, &pos, planes, outs, valid, simd, nodata) };
             }
             None => {
                 plan.map.source_row(out.row, c0, xs, ys);
