@@ -196,9 +196,11 @@ fn dispatch<T: Sample, M: PixelMap>(
     allow_simd: bool,
 ) {
     let g = kernel::SourceGeometry::of(src, allow_simd);
+    // The AVX2 build moves the image's limits by the origin in f32: exact below 2^22 pixels.
+    let small = src.width().max(src.height()) < 1 << 22;
     let fast = match opts.coordinates {
-        Coordinates::Fast => map.projective(),
-        Coordinates::Exact => None,
+        Coordinates::Fast if small => map.projective(),
+        _ => None,
     };
     let plan = kernel::RowPlan {
         map,
