@@ -4,7 +4,8 @@
 //! Along a row, a homography's source position is x(k) = (nx0 + mx k) / (w0 + mw k) for the
 //! block's k-th pixel, so x(k) - x(0) = k a / (1 + c k) with a = (mx - x(0) mw) / w0 and
 //! c = mw / w0. The offsets are small (a block spans at most `BLOCK` pixels), so f32 keeps them
-//! to about 1e-4 px where the f64 position itself would lose 5e-4 px at x ~ 4000 in f32. Each
+//! to about 1e-4 px, where the position itself stored in f32 would already be rounded by up to
+//! 1.2e-4 px at x ~ 4000 (2.4e-4 px at x ~ 8000), before any arithmetic on it. Each
 //! block carries a bound of its own error (first order in f32's unit roundoff); a block whose
 //! bound exceeds `FAST_MAX_ERROR`, or that reaches the horizon, uses exact positions.
 //!
@@ -15,7 +16,7 @@
 use aerorect_core::Mat3;
 
 /// The largest position error, in source pixels, that `Coordinates::Fast` accepts for a block
-/// (OpenCV's warp tables are 1/32 px).
+/// (OpenCV 4's warp tables are 1/32 px; OpenCV 5 evaluates positions in f32).
 pub const FAST_MAX_ERROR: f64 = 5e-4;
 
 /// f32's unit roundoff.
