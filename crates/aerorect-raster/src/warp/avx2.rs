@@ -202,9 +202,13 @@ fn ends8(v: __m256i) -> (i32, i32) {
 /// The byte window of eight u8 taps with upper-left neighbours (x0, y0), when there is one.
 #[target_feature(enable = "avx2")]
 #[inline]
-fn window(k: &Consts, x0: __m256i, y0: __m256i) -> Option<Window> {
-    let (xmin, xmax) = min_max8(x0);
-    let (ymin, ymax) = min_max8(y0);
+fn window(k: &Consts, x0: __m256i, y0: __m256i, monotonic: bool) -> Option<Window> {
+    let range = |v: __m256i| match monotonic {
+        true => ends8(v),
+        false => min_max8(v),
+    };
+    let (xmin, xmax) = range(x0);
+    let (ymin, ymax) = range(y0);
     let rows = if ymax == ymin { 2 } else { 3 };
     let (w, h) = k.size;
     // The 16 bytes from xmin of `rows` rows from ymin must be inside the image.
@@ -292,7 +296,11 @@ unsafe fn bilinear_taps8(k: &Consts, xs: &[f64], ys: &[f64], i: usize, with_wind
         fy: _mm256_set_m128(fy_hi, fy_lo),
         lanes: narrow_mask(in_lo, in_hi),
         mask,
-        window: if with_window { window(k, x0, y0) } else { None },
+        window: if with_window {
+            window(k, x0, y0, false)
+        } else {
+            None
+        },
     }
 }
 
@@ -818,7 +826,11 @@ impl Relative {
             fy,
             lanes: _mm256_castps_si256(inside),
             mask: _mm256_movemask_ps(inside),
-            window: if with_window { window(k, x0, y0) } else { None },
+            window: if with_window {
+                window(k, x0, y0, true)
+            } else {
+                None
+            },
         }
     }
 }
