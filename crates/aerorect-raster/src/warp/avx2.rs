@@ -199,16 +199,23 @@ fn ends8(v: __m256i) -> (i32, i32) {
     (a.min(b), a.max(b))
 }
 
+/// The minimum and maximum of eight i32 lanes: `ends8` where they are known to be monotonic,
+/// else `min_max8`.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn extent8(v: __m256i, monotonic: bool) -> (i32, i32) {
+    match monotonic {
+        true => ends8(v),
+        false => min_max8(v),
+    }
+}
+
 /// The byte window of eight u8 taps with upper-left neighbours (x0, y0), when there is one.
 #[target_feature(enable = "avx2")]
 #[inline]
 fn window(k: &Consts, x0: __m256i, y0: __m256i, monotonic: bool) -> Option<Window> {
-    let range = |v: __m256i| match monotonic {
-        true => ends8(v),
-        false => min_max8(v),
-    };
-    let (xmin, xmax) = range(x0);
-    let (ymin, ymax) = range(y0);
+    let (xmin, xmax) = extent8(x0, monotonic);
+    let (ymin, ymax) = extent8(y0, monotonic);
     let rows = if ymax == ymin { 2 } else { 3 };
     let (w, h) = k.size;
     // The 16 bytes from xmin of `rows` rows from ymin must be inside the image.
@@ -258,12 +265,8 @@ fn pack_low_bytes(k: &Consts, v: __m256i) -> __m128i {
 #[target_feature(enable = "avx2")]
 #[inline]
 fn nearest_window(k: &Consts, ix: __m256i, iy: __m256i, monotonic: bool) -> Option<NearestWindow> {
-    let range = |v: __m256i| match monotonic {
-        true => ends8(v),
-        false => min_max8(v),
-    };
-    let (xmin, xmax) = range(ix);
-    let (ymin, ymax) = range(iy);
+    let (xmin, xmax) = extent8(ix, monotonic);
+    let (ymin, ymax) = extent8(iy, monotonic);
     if xmax - xmin > 15 || ymax - ymin > 1 || xmin + 16 > k.size.0 {
         return None;
     }
@@ -401,11 +404,7 @@ impl SimdSample for u8 {
         let p10 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<16>(low), k.byte));
         let p11 = _mm256_cvtepi32_ps(_mm256_srli_epi32::<24>(low));
         let q = rounded(k, t, blend(t, p00, p01, p10, p11), i32::from(nodata));
-        let bytes = _mm256_shuffle_epi8(q, k.pick);
-        let packed = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
-            bytes,
-            _mm256_setr_epi32(0, 4, 1, 1, 1, 1, 1, 1),
-        ));
+        let packed = pack_low_bytes(k, q);
         debug_assert!(at + 8 <= out.len());
         // SAFETY: at + 8 <= out.len() (the contract): the 8-byte store stays inside.
         unsafe { _mm_storel_epi64(out.as_mut_ptr().add(at) as *mut __m128i, packed) };
@@ -708,10 +707,11 @@ pub(crate) struct Relative {
     c: __m256,
     one: __m256,
     lanes: __m256,
-    /// Inside: shift - 0.5 - origin <= offset < n + shift - 0.5 - origin, per axis.
+    /// Inside: shift - 0.5 - origin <= offset < size + shift - 0.5 - origin, per axis (size:
+    /// the source's width or height).
     lo: [__m256; 2],
     hi: [__m256; 2],
-    /// Clamped positions: [-origin, n - 1 - origin], per axis.
+    /// Clamped positions: [-origin, size - 1 - origin], per axis.
     cmin: [__m256; 2],
     cmax: [__m256; 2],
     origin: [__m256i; 2],
@@ -1175,10 +1175,7 @@ unsafe fn bicubic_taps(
         let interior = _mm256_and_si256(within(xi, last_x), within(yi, last_y));
         // 2 inside, 1 interior (interior pixels are inside: 2 - 1), 0 outside.
         let st = _mm256_add_epi32(_mm256_and_si256(inside, _mm256_set1_epi32(2)), interior);
-        let st = _mm256_permutevar8x32_epi32(
-            _mm256_shuffle_epi8(st, k.pick),
-            _mm256_setr_epi32(0, 4, 1, 1, 1, 1, 1, 1),
-        );
+        let st = pack_low_bytes(&k, st);
         let base = _mm256_add_epi32(
             _mm256_mullo_epi32(_mm256_sub_epi32(yi, one), k.width),
             _mm256_sub_epi32(xi, one),
@@ -1187,10 +1184,7 @@ unsafe fn bicubic_taps(
         // aligned with wx and wy [f32; 4] each.
         unsafe {
             _mm256_storeu_si256(bases.as_mut_ptr().add(i) as *mut __m256i, base);
-            _mm_storel_epi64(
-                state.as_mut_ptr().add(i) as *mut __m128i,
-                _mm256_castsi256_si128(st),
-            );
+            _mm_storel_epi64(state.as_mut_ptr().add(i) as *mut __m128i, st);
             let t = taps.as_mut_ptr().add(i);
             for p in 0..4 {
                 let (lo, hi) = (&mut *t.add(p), &mut *t.add(p + 4));
