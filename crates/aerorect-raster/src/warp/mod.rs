@@ -98,7 +98,7 @@ impl Default for WarpOptions {
             nodata: 0.0,
             alpha: false,
             prefilter: true,
-            coordinates: Coordinates::Fast,
+            coordinates: Coordinates::default(),
         }
     }
 }
