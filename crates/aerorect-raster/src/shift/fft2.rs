@@ -7,21 +7,17 @@ use rustfft::num_complex::Complex32;
 use rustfft::{Fft, FftPlanner};
 use std::sync::Arc;
 
-pub(crate) struct Fft2 {
-    w: usize,
-    h: usize,
-    r2c: Arc<dyn RealToComplex<f32>>,
-    c2r: Arc<dyn ComplexToReal<f32>>,
-    col_fwd: Arc<dyn Fft<f32>>,
-    col_inv: Arc<dyn Fft<f32>>,
-    /// Row-major half spectrum (h rows of w/2 + 1), between the row and column passes.
-    rows: Vec<Complex32>,
-    row_in: Vec<f32>,
-    scratch_r: Vec<Complex32>,
-    scratch_c: Vec<Complex32>,
+/// The four 1-D plans of a `w x h` real 2-D transform and their scratch buffers.
+pub(crate) struct Plans {
+    pub(crate) r2c: Arc<dyn RealToComplex<f32>>,
+    pub(crate) c2r: Arc<dyn ComplexToReal<f32>>,
+    pub(crate) col_fwd: Arc<dyn Fft<f32>>,
+    pub(crate) col_inv: Arc<dyn Fft<f32>>,
+    pub(crate) scratch_r: Vec<Complex32>,
+    pub(crate) scratch_c: Vec<Complex32>,
 }
 
-impl Fft2 {
+impl Plans {
     pub(crate) fn new(w: usize, h: usize) -> Self {
         let mut rp = RealFftPlanner::<f32>::new();
         let mut cp = FftPlanner::<f32>::new();
@@ -36,30 +32,39 @@ impl Fft2 {
                 .max(col_inv.get_inplace_scratch_len())
         ];
         Self {
-            w,
-            h,
             r2c,
             c2r,
             col_fwd,
             col_inv,
-            rows: vec![Complex32::default(); h * (w / 2 + 1)],
-            row_in: vec![0.0; w],
             scratch_r,
             scratch_c,
+        }
+    }
+}
+
+pub(crate) struct Fft2 {
+    w: usize,
+    h: usize,
+    plans: Plans,
+    /// Row-major half spectrum (h rows of w/2 + 1), between the row and column passes.
+    rows: Vec<Complex32>,
+    row_in: Vec<f32>,
+}
+
+impl Fft2 {
+    pub(crate) fn new(w: usize, h: usize) -> Self {
+        Self {
+            w,
+            h,
+            plans: Plans::new(w, h),
+            rows: vec![Complex32::default(); h * (w / 2 + 1)],
+            row_in: vec![0.0; w],
         }
     }
 
     /// Half-spectrum length: (w/2 + 1) * h.
     pub(crate) fn spectrum_len(&self) -> usize {
         (self.w / 2 + 1) * self.h
-    }
-
-    pub(crate) fn width(&self) -> usize {
-        self.w
-    }
-
-    pub(crate) fn height(&self) -> usize {
-        self.h
     }
 
     /// Forward transform of the `w x h` image whose rows `0..rows` are given by `row(r, buf)`
@@ -76,15 +81,17 @@ impl Fft2 {
             if r < rows {
                 row(r, &mut self.row_in);
                 // Lengths are from the plan, so realfft cannot fail here.
-                let _ = self
+                let p = &mut self.plans;
+                let _ = p
                     .r2c
-                    .process_with_scratch(&mut self.row_in, out, &mut self.scratch_r);
+                    .process_with_scratch(&mut self.row_in, out, &mut p.scratch_r);
             } else {
                 out.fill(Complex32::default());
             }
         }
         transpose(&self.rows, spec, h, hw);
-        self.col_fwd.process_with_scratch(spec, &mut self.scratch_c);
+        let p = &mut self.plans;
+        p.col_fwd.process_with_scratch(spec, &mut p.scratch_c);
         debug_assert_eq!(self.row_in.len(), w);
     }
 
@@ -97,7 +104,8 @@ impl Fft2 {
         mut take: impl FnMut(usize, &[f32]),
     ) {
         let (w, h, hw) = (self.w, self.h, self.w / 2 + 1);
-        self.col_inv.process_with_scratch(spec, &mut self.scratch_c);
+        let p = &mut self.plans;
+        p.col_inv.process_with_scratch(spec, &mut p.scratch_c);
         transpose(spec, &mut self.rows, hw, h);
         for r in (0..h).filter(|&r| want(r)) {
             let row = &mut self.rows[r * hw..(r + 1) * hw];
@@ -106,9 +114,9 @@ impl Fft2 {
             if w % 2 == 0 {
                 row[hw - 1].im = 0.0;
             }
-            let _ = self
+            let _ = p
                 .c2r
-                .process_with_scratch(row, &mut self.row_in, &mut self.scratch_r);
+                .process_with_scratch(row, &mut self.row_in, &mut p.scratch_r);
             take(r, &self.row_in);
         }
     }

@@ -11,6 +11,8 @@
 mod fft2;
 mod jtc;
 mod jtc_cross;
+#[cfg(test)]
+mod jtc_oracle;
 mod jtc_paper;
 mod pair;
 mod phase;
