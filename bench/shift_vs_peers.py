@@ -7,7 +7,10 @@ true shift and our estimates and times; this script runs
   - cv2.phaseCorrelate(ref, cur, window=Hann)
 on the same files, and prints per scene and SNR the error RMS and median time of each method.
 Each peer's sign convention is calibrated first on a whole-pixel shift (no assumption).
-OpenCV runs on one thread (`opencv`, as ours: one core) and on its default threads (`opencv-mt`).
+OpenCV runs on one thread (`opencv`) and on its default threads (`opencv-mt`). Ours run in
+motion-sim's default pool: xcorr, phase and the linear JTC use one core whatever the pool, the
+binarised JTC (`jtc`) splits over two threads when it has them; `jtc-1t` times it again in a
+one-thread pool (`--threads 1`) on the same pairs.
 
 Timing is interleaved in one run: --rounds times (default 3) our motion-sim (which times each of
 our estimators on each pair) and then the peers on the same pairs; the medians are over all
@@ -101,6 +104,13 @@ def main():
                               stdout=subprocess.DEVNULL)
         with open(os.path.join(out, "manifest.csv")) as fh:
             rows = list(csv.DictReader(fh))
+        one = out + "_1t"
+        os.makedirs(one, exist_ok=True)
+        subprocess.check_call([exe, "--threads", "1", "motion-sim", *linked, "--trials", str(args.trials), f"--snr-db={args.snr_db}",
+                               "--size", str(args.size), "--method", "jtc", "--dump-dir", one]
+                              + (["--fourier"] if args.fourier else []), stdout=subprocess.DEVNULL)
+        with open(os.path.join(one, "manifest.csv")) as fh:
+            seconds_1t = {(r["scene"], r["snr_db"], r["trial"]): float(r["jtc_seconds"]) for r in csv.DictReader(fh)}
         for row in rows:
             key = (row["scene"], float(row["snr_db"]))
             stem = f"{row['scene']}_{row['snr_db']}_{row['trial']}"
@@ -113,6 +123,7 @@ def main():
                 if round_ == 0:
                     errs.setdefault(key, {}).setdefault(m, []).append((float(row[f"{m}_dx"]) - dx) ** 2 + (float(row[f"{m}_dy"]) - dy) ** 2)
                 times.setdefault(key, {}).setdefault(m, []).append(float(row[f"{m}_seconds"]))
+            times[key].setdefault("jtc-1t", []).append(seconds_1t[(row["scene"], row["snr_db"], row["trial"])])
             for name, fn in fns.items():
                 t = time.perf_counter()
                 ex, ey = fn(ref, cur)
@@ -136,10 +147,12 @@ def main():
             all_t[m] += times[key][m]
             line += f"{np.sqrt(e.mean()):>10.4f} ({np.median(times[key][m]) * 1e3:4.2f})"
         print(line)
+    all_t["jtc-1t"] = [t for key in times for t in times[key]["jtc-1t"]]
     med = {m: np.median(v) for m, v in all_t.items()}
     print("all cells: error RMS px / median ms per pair")
     for m in methods:
         print(f"  {m:<10} {np.sqrt(np.mean(all_e[m])):8.4f} px  {med[m] * 1e3:6.3f} ms")
+    print(f"  {'jtc-1t':<10} {'(as jtc)':>11}  {med['jtc-1t'] * 1e3:6.3f} ms")
     print("time ratios (peer / ours, > 1: ours faster): "
           + ", ".join(f"{p} / {o} = {med[p] / med[o]:.2f}" for p in ("opencv", "opencv-mt") for o in ("xcorr", "phase"))
           + f", skimage / xcorr = {med['skimage'] / med['xcorr']:.1f}")

@@ -22,7 +22,8 @@ use std::process::ExitCode;
     about = "Geometry of airborne camera images: rectify oblique frames from six attitude angles"
 )]
 struct Cli {
-    /// Worker threads for pixel loops (default: all cores).
+    /// Worker threads for pixel loops and the binarised JTC's two frame orders (default: all
+    /// cores).
     #[arg(long, global = true)]
     threads: Option<usize>,
     #[command(subcommand)]

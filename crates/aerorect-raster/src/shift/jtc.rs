@@ -26,12 +26,14 @@
 //!   [-1 2 -1] filter along u is, in the plane, the weight 2 - 2 cos(2 pi x / 6w) at joint
 //!   column x = 2w + s. The plane is even (the spectrum is real and even), so the mirror peak
 //!   repeats the first one and is not computed. Two 2w x 2h forward transforms and one inverse
-//!   per pair (the frames in the other order read the same plane reflected), against four
-//!   6w x 2h transforms for the joint image both ways: `cross` (module `jtc_cross`).
+//!   per pair (the frames in the other order read the same plane reflected), against two
+//!   6w x 2h forward transforms and two inverses for the joint image both ways: `cross`
+//!   (module `jtc_cross`).
 //! - Binarisation (a threshold at the median of the whole filtered joint spectrum, central term
-//!   included) is not linear and has no cross-spectrum form: with `binarize` the joint image is
-//!   transformed as the paper does (module `jtc_paper`). Tests hold the cross-spectrum form to
-//!   the paper form's peak within 1e-6 px.
+//!   included) is not linear and has no cross-spectrum form: with `binarize` the joint spectrum
+//!   R + T c is formed on the 6w x 2h grid, binarised and inverted as the paper does (module
+//!   `jtc_paper`). Tests hold the cross-spectrum form to the paper form's peak within 1e-6 px,
+//!   and the paper form to an f64 joint image.
 
 use super::jtc_cross::CrossJtc;
 use super::jtc_paper::PaperJtc;
