@@ -107,7 +107,8 @@ def main():
         one = out + "_1t"
         os.makedirs(one, exist_ok=True)
         subprocess.check_call([exe, "--threads", "1", "motion-sim", *linked, "--trials", str(args.trials), f"--snr-db={args.snr_db}",
-                               "--size", str(args.size), "--method", "jtc", "--dump-dir", one]
+                               "--size", str(args.size), "--method", "jtc", "--dump-dir", one,
+                               "--plot", os.path.join(HERE, "out", "shift_vs_peers_1t.svg")]
                               + (["--fourier"] if args.fourier else []), stdout=subprocess.DEVNULL)
         with open(os.path.join(one, "manifest.csv")) as fh:
             seconds_1t = {(r["scene"], r["snr_db"], r["trial"]): float(r["jtc_seconds"]) for r in csv.DictReader(fh)}

@@ -29,7 +29,6 @@ impl Plans {
             Complex32::default();
             col_fwd
                 .get_inplace_scratch_len()
-                .max(col_fwd.get_outofplace_scratch_len())
                 .max(col_inv.get_inplace_scratch_len())
         ];
         Self {

@@ -30,10 +30,9 @@
 //!   6w x 2h forward transforms and two inverses for the joint image both ways: `cross`
 //!   (module `jtc_cross`).
 //! - Binarisation (a threshold at the median of the whole filtered joint spectrum, central term
-//!   included) is not linear and has no cross-spectrum form: with `binarize` the joint spectrum
-//!   R + T c is formed on the 6w x 2h grid, binarised and inverted as the paper does (module
-//!   `jtc_paper`). Tests hold the cross-spectrum form to the paper form's peak within 1e-6 px,
-//!   and the paper form to an f64 joint image.
+//!   included) is not linear and has no cross-spectrum form: with `binarize` the joint image is
+//!   transformed as the paper does (module `jtc_paper`). Tests hold the cross-spectrum form to
+//!   the paper form's peak within 1e-6 px.
 
 use super::jtc_cross::CrossJtc;
 use super::jtc_paper::PaperJtc;
