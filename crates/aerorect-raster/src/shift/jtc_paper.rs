@@ -207,8 +207,8 @@ impl Order {
         }
     }
 
-    /// The shift of `b` relative to `a` from the joint image with `a` at column 0 and `b` at
-    /// column 2w.
+    /// Stages 1 to 3 for the joint image with `a` at column 0 and `b` at column 2w: its power
+    /// spectrum, and the binarisation threshold when binarising.
     fn forward(&mut self, j: Joint, opts: JtcOptions, a: &[f32], b: &[f32]) -> Option<f32> {
         self.joint_rows(j, a, b);
         self.power_spectrum(j, opts.binarize);
@@ -218,6 +218,7 @@ impl Order {
         })
     }
 
+    /// Stages 4 and 5: the correlation plane around the first cross term.
     fn inverse(&mut self, j: Joint, threshold: Option<f32>) {
         self.inverse_columns(j, threshold);
         self.plane(j);
