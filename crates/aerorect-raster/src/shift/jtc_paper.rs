@@ -419,6 +419,31 @@ mod tests {
     use super::super::jtc_oracle::{joint_image_f64, pairs};
     use super::*;
 
+    /// The smallest frames and odd sizes (odd half-spectrum widths, a last unpaired column, an
+    /// odd number of plane rows): a frame against itself has moved by exactly 0 and a pair's
+    /// shift is finite, with and without the filter and the binarisation.
+    #[test]
+    fn small_and_odd_frames_keep_their_symmetry() {
+        for (w, h) in [(8, 8), (9, 11), (13, 8), (8, 9), (11, 17)] {
+            let (r, t) = pairs(w, h).swap_remove(0);
+            for (spectral_filter, binarize) in [(true, true), (false, true), (true, false)] {
+                let opts = JtcOptions {
+                    spectral_filter,
+                    binarize,
+                    ..JtcOptions::default()
+                };
+                let mut jtc = PaperJtc::new(w, h, opts);
+                let same = jtc.estimate(&r, &r).unwrap();
+                assert_eq!((same.dx, same.dy), (0.0, 0.0), "{w}x{h} {opts:?}");
+                let e = jtc.estimate(&r, &t).unwrap();
+                assert!(
+                    e.dx.is_finite() && e.dy.is_finite(),
+                    "{w}x{h} {opts:?}: {e:?}"
+                );
+            }
+        }
+    }
+
     /// The binarised joint image in f32 against its f64 definition (`joint_image_f64`), on noisy
     /// textured pairs, every option with binarisation. Binarisation is discontinuous: spectrum
     /// values within f32 rounding of the threshold take either sign, and on weak peaks
