@@ -84,17 +84,19 @@ impl Joint {
         2.0 * p[u * hh + v] - lo - hi
     }
 
+    /// Columns u - 1, u and u + 1 of the power spectrum `p` (u an interior column).
+    fn neighbours(self, p: &[f32], u: usize) -> [&[f32]; 3] {
+        let hh = self.hh();
+        [u - 1, u, u + 1].map(|c| &p[c * hh..(c + 1) * hh])
+    }
+
     /// Column u of the filtered spectrum.
     fn filtered_column(self, p: &[f32], u: usize, out: &mut [f32]) {
         let hh = self.hh();
         if !self.filter {
             out.copy_from_slice(&p[u * hh..(u + 1) * hh]);
         } else if self.interior(u) {
-            let (lo, mid, hi) = (
-                &p[(u - 1) * hh..u * hh],
-                &p[u * hh..(u + 1) * hh],
-                &p[(u + 1) * hh..(u + 2) * hh],
-            );
+            let [lo, mid, hi] = self.neighbours(p, u);
             for (((e, &b), &a), &c) in out.iter_mut().zip(mid).zip(lo).zip(hi) {
                 *e = 2.0 * b - a - c;
             }
@@ -111,7 +113,7 @@ impl Joint {
         let hh = self.hh();
         let start = (8 - (u * hh) % 8) % 8;
         if self.interior(u) {
-            let (lo, mid, hi) = (&p[(u - 1) * hh..], &p[u * hh..], &p[(u + 1) * hh..]);
+            let [lo, mid, hi] = self.neighbours(p, u);
             sample.extend((start..hh).step_by(8).map(|v| 2.0 * mid[v] - lo[v] - hi[v]));
         } else {
             sample.extend((start..hh).step_by(8).map(|v| self.filtered(p, u, v)));
@@ -371,8 +373,9 @@ impl Order {
     }
 }
 
-/// `cols[k * stride + y] = rows[y * hw + u0 + k]` for k in 0..n and every row y. A whole batch
-/// goes by 8 x 8 tiles of fixed size, so that each column receives runs of eight values.
+/// `cols[k * stride + y] = rows[y * hw + u0 + k]` for k in 0..n (n <= 8) and every row y. A
+/// whole batch goes by 8 x 8 tiles of fixed size, so that each column receives runs of eight
+/// values.
 fn gather_columns(
     rows: &[Complex32],
     hw: usize,
@@ -382,15 +385,8 @@ fn gather_columns(
     stride: usize,
 ) {
     let h = rows.len() / hw;
-    if n < BATCH {
-        for (y, row) in rows.chunks_exact(hw).enumerate() {
-            for (k, &c) in row[u0..u0 + n].iter().enumerate() {
-                cols[k * stride + y] = c;
-            }
-        }
-        return;
-    }
-    let tiles = h / BATCH * BATCH;
+    // Whole tiles for a whole batch; the rows below them, or a partial batch, one by one.
+    let tiles = if n == BATCH { h / BATCH * BATCH } else { 0 };
     let mut tile = [[Complex32::default(); BATCH]; BATCH];
     for y0 in (0..tiles).step_by(BATCH) {
         for (t, row) in tile.iter_mut().zip(rows[y0 * hw..].chunks(hw)) {
@@ -407,7 +403,7 @@ fn gather_columns(
         }
     }
     for (y, row) in rows.chunks_exact(hw).enumerate().skip(tiles) {
-        for (k, &c) in row[u0..u0 + BATCH].iter().enumerate() {
+        for (k, &c) in row[u0..u0 + n].iter().enumerate() {
             cols[k * stride + y] = c;
         }
     }
