@@ -58,8 +58,12 @@ pub(crate) trait Kernel: 'static {
     fn apply<T: Sample>(plane: &[T], g: &SourceGeometry, tap: &Self::Tap) -> T;
 }
 
-/// Destination pixels handled per block: coordinates, taps and all bands stay in L1.
-pub(crate) const BLOCK: usize = 256;
+/// The most destination pixels handled per block: coordinates, taps and all bands stay in L1
+/// (a block's set-up, fast positions' above all, is then paid once per 1024 pixels).
+pub(crate) const BLOCK: usize = 1024;
+
+/// The shortest block fast positions are tried on (`RowPlan::block`).
+pub(crate) const MIN_FAST_BLOCK: usize = 256;
 
 /// Per-task buffers, one block long, reused block after block.
 pub(crate) struct Scratch<K: Kernel> {
@@ -94,22 +98,45 @@ pub(crate) struct RowPlan<'a, M, T> {
 }
 
 impl<M: PixelMap, T> RowPlan<'_, M, T> {
-    /// The block's fast positions for kernel `K` where they apply (`RelativeBlock::new`).
+    /// The block from (`col0`, `row`) for kernel `K`: its length (at most `max_n`) and its fast
+    /// positions where they apply (`RelativeBlock::new`). Fast blocks are tried at `max_n`, then
+    /// halved down to `MIN_FAST_BLOCK` (a long block's f32 offsets are larger, and so is its
+    /// error bound); a block none of them covers is `MIN_FAST_BLOCK` long with exact positions,
+    /// so the next one tries again. Both builds cut rows this way, so they see the same positions.
     #[inline]
-    fn relative<K: Kernel>(&self, row: usize, col0: usize, n: usize) -> Option<RelativeBlock> {
-        match K::FAST {
-            true => self
-                .fast
-                .and_then(|m| RelativeBlock::new(m, row, col0, n, K::FAST_SHIFT)),
-            false => None,
+    fn block<K: Kernel>(
+        &self,
+        row: usize,
+        col0: usize,
+        max_n: usize,
+    ) -> (usize, Option<RelativeBlock>) {
+        let Some(m) = self.fast.filter(|_| K::FAST) else {
+            return (max_n, None);
+        };
+        let mut n = max_n;
+        loop {
+            if let Some(block) = RelativeBlock::new(m, row, col0, n, K::FAST_SHIFT) {
+                return (n, Some(block));
+            }
+            if n <= MIN_FAST_BLOCK {
+                return (n, None);
+            }
+            n = (n / 2).max(MIN_FAST_BLOCK);
         }
     }
 
-    /// Fills the source positions of `xs.len()` pixels from (`col0`, `row`) for kernel `K`:
-    /// fast where the block allows, exact otherwise.
+    /// Fills the source positions of a block (`block`) of `xs.len()` pixels from
+    /// (`col0`, `row`): fast where `fast` is given, exact otherwise.
     #[inline]
-    fn positions<K: Kernel>(&self, row: usize, col0: usize, xs: &mut [f64], ys: &mut [f64]) {
-        match self.relative::<K>(row, col0, xs.len()) {
+    fn positions(
+        &self,
+        fast: Option<&RelativeBlock>,
+        row: usize,
+        col0: usize,
+        xs: &mut [f64],
+        ys: &mut [f64],
+    ) {
+        match fast {
             Some(block) => block.fill(0, xs, ys),
             None => self.map.source_row(row, col0, xs, ys),
         }
@@ -246,7 +273,7 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
     } = scratch;
     let mut c0 = out.cols.start;
     while c0 < out.cols.end {
-        let n = BLOCK.min(out.cols.end - c0);
+        let (n, fast) = plan.block::<K>(out.row, c0, BLOCK.min(out.cols.end - c0));
         let range = out.start + c0..out.start + c0 + n;
         let (xs, ys, valid) = (&mut xs[..n], &mut ys[..n], &mut valid[..n]);
         let mut outs: [&mut [T]; MAX_SIMD_BANDS] = Default::default();
@@ -254,7 +281,6 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
             *o = &mut chunk[range.clone()];
         }
         let outs = &mut outs[..bands];
-        let fast = plan.relative::<K>(out.row, c0, n);
         // SAFETY (all arms): AVX2 is enabled; the source is at least 4 x 4 with full planes;
         // positions and outputs are n long.
         match fast {
@@ -271,7 +297,7 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
                 }
             }
             None if kernel == TypeId::of::<Bicubic>() => {
-                plan.positions::<K>(out.row, c0, xs, ys);
+                plan.map.source_row(out.row, c0, xs, ys);
                 let pos = Exact { xs, ys };
                 unsafe { avx2::bicubic_block(g, &pos, planes, outs, valid, simd, nodata) };
             }
@@ -308,9 +334,9 @@ fn row_body<T: Sample, K: Kernel, M: PixelMap>(
     } = scratch;
     let mut c0 = out.cols.start;
     while c0 < out.cols.end {
-        let n = BLOCK.min(out.cols.end - c0);
+        let (n, fast) = plan.block::<K>(out.row, c0, BLOCK.min(out.cols.end - c0));
         let (xs, ys, taps, valid) = (&mut xs[..n], &mut ys[..n], &mut taps[..n], &mut valid[..n]);
-        plan.positions::<K>(out.row, c0, xs, ys);
+        plan.positions(fast.as_ref(), out.row, c0, xs, ys);
         for (((x, y), tap), ok) in xs
             .iter()
             .zip(ys.iter())

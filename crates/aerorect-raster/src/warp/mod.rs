@@ -222,7 +222,7 @@ const PIXELS_PER_TASK: usize = 32 * 1024;
 /// so that the source pixels of a tile stay in cache from one row to the next even when the
 /// destination rows cross the source at an angle (as OpenCV's warp blocks do).
 const MIN_ROWS_PER_TASK: usize = 16;
-const TILE_COLS: usize = 256;
+const TILE_COLS: usize = 1024;
 
 /// The destination cut into strips of `rows` rows, one task each: per strip, its part of every
 /// band (alpha last).

@@ -132,6 +132,7 @@ impl RelativeBlock {
 mod tests {
     use super::*;
     use crate::map::PixelMap;
+    use crate::warp::kernel::{BLOCK, MIN_FAST_BLOCK};
     use aerorect_core::Homography;
 
     /// Strong and mild perspectives, rotations and scales from 1/3 to 3 (source_from_destination).
@@ -186,15 +187,18 @@ mod tests {
     #[test]
     fn fast_positions_are_within_their_bound_of_the_exact_map() {
         let (mut worst, mut ordinaries, mut fast) = (0.0f64, 0, 0);
-        let n = 256;
-        for (m, shift) in homographies()
+        // Every block length the rows are cut into (`RowPlan::block`); the shortest must cover
+        // every ordinary block.
+        let lengths = [MIN_FAST_BLOCK, 2 * MIN_FAST_BLOCK, BLOCK];
+        for ((m, shift), n) in homographies()
             .into_iter()
             .flat_map(|m| [(m, 0.0), (m, 0.5)])
+            .flat_map(|ms| lengths.map(|n| (ms, n)))
         {
             let h = Homography::new(m).expect("invertible");
             for row in (0..4000).step_by(97) {
                 for col0 in (0..4000).step_by(n) {
-                    let must = ordinary(&h, row, col0, n);
+                    let must = n == MIN_FAST_BLOCK && ordinary(&h, row, col0, n);
                     ordinaries += usize::from(must);
                     let Some(b) = RelativeBlock::new(&m, row, col0, n, shift) else {
                         assert!(!must, "{m:?}: row {row}, col {col0} is not fast");
@@ -222,8 +226,8 @@ mod tests {
         // The limit is 1e-3 px; the bound keeps every block within half of it.
         assert!(worst < FAST_MAX_ERROR, "worst error {worst:e} px");
         assert!(
-            ordinaries > 2000,
-            "the cases cover {ordinaries} ordinary blocks"
+            ordinaries > 2000 && fast > 3 * ordinaries / 2,
+            "the cases cover {ordinaries} ordinary blocks, {fast} fast ones of all lengths"
         );
         eprintln!("{fast} blocks fast ({ordinaries} ordinary), worst error {worst:e} px");
     }
