@@ -612,8 +612,9 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample, P: Positions>(
 
 /// The source positions of one block, eight at a time as kernel taps.
 pub(crate) trait Positions {
-    /// Whether the sample columns and rows of eight consecutive pixels are monotonic, so that
-    /// their extremes are the first and the last (true of a projective block's positions).
+    /// Whether the sample columns and rows are monotonic along the block (true of a projective
+    /// block's positions, `RelativeBlock::new`): the extremes of eight consecutive pixels are
+    /// then the first and the last, and the pixels inside the image form one run.
     const MONOTONIC: bool;
 
     fn len(&self) -> usize;
@@ -623,6 +624,17 @@ pub(crate) trait Positions {
     /// # Safety
     /// AVX2; i + 8 <= len.
     unsafe fn nearest8(&self, k: &Consts, i: usize) -> NearestTaps;
+
+    /// The sample indices, columns and rows of pixels i..i + 8, all known to be inside (no
+    /// inside test, no clamp).
+    ///
+    /// # Safety
+    /// AVX2; i + 8 <= len; the eight pixels are inside the image.
+    unsafe fn nearest_inside8(&self, k: &Consts, i: usize) -> [__m256i; 3] {
+        // SAFETY: the contract.
+        let t = unsafe { self.nearest8(k, i) };
+        [t.idx, t.ix, t.iy]
+    }
 
     /// The bilinear taps of pixels i..i + 8.
     ///
@@ -789,18 +801,29 @@ impl Relative {
     #[inline]
     fn nearest_taps(&self, k: &Consts, p: [__m256; 2]) -> NearestTaps {
         let inside = self.inside8(&p);
-        let index = |a: usize| {
-            let f = _mm256_cvttps_epi32(_mm256_floor_ps(p[a]));
-            _mm256_add_epi32(f, self.origin[a])
-        };
-        let (ix, iy) = (index(0), index(1));
-        let idx = _mm256_add_epi32(_mm256_mullo_epi32(iy, k.width), ix);
+        let [idx, ix, iy] = self.nearest_index(k, p);
         NearestTaps {
             idx: _mm256_and_si256(idx, _mm256_castps_si256(inside)),
             ix,
             iy,
             mask: _mm256_movemask_ps(inside),
         }
+    }
+
+    /// The sample indices, columns and rows of offsets `p` (origin + floor(offset), unclamped).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn nearest_index(&self, k: &Consts, p: [__m256; 2]) -> [__m256i; 3] {
+        let index = |a: usize| {
+            let f = _mm256_cvttps_epi32(_mm256_floor_ps(p[a]));
+            _mm256_add_epi32(f, self.origin[a])
+        };
+        let (ix, iy) = (index(0), index(1));
+        [
+            _mm256_add_epi32(_mm256_mullo_epi32(iy, k.width), ix),
+            ix,
+            iy,
+        ]
     }
 
     /// `left_neighbour` on origin + offset: the clamp, floor and fraction in f32 are exact.
@@ -849,6 +872,12 @@ impl Positions for Relative {
     #[inline]
     unsafe fn nearest8(&self, k: &Consts, i: usize) -> NearestTaps {
         self.nearest_taps(k, self.offsets8(i))
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn nearest_inside8(&self, k: &Consts, i: usize) -> [__m256i; 3] {
+        self.nearest_index(k, self.offsets8(i))
     }
 
     #[target_feature(enable = "avx2")]
@@ -1052,6 +1081,12 @@ unsafe fn nearest_steps<T: SimdSample, P: Positions, const WINDOWS: bool>(
 ) -> usize {
     let n = pos.len().min(valid.len());
     let k = Consts::new(g);
+    if let Some(whole) = inside_run(&k, pos, n) {
+        valid[..whole].fill(true);
+        // SAFETY: this function's contract; every pixel of the whole steps is inside.
+        unsafe { nearest_inside::<T, P, WINDOWS>(&k, g, pos, planes, outs, whole) };
+        return whole;
+    }
     let mut at = [0u32; 8];
     let mut i = 0;
     while i + 8 <= n {
@@ -1084,6 +1119,75 @@ unsafe fn nearest_steps<T: SimdSample, P: Positions, const WINDOWS: bool>(
         i += 8;
     }
     i
+}
+
+/// The whole steps' length (`n` rounded down to eight) where every pixel of them is inside:
+/// with monotonic positions the inside pixels form one run, so its first and last pixels decide.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn inside_run<P: Positions>(k: &Consts, pos: &P, n: usize) -> Option<usize> {
+    let whole = n / 8 * 8;
+    if !P::MONOTONIC || whole == 0 || whole > pos.len() {
+        return None;
+    }
+    // SAFETY: 8 <= whole <= len.
+    let (first, last) = unsafe { (pos.nearest8(k, 0).mask, pos.nearest8(k, whole - 8).mask) };
+    (first & 1 != 0 && last & 0x80 != 0).then_some(whole)
+}
+
+/// `nearest_steps` over `whole` pixels all inside: no inside test, no nodata. One band reads
+/// and writes through its own two pointers (kept in registers, not reloaded per step).
+///
+/// # Safety
+/// As `nearest_block`; `whole` a multiple of eight, at most every output's length, and every
+/// pixel of it inside the image.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn nearest_inside<T: SimdSample, P: Positions, const WINDOWS: bool>(
+    k: &Consts,
+    g: &SourceGeometry,
+    pos: &P,
+    planes: &[&[T]],
+    outs: &mut [&mut [T]],
+    whole: usize,
+) {
+    let mut at = [0u32; 8];
+    if let ([plane], [out]) = (planes, &mut *outs) {
+        debug_assert!(whole <= out.len());
+        let (src, dst) = (plane.as_ptr(), out.as_mut_ptr());
+        for i in (0..whole).step_by(8) {
+            // SAFETY: i + 8 <= whole <= len; the pixels are inside (the contract), so every
+            // index is below the plane's length; i + 8 <= the output's length.
+            unsafe {
+                let [idx, ..] = pos.nearest_inside8(k, i);
+                _mm256_storeu_si256(at.as_mut_ptr() as *mut __m256i, idx);
+                for (j, &a) in at.iter().enumerate() {
+                    *dst.add(i + j) = *src.add(a as usize);
+                }
+            }
+        }
+        return;
+    }
+    for i in (0..whole).step_by(8) {
+        // SAFETY: i + 8 <= whole <= len; the pixels are inside (the contract).
+        let [idx, ix, iy] = unsafe { pos.nearest_inside8(k, i) };
+        if WINDOWS && let Some(win) = nearest_window(k, ix, iy, P::MONOTONIC) {
+            for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+                // SAFETY: `nearest_window` checked the rows; i + 8 <= whole <= the length.
+                unsafe { T::nearest_window8(&win, g.width(), plane, &mut out[i..i + 8]) };
+            }
+            continue;
+        }
+        // SAFETY: `at` holds eight u32.
+        unsafe { _mm256_storeu_si256(at.as_mut_ptr() as *mut __m256i, idx) };
+        for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+            for (d, &a) in out[i..i + 8].iter_mut().zip(at.iter()) {
+                debug_assert!((a as usize) < plane.len());
+                // SAFETY: inside pixels' indices are below the plane's length.
+                *d = unsafe { *plane.get_unchecked(a as usize) };
+            }
+        }
+    }
 }
 
 /// The four Keys weights of eight fractions, as `keys_weights_f32` (same operations and order),

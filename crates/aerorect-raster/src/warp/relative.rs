@@ -26,6 +26,16 @@ const U: f64 = 1.0 / (1u64 << 24) as f64;
 /// moved by it must be exact in f32.
 const ORIGIN_LIMIT: f64 = (1u64 << 22) as f64;
 
+/// The most w may grow along a fast block (w_last / w0, that is 1 + c (n - 1)); far beyond any
+/// map worth resampling, and what keeps the f32 offsets monotonic in k (the AVX2 kernels rely
+/// on it, `Positions::MONOTONIC`). k / (1 + c k) grows from k to k + 1 by the factor
+/// 1 + 1 / (k (1 + c (k + 1))), and its f32 evaluation (`RelativeBlock::offset`: three
+/// roundings, then the product's) is within 4u of it, so it stays monotonic while that factor
+/// exceeds (1 + 4u) / (1 - 4u), about 1 + 8u = 1 + 2^-21: k (1 + c (k + 1)) < 2^21. With
+/// k < 1024 (`kernel::BLOCK`) and 1 + c (k + 1) <= 1000 that holds twice over; for c < 0 the
+/// factor is larger still. The roundings of a k r, then first + a k r keep monotonicity.
+const MAX_W_GROWTH: f64 = 1000.0;
+
 /// floor(v) for |v| < 2^22, without a libm call.
 #[inline]
 fn floor(v: f64) -> f64 {
@@ -60,7 +70,7 @@ impl RelativeBlock {
         let along = |i: usize| m[(i, 0)] * c0 + m[(i, 1)] * r + m[(i, 2)];
         let w0 = along(2);
         let w_last = w0 + m[(2, 0)] * n.saturating_sub(1) as f64;
-        if !(w0 > 0.0 && w_last > 0.0) {
+        if !(w0 > 0.0 && w_last > 0.0 && w_last <= MAX_W_GROWTH * w0) {
             return None;
         }
         let inv_w0 = 1.0 / w0;
@@ -210,6 +220,11 @@ mod tests {
                     let (mut ex, mut ey) = (vec![0.0; n], vec![0.0; n]);
                     b.fill(0, &mut xs, &mut ys);
                     h.source_row(row, col0, &mut ex, &mut ey);
+                    // The AVX2 kernels rely on it (`MAX_W_GROWTH`).
+                    let monotonic = |v: &[f64]| {
+                        v.windows(2).all(|p| p[0] <= p[1]) || v.windows(2).all(|p| p[0] >= p[1])
+                    };
+                    assert!(monotonic(&xs) && monotonic(&ys), "row {row}, col {col0}");
                     for k in 0..n {
                         let e = (xs[k] - ex[k]).abs().max((ys[k] - ey[k]).abs());
                         assert!(
@@ -240,5 +255,10 @@ mod tests {
         assert!(RelativeBlock::new(&m, 0, 1100, 256, 0.0).is_none());
         // Far from it, the bound passes.
         assert!(RelativeBlock::new(&m, 0, 0, 256, 0.0).is_some());
+        // w growing 1000-fold along a block is refused even where the bound would pass
+        // (x and y do not move along the row).
+        let m = Mat3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 4.0, 0.0, 1.0);
+        assert!(RelativeBlock::new(&m, 0, 0, 256, 0.0).is_none());
+        assert!(RelativeBlock::new(&m, 0, 0, 200, 0.0).is_some());
     }
 }
