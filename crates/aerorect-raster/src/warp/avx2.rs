@@ -1229,29 +1229,111 @@ fn cubic_split(v: __m256d, hi: __m256d) -> (__m128i, __m128) {
     (_mm256_cvttpd_epi32(f), _mm256_cvtpd_ps(_mm256_sub_pd(c, f)))
 }
 
+/// The split of eight bicubic positions (`Bicubic::prepare`): inside lanes, the floors of the
+/// positions clamped to [-1, n] and their fractions.
+pub(crate) struct CubicSplit8 {
+    inside: __m256i,
+    xi: __m256i,
+    yi: __m256i,
+    tx: __m256,
+    ty: __m256,
+}
+
+/// The positions a bicubic block reads: eight at a time as splits, and one pixel's f64 position
+/// for the portable kernel (border pixels and the tail).
+pub(crate) trait CubicPositions: Positions {
+    /// The f64 position of pixel `j < len`.
+    fn at(&self, j: usize) -> (f64, f64);
+
+    /// The split of pixels i..i + 8.
+    ///
+    /// # Safety
+    /// AVX2; i + 8 <= len.
+    unsafe fn cubic8(&self, k: &Consts, i: usize) -> CubicSplit8;
+}
+
+impl CubicPositions for Exact<'_> {
+    fn at(&self, j: usize) -> (f64, f64) {
+        (self.xs[j], self.ys[j])
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn cubic8(&self, k: &Consts, i: usize) -> CubicSplit8 {
+        let (hi_x, hi_y) = (
+            _mm256_set1_pd(f64::from(k.size.0)),
+            _mm256_set1_pd(f64::from(k.size.1)),
+        );
+        // SAFETY: i + 8 <= len (the contract).
+        let ((x_lo, y_lo), (x_hi, y_hi)) =
+            unsafe { (load4(self.xs, self.ys, i), load4(self.xs, self.ys, i + 4)) };
+        let (xi_lo, tx_lo) = cubic_split(x_lo, hi_x);
+        let (xi_hi, tx_hi) = cubic_split(x_hi, hi_x);
+        let (yi_lo, ty_lo) = cubic_split(y_lo, hi_y);
+        let (yi_hi, ty_hi) = cubic_split(y_hi, hi_y);
+        CubicSplit8 {
+            inside: narrow_mask(k.inside(x_lo, y_lo), k.inside(x_hi, y_hi)),
+            xi: _mm256_set_m128i(xi_hi, xi_lo),
+            yi: _mm256_set_m128i(yi_hi, yi_lo),
+            tx: _mm256_set_m128(tx_hi, tx_lo),
+            ty: _mm256_set_m128(ty_hi, ty_lo),
+        }
+    }
+}
+
+/// Fast positions: the split of origin + offset done on the f32 offset. The clamp to
+/// [-1 - origin, n - origin] and the floor are exact in f32, and offset - floor(offset) is one
+/// rounding of the exact fraction, as `Bicubic::prepare`'s f64 difference cast to f32 is: both
+/// builds get the same taps.
+impl CubicPositions for Buffered<'_> {
+    fn at(&self, j: usize) -> (f64, f64) {
+        let (mut x, mut y) = ([0.0], [0.0]);
+        self.rel.block.fill(j, &mut x, &mut y);
+        (x[0], y[0])
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn cubic8(&self, k: &Consts, i: usize) -> CubicSplit8 {
+        // SAFETY: i + 8 <= len, so within the buffers.
+        let p = unsafe { self.load8(i) };
+        let inside = self.rel.inside8(&p);
+        let split = |a: usize, size: i32| {
+            let o = self.rel.block.origin[a];
+            let lo = _mm256_set1_ps((-1 - o) as f32);
+            let hi = _mm256_set1_ps((size - o) as f32);
+            let c = _mm256_min_ps(_mm256_max_ps(p[a], lo), hi);
+            let f = _mm256_floor_ps(c);
+            let i = _mm256_add_epi32(_mm256_cvttps_epi32(f), self.rel.origin[a]);
+            (i, _mm256_sub_ps(c, f))
+        };
+        let ((xi, tx), (yi, ty)) = (split(0, k.size.0), split(1, k.size.1));
+        CubicSplit8 {
+            inside: _mm256_castps_si256(inside),
+            xi,
+            yi,
+            tx,
+            ty,
+        }
+    }
+}
+
 /// Bicubic taps of a block: per pixel its state (0 outside, 1 interior, 2 border) and, for
 /// interior pixels, the 4 x 4 neighbourhood's upper-left index and the weights.
 ///
 /// # Safety
 /// AVX2; the source at least 4 x 4.
 #[target_feature(enable = "avx2")]
-unsafe fn bicubic_taps(
+unsafe fn bicubic_taps<Q: CubicPositions>(
     g: &SourceGeometry,
-    xs: &[f64],
-    ys: &[f64],
+    pos: &Q,
     taps: &mut [CubicTap],
     bases: &mut [u32],
     state: &mut [u8],
 ) {
-    let n = xs
-        .len()
-        .min(ys.len())
-        .min(taps.len())
-        .min(bases.len())
-        .min(state.len());
+    let n = pos.len().min(taps.len()).min(bases.len()).min(state.len());
     let k = Consts::new(g);
     let (w, h) = (g.width() as i32, g.height() as i32);
-    let (hi_x, hi_y) = (_mm256_set1_pd(w as f64), _mm256_set1_pd(h as f64));
     let one = _mm256_set1_epi32(1);
     let (last_x, last_y) = (_mm256_set1_epi32(w - 3), _mm256_set1_epi32(h - 3));
     // Interior: 1 <= v <= last.
@@ -1264,18 +1346,15 @@ unsafe fn bicubic_taps(
     let mut i = 0;
     while i + 8 <= n {
         // SAFETY: i + 8 <= n.
-        let ((x_lo, y_lo), (x_hi, y_hi)) = unsafe { (load4(xs, ys, i), load4(xs, ys, i + 4)) };
-        let inside = narrow_mask(k.inside(x_lo, y_lo), k.inside(x_hi, y_hi));
-        let (xi_lo, tx_lo) = cubic_split(x_lo, hi_x);
-        let (xi_hi, tx_hi) = cubic_split(x_hi, hi_x);
-        let (yi_lo, ty_lo) = cubic_split(y_lo, hi_y);
-        let (yi_hi, ty_hi) = cubic_split(y_hi, hi_y);
-        let (xi, yi) = (
-            _mm256_set_m128i(xi_hi, xi_lo),
-            _mm256_set_m128i(yi_hi, yi_lo),
-        );
-        let wx = keys8(_mm256_set_m128(tx_hi, tx_lo));
-        let wy = keys8(_mm256_set_m128(ty_hi, ty_lo));
+        let CubicSplit8 {
+            inside,
+            xi,
+            yi,
+            tx,
+            ty,
+        } = unsafe { pos.cubic8(&k, i) };
+        let wx = keys8(tx);
+        let wy = keys8(ty);
         let interior = _mm256_and_si256(within(xi, last_x), within(yi, last_y));
         // 2 inside, 1 interior (interior pixels are inside: 2 - 1), 0 outside.
         let st = _mm256_add_epi32(_mm256_and_si256(inside, _mm256_set1_epi32(2)), interior);
@@ -1300,9 +1379,10 @@ unsafe fn bicubic_taps(
         }
         i += 8;
     }
-    for p in i..n {
+    for (p, st) in state[..n].iter_mut().enumerate().skip(i) {
         let mut tap = Default::default();
-        state[p] = if Bicubic::prepare(g, xs[p], ys[p], &mut tap) {
+        let (x, y) = pos.at(p);
+        *st = if Bicubic::prepare(g, x, y, &mut tap) {
             2
         } else {
             0
@@ -1373,24 +1453,22 @@ unsafe fn cubic2<T: SimdSample>(
 /// # Safety
 /// AVX2; the source at least 4 x 4, every plane `g.width * g.height`; outputs as long as `pos`.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn bicubic_block<T: SimdSample>(
+pub(crate) unsafe fn bicubic_block<T: SimdSample, Q: CubicPositions>(
     g: &SourceGeometry,
-    pos: &Exact<'_>,
+    pos: &Q,
     planes: &[&[T]],
     outs: &mut [&mut [T]],
     valid: &mut [bool],
-    simd: &mut SimdScratch,
+    cubic: (&mut [CubicTap], &mut [u32], &mut [u8]),
     nodata: T,
 ) {
-    let (xs, ys) = (pos.xs, pos.ys);
     let n = pos.len();
-    let (taps, bases) = (&mut simd.cubic[..n], &mut simd.base[..n]);
-    let state = &mut simd.state[..n];
+    let (taps, bases, state) = (&mut cubic.0[..n], &mut cubic.1[..n], &mut cubic.2[..n]);
     // SAFETY: the contract; the taps come from `bicubic_taps` on the same positions.
-    unsafe { bicubic_taps(g, xs, ys, taps, bases, state) };
+    unsafe { bicubic_taps(g, pos, taps, bases, state) };
     for (plane, o) in planes.iter().zip(outs.iter_mut()) {
         let taps = (&taps[..], &bases[..], &state[..]);
-        unsafe { bicubic_apply(g, plane, xs, ys, taps, nodata, o) };
+        unsafe { bicubic_apply(g, plane, pos, taps, nodata, o) };
     }
     for (v, &s) in valid.iter_mut().zip(state.iter()) {
         *v = s != 0;
@@ -1403,11 +1481,10 @@ pub(crate) unsafe fn bicubic_block<T: SimdSample>(
 /// AVX2; `plane` holds `g.width * g.height` samples; taps and states from `bicubic_taps` for the
 /// same positions `xs`, `ys`.
 #[target_feature(enable = "avx2")]
-unsafe fn bicubic_apply<T: SimdSample>(
+unsafe fn bicubic_apply<T: SimdSample, Q: CubicPositions>(
     g: &SourceGeometry,
     plane: &[T],
-    xs: &[f64],
-    ys: &[f64],
+    pos: &Q,
     (taps, bases, state): (&[CubicTap], &[u32], &[u8]),
     nodata: T,
     out: &mut [T],
@@ -1429,7 +1506,7 @@ unsafe fn bicubic_apply<T: SimdSample>(
                 *out.get_unchecked_mut(k + 1) = T::from_f32(b);
             } else {
                 for j in k..k + 2 {
-                    let v = bicubic_one(g, plane, (xs, ys), (taps, bases, state), j, nodata);
+                    let v = bicubic_one(g, plane, pos, (taps, bases, state), j, nodata);
                     *out.get_unchecked_mut(j) = v;
                 }
             }
@@ -1438,7 +1515,7 @@ unsafe fn bicubic_apply<T: SimdSample>(
     }
     if k < n {
         // SAFETY: k < n; as above.
-        out[k] = unsafe { bicubic_one(g, plane, (xs, ys), (taps, bases, state), k, nodata) };
+        out[k] = unsafe { bicubic_one(g, plane, pos, (taps, bases, state), k, nodata) };
     }
 }
 
@@ -1449,10 +1526,10 @@ unsafe fn bicubic_apply<T: SimdSample>(
 #[target_feature(enable = "avx2")]
 #[inline(never)]
 #[cold]
-unsafe fn bicubic_one<T: SimdSample>(
+unsafe fn bicubic_one<T: SimdSample, Q: CubicPositions>(
     g: &SourceGeometry,
     plane: &[T],
-    (xs, ys): (&[f64], &[f64]),
+    pos: &Q,
     (taps, bases, state): (&[CubicTap], &[u32], &[u8]),
     k: usize,
     nodata: T,
@@ -1462,7 +1539,8 @@ unsafe fn bicubic_one<T: SimdSample>(
         1 => T::from_f32(unsafe { cubic1(plane.as_ptr(), g.width(), &taps[k], bases[k]) }),
         2 => {
             let mut tap = Default::default();
-            Bicubic::prepare(g, xs[k], ys[k], &mut tap);
+            let (x, y) = pos.at(k);
+            Bicubic::prepare(g, x, y, &mut tap);
             Bicubic::apply(plane, g, &tap)
         }
         _ => nodata,

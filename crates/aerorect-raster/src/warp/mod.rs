@@ -28,10 +28,11 @@ pub use relative::FAST_MAX_ERROR;
 pub enum Coordinates {
     /// Every position in f64, as the map gives it.
     Exact,
-    /// For projective maps (`PixelMap::projective`): per block of a row (at most 256 pixels),
-    /// the first position in f64 and the others as f32 offsets from it, where the block's own
-    /// error bound is at most `FAST_MAX_ERROR` (5e-4 px; see `relative`); other blocks, other
-    /// maps, and the bicubic and average kernels (whose taps dominate) are exact.
+    /// For projective maps (`PixelMap::projective`): per block of a row (1024 pixels, or 512
+    /// or 256 where a longer block's bound is too large), the first position in f64 and the
+    /// others as f32 offsets from it, where the block's own error bound is at most
+    /// `FAST_MAX_ERROR` (5e-4 px; see `relative`); other blocks, other maps, and the average
+    /// kernel (an area, not positions) are exact.
     #[default]
     Fast,
 }
