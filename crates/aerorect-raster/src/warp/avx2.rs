@@ -589,6 +589,18 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample, P: Positions>(
     let n = pos.len().min(valid.len());
     let k = Consts::new(g);
     let mut i = 0;
+    if let Some(whole) = inside_run(&k, pos, n) {
+        valid[..whole].fill(true);
+        while i < whole {
+            // SAFETY: i + 8 <= whole <= n; every pixel of the whole steps is inside.
+            let t = unsafe { pos.bilinear_inside8(&k, i, T::WINDOWS) };
+            for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+                // SAFETY: as this function's contract; i + 8 <= n = every output's length.
+                unsafe { T::bilinear8(&k, &t, plane, out, i, nodata) };
+            }
+            i += 8;
+        }
+    }
     while i + 8 <= n {
         // SAFETY: i + 8 <= n.
         let t = unsafe { pos.bilinear8(&k, i, T::WINDOWS) };
@@ -641,6 +653,15 @@ pub(crate) trait Positions {
     /// # Safety
     /// AVX2; i + 8 <= len.
     unsafe fn bilinear8(&self, k: &Consts, i: usize, with_window: bool) -> Taps8;
+
+    /// `bilinear8` for eight pixels known to be inside (no inside test).
+    ///
+    /// # Safety
+    /// AVX2; i + 8 <= len; the eight pixels are inside the image.
+    unsafe fn bilinear_inside8(&self, k: &Consts, i: usize, with_window: bool) -> Taps8 {
+        // SAFETY: the contract.
+        unsafe { self.bilinear8(k, i, with_window) }
+    }
 
     /// The pixels from `from` on (fewer than eight), as f64 positions.
     fn tail(&self, from: usize) -> Tail;
@@ -829,8 +850,16 @@ impl Relative {
     /// `left_neighbour` on origin + offset: the clamp, floor and fraction in f32 are exact.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn bilinear_taps(&self, k: &Consts, p: [__m256; 2], with_window: bool) -> Taps8 {
-        let inside = self.inside8(&p);
+    fn bilinear_taps<const INSIDE: bool>(
+        &self,
+        k: &Consts,
+        p: [__m256; 2],
+        with_window: bool,
+    ) -> Taps8 {
+        let inside = match INSIDE {
+            true => _mm256_castsi256_ps(_mm256_set1_epi32(-1)),
+            false => self.inside8(&p),
+        };
         let split = |a: usize, imax: i32| {
             let c = _mm256_min_ps(_mm256_max_ps(p[a], self.cmin[a]), self.cmax[a]);
             let rel = _mm256_cvttps_epi32(_mm256_floor_ps(c));
@@ -883,7 +912,13 @@ impl Positions for Relative {
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn bilinear8(&self, k: &Consts, i: usize, with_window: bool) -> Taps8 {
-        self.bilinear_taps(k, self.offsets8(i), with_window)
+        self.bilinear_taps::<false>(k, self.offsets8(i), with_window)
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bilinear_inside8(&self, k: &Consts, i: usize, with_window: bool) -> Taps8 {
+        self.bilinear_taps::<true>(k, self.offsets8(i), with_window)
     }
 
     fn tail(&self, from: usize) -> Tail {
@@ -939,7 +974,15 @@ impl Positions for Buffered<'_> {
     unsafe fn bilinear8(&self, k: &Consts, i: usize, with_window: bool) -> Taps8 {
         // SAFETY: i + 8 <= len, so within the buffers.
         self.rel
-            .bilinear_taps(k, unsafe { self.load8(i) }, with_window)
+            .bilinear_taps::<false>(k, unsafe { self.load8(i) }, with_window)
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bilinear_inside8(&self, k: &Consts, i: usize, with_window: bool) -> Taps8 {
+        // SAFETY: i + 8 <= len, so within the buffers.
+        self.rel
+            .bilinear_taps::<true>(k, unsafe { self.load8(i) }, with_window)
     }
 
     fn tail(&self, from: usize) -> Tail {
@@ -1121,8 +1164,9 @@ unsafe fn nearest_steps<T: SimdSample, P: Positions, const WINDOWS: bool>(
     i
 }
 
-/// The whole steps' length (`n` rounded down to eight) where every pixel of them is inside:
-/// with monotonic positions the inside pixels form one run, so its first and last pixels decide.
+/// The whole steps' length (`n` rounded down to eight) where every pixel of them is inside (by
+/// the kernel's own rule: the positions carry its shift): with monotonic positions the inside
+/// pixels form one run, so its first and last pixels decide.
 #[target_feature(enable = "avx2")]
 #[inline]
 fn inside_run<P: Positions>(k: &Consts, pos: &P, n: usize) -> Option<usize> {
