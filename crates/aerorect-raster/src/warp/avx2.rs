@@ -350,6 +350,22 @@ pub(crate) trait SimdSample: Sample {
     /// AVX2; the four samples from `p` on are readable.
     unsafe fn row4(p: *const Self) -> __m128;
 
+    /// Bicubic of a window's eight pixels (`cubic_window8`); only u8, the only type with
+    /// `WINDOWS`, has windows: the others never get here.
+    ///
+    /// # Safety
+    /// As `cubic_window8`.
+    unsafe fn cubic_window8(
+        win: &CubicWindow,
+        w: (&[__m256; 4], &[__m256; 4]),
+        plane: &[Self],
+        width: usize,
+        out: &mut [Self],
+    ) {
+        let _ = (win, w, plane, width, out);
+        debug_assert!(false, "{} has no bicubic windows", Self::NAME);
+    }
+
     /// The eight nearest samples of a window (`nearest_window`) into `out[..8]`; the
     /// portable reading here, a shuffle for u8 (the only type with `WINDOWS`).
     ///
@@ -373,6 +389,19 @@ pub(crate) trait SimdSample: Sample {
 
 impl SimdSample for u8 {
     const WINDOWS: bool = true;
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn cubic_window8(
+        win: &CubicWindow,
+        w: (&[__m256; 4], &[__m256; 4]),
+        plane: &[u8],
+        width: usize,
+        out: &mut [u8],
+    ) {
+        // SAFETY: the contract.
+        unsafe { cubic_window8(win, w, plane, width, out) };
+    }
 
     #[target_feature(enable = "avx2")]
     #[inline]
@@ -1239,6 +1268,22 @@ unsafe fn nearest_inside<T: SimdSample, P: Positions, const WINDOWS: bool>(
 #[target_feature(enable = "avx2")]
 #[inline]
 fn keys8(t: __m256) -> [__m256; 4] {
+    let [w0, w1, w2, w3] = keys_lanes(t);
+    let (a, b) = (_mm256_unpacklo_ps(w0, w1), _mm256_unpackhi_ps(w0, w1));
+    let (c, d) = (_mm256_unpacklo_ps(w2, w3), _mm256_unpackhi_ps(w2, w3));
+    [
+        _mm256_shuffle_ps::<0x44>(a, c),
+        _mm256_shuffle_ps::<0xEE>(a, c),
+        _mm256_shuffle_ps::<0x44>(b, d),
+        _mm256_shuffle_ps::<0xEE>(b, d),
+    ]
+}
+
+/// The four Keys weights of eight fractions as `keys_weights_f32` (same operations and order),
+/// one vector per tap: `[w0 of pixels 0..8], [w1 ..], [w2 ..], [w3 ..]`.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn keys_lanes(t: __m256) -> [__m256; 4] {
     let c = _mm256_set1_ps;
     let t2 = _mm256_mul_ps(t, t);
     let t3 = _mm256_mul_ps(t2, t);
@@ -1253,14 +1298,7 @@ fn keys8(t: __m256) -> [__m256; 4] {
         half_t,
     );
     let w3 = _mm256_sub_ps(_mm256_mul_ps(c(0.5), t3), _mm256_mul_ps(c(0.5), t2));
-    let (a, b) = (_mm256_unpacklo_ps(w0, w1), _mm256_unpackhi_ps(w0, w1));
-    let (c, d) = (_mm256_unpacklo_ps(w2, w3), _mm256_unpackhi_ps(w2, w3));
-    [
-        _mm256_shuffle_ps::<0x44>(a, c),
-        _mm256_shuffle_ps::<0xEE>(a, c),
-        _mm256_shuffle_ps::<0x44>(b, d),
-        _mm256_shuffle_ps::<0xEE>(b, d),
-    ]
+    [w0, w1, w2, w3]
 }
 
 /// Bicubic split of four positions (`Bicubic::prepare`): clamp to [-1, n] (NaN to -1), floor;
@@ -1362,6 +1400,71 @@ impl CubicPositions for Buffered<'_> {
     }
 }
 
+/// The bicubic taps of eight pixels from their split, written at `i` (`bicubic_taps`).
+///
+/// # Safety
+/// AVX2; i + 8 <= every slice's length.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn store_taps8(
+    k: &Consts,
+    s: &CubicSplit8,
+    i: usize,
+    (taps, bases, state): (&mut [CubicTap], &mut [u32], &mut [u8]),
+) {
+    let one = _mm256_set1_epi32(1);
+    let (w, h) = k.size;
+    // Interior: 1 <= v <= last.
+    let within = |v: __m256i, last: i32| {
+        _mm256_andnot_si256(
+            _mm256_or_si256(
+                _mm256_cmpgt_epi32(one, v),
+                _mm256_cmpgt_epi32(v, _mm256_set1_epi32(last)),
+            ),
+            _mm256_set1_epi32(-1),
+        )
+    };
+    let wx = keys8(s.tx);
+    let wy = keys8(s.ty);
+    let interior = _mm256_and_si256(within(s.xi, w - 3), within(s.yi, h - 3));
+    // 2 inside, 1 interior (interior pixels are inside: 2 - 1), 0 outside.
+    let st = _mm256_add_epi32(_mm256_and_si256(s.inside, _mm256_set1_epi32(2)), interior);
+    let st = pack_low_bytes(k, st);
+    let base = _mm256_add_epi32(
+        _mm256_mullo_epi32(_mm256_sub_epi32(s.yi, one), k.width),
+        _mm256_sub_epi32(s.xi, one),
+    );
+    debug_assert!(i + 8 <= taps.len().min(bases.len()).min(state.len()));
+    // SAFETY: i + 8 <= bases.len(), state.len(), taps.len() (the contract); CubicTap is 16-byte
+    // aligned with wx and wy [f32; 4] each.
+    unsafe {
+        _mm256_storeu_si256(bases.as_mut_ptr().add(i) as *mut __m256i, base);
+        _mm_storel_epi64(state.as_mut_ptr().add(i) as *mut __m128i, st);
+        let t = taps.as_mut_ptr().add(i);
+        for p in 0..4 {
+            let (lo, hi) = (&mut *t.add(p), &mut *t.add(p + 4));
+            _mm_store_ps(lo.wx.as_mut_ptr(), _mm256_castps256_ps128(wx[p]));
+            _mm_store_ps(hi.wx.as_mut_ptr(), _mm256_extractf128_ps::<1>(wx[p]));
+            _mm_store_ps(lo.wy.as_mut_ptr(), _mm256_castps256_ps128(wy[p]));
+            _mm_store_ps(hi.wy.as_mut_ptr(), _mm256_extractf128_ps::<1>(wy[p]));
+        }
+    }
+}
+
+/// The states of the pixels from `from` to the end of `state` through the portable kernel
+/// (the tail of a block, fewer than eight).
+fn tail_states<Q: CubicPositions>(g: &SourceGeometry, pos: &Q, from: usize, state: &mut [u8]) {
+    for (p, st) in state.iter_mut().enumerate().skip(from) {
+        let mut tap = Default::default();
+        let (x, y) = pos.at(p);
+        *st = if Bicubic::prepare(g, x, y, &mut tap) {
+            2
+        } else {
+            0
+        };
+    }
+}
+
 /// Bicubic taps of a block: per pixel its state (0 outside, 1 interior, 2 border) and, for
 /// interior pixels, the 4 x 4 neighbourhood's upper-left index and the weights.
 ///
@@ -1377,61 +1480,16 @@ unsafe fn bicubic_taps<Q: CubicPositions>(
 ) {
     let n = pos.len().min(taps.len()).min(bases.len()).min(state.len());
     let k = Consts::new(g);
-    let (w, h) = (g.width() as i32, g.height() as i32);
-    let one = _mm256_set1_epi32(1);
-    let (last_x, last_y) = (_mm256_set1_epi32(w - 3), _mm256_set1_epi32(h - 3));
-    // Interior: 1 <= v <= last.
-    let within = |v: __m256i, last: __m256i| {
-        _mm256_andnot_si256(
-            _mm256_or_si256(_mm256_cmpgt_epi32(one, v), _mm256_cmpgt_epi32(v, last)),
-            _mm256_set1_epi32(-1),
-        )
-    };
     let mut i = 0;
     while i + 8 <= n {
-        // SAFETY: i + 8 <= n.
-        let CubicSplit8 {
-            inside,
-            xi,
-            yi,
-            tx,
-            ty,
-        } = unsafe { pos.cubic8(&k, i) };
-        let wx = keys8(tx);
-        let wy = keys8(ty);
-        let interior = _mm256_and_si256(within(xi, last_x), within(yi, last_y));
-        // 2 inside, 1 interior (interior pixels are inside: 2 - 1), 0 outside.
-        let st = _mm256_add_epi32(_mm256_and_si256(inside, _mm256_set1_epi32(2)), interior);
-        let st = pack_low_bytes(&k, st);
-        let base = _mm256_add_epi32(
-            _mm256_mullo_epi32(_mm256_sub_epi32(yi, one), k.width),
-            _mm256_sub_epi32(xi, one),
-        );
-        // SAFETY: i + 8 <= n <= bases.len(), state.len(), taps.len(); CubicTap is 16-byte
-        // aligned with wx and wy [f32; 4] each.
+        // SAFETY: i + 8 <= n, every slice's length.
         unsafe {
-            _mm256_storeu_si256(bases.as_mut_ptr().add(i) as *mut __m256i, base);
-            _mm_storel_epi64(state.as_mut_ptr().add(i) as *mut __m128i, st);
-            let t = taps.as_mut_ptr().add(i);
-            for p in 0..4 {
-                let (lo, hi) = (&mut *t.add(p), &mut *t.add(p + 4));
-                _mm_store_ps(lo.wx.as_mut_ptr(), _mm256_castps256_ps128(wx[p]));
-                _mm_store_ps(hi.wx.as_mut_ptr(), _mm256_extractf128_ps::<1>(wx[p]));
-                _mm_store_ps(lo.wy.as_mut_ptr(), _mm256_castps256_ps128(wy[p]));
-                _mm_store_ps(hi.wy.as_mut_ptr(), _mm256_extractf128_ps::<1>(wy[p]));
-            }
+            let s = pos.cubic8(&k, i);
+            store_taps8(&k, &s, i, (&mut *taps, &mut *bases, &mut *state));
         }
         i += 8;
     }
-    for (p, st) in state[..n].iter_mut().enumerate().skip(i) {
-        let mut tap = Default::default();
-        let (x, y) = pos.at(p);
-        *st = if Bicubic::prepare(g, x, y, &mut tap) {
-            2
-        } else {
-            0
-        };
-    }
+    tail_states(g, pos, i, &mut state[..n]);
 }
 
 /// One interior bicubic pixel (`Bicubic::apply`'s order: vertical, then (h0 + h2) + (h1 + h3)).
@@ -1491,6 +1549,159 @@ unsafe fn cubic2<T: SimdSample>(
     }
 }
 
+/// Eight interior u8 bicubic pixels whose 4 x 4 neighbourhoods lie within 16 bytes of four or
+/// five source rows: each row is loaded once and its taps picked by byte shuffles (the `Window`
+/// layout of bilinear, for 4 x 4 taps).
+pub(crate) struct CubicWindow {
+    /// Offset of the first byte of the first row (column xmin - 1 of row ymin - 1).
+    start: usize,
+    /// `pshufb` controls: bytes 0..8 pick tap column 0 of each pixel, 8..16 column 1 ...
+    ctrl01: __m128i,
+    /// ... and columns 2 and 3.
+    ctrl23: __m128i,
+    /// 0xFF in bytes j and 8 + j where pixel j's rows start one row lower.
+    lower: __m128i,
+    /// Rows read: 4 when the eight pixels' rows are equal, else 5.
+    rows: usize,
+}
+
+/// The window of eight pixels split as `s`, when all are interior and it fits (monotonic
+/// positions: the extremes are the first and last lanes).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn cubic_window(k: &Consts, s: &CubicSplit8) -> Option<CubicWindow> {
+    let (w, h) = k.size;
+    let (xmin, xmax) = ends8(s.xi);
+    let (ymin, ymax) = ends8(s.yi);
+    // Interior (1 <= x <= w - 3, 1 <= y <= h - 3); 16 bytes from xmin - 1 hold the columns
+    // xmin - 1 ..= xmax + 2 and end inside the row.
+    if xmin < 1 || xmax > w - 3 || ymin < 1 || ymax > h - 3 {
+        return None;
+    }
+    if xmax - xmin > 12 || ymax - ymin > 1 || xmin + 15 > w {
+        return None;
+    }
+    let rel = pack_low_bytes(k, _mm256_sub_epi32(s.xi, _mm256_set1_epi32(xmin)));
+    let plus = |c: i8| _mm_add_epi8(rel, _mm_set1_epi8(c));
+    let lower = pack_low_bytes(k, _mm256_cmpgt_epi32(s.yi, _mm256_set1_epi32(ymin)));
+    Some(CubicWindow {
+        start: ((ymin - 1) * w + xmin - 1) as usize,
+        ctrl01: _mm_unpacklo_epi64(rel, plus(1)),
+        ctrl23: _mm_unpacklo_epi64(plus(2), plus(3)),
+        lower: _mm_unpacklo_epi64(lower, lower),
+        rows: (4 + ymax - ymin) as usize,
+    })
+}
+
+/// Bicubic of a window's eight pixels with per-tap weight vectors `wx`, `wy` (`keys_lanes`), in
+/// `Bicubic::apply`'s order, rounded and saturated as `u8::from_f32`, into `out[..8]`.
+///
+/// # Safety
+/// AVX2; `win.rows` rows of 16 bytes from `win.start` (stride `width`) inside `plane`;
+/// `out.len() >= 8`.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn cubic_window8(
+    win: &CubicWindow,
+    (wx, wy): (&[__m256; 4], &[__m256; 4]),
+    plane: &[u8],
+    width: usize,
+    out: &mut [u8],
+) {
+    debug_assert!(win.start + (win.rows - 1) * width + 16 <= plane.len() && out.len() >= 8);
+    // Branch-free: with four rows, the fifth is the fourth again (and `lower` all clear).
+    // SAFETY: the contract.
+    let row = |j: usize| unsafe {
+        let v = _mm_loadu_si128(
+            plane.as_ptr().add(win.start + j.min(win.rows - 1) * width) as *const __m128i
+        );
+        [
+            _mm_shuffle_epi8(v, win.ctrl01),
+            _mm_shuffle_epi8(v, win.ctrl23),
+        ]
+    };
+    let f32s = |v: __m128i| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(v));
+    let mut col = [_mm256_setzero_ps(); 4];
+    let mut upper = row(0);
+    for (r, &wr) in wy.iter().enumerate() {
+        let below = row(r + 1);
+        let v01 = _mm_blendv_epi8(upper[0], below[0], win.lower);
+        let v23 = _mm_blendv_epi8(upper[1], below[1], win.lower);
+        let taps = [
+            f32s(v01),
+            f32s(_mm_srli_si128::<8>(v01)),
+            f32s(v23),
+            f32s(_mm_srli_si128::<8>(v23)),
+        ];
+        for (c, p) in col.iter_mut().zip(taps) {
+            let m = _mm256_mul_ps(p, wr);
+            *c = if r == 0 { m } else { _mm256_add_ps(*c, m) };
+        }
+        upper = below;
+    }
+    let h = |c: usize| _mm256_mul_ps(col[c], wx[c]);
+    let v = _mm256_add_ps(_mm256_add_ps(h(0), h(2)), _mm256_add_ps(h(1), h(3)));
+    let q = _mm256_cvttps_epi32(_mm256_add_ps(v, _mm256_set1_ps(0.5)));
+    // Saturating packs (as `as u8` saturates): lanes 0..4 lead the low half, 4..8 the high one.
+    let q16 = _mm256_packus_epi32(q, q);
+    let q8 = _mm256_packus_epi16(q16, q16);
+    let bytes = _mm_unpacklo_epi32(
+        _mm256_castsi256_si128(q8),
+        _mm256_extracti128_si256::<1>(q8),
+    );
+    // SAFETY: out.len() >= 8 (the contract).
+    unsafe { _mm_storel_epi64(out.as_mut_ptr() as *mut __m128i, bytes) };
+}
+
+/// Bicubic of a block step by step, for u8 on monotonic positions: each step of eight pixels
+/// through a window (`cubic_window`) where one applies, else through the taps (`store_taps8`)
+/// and the pair kernel; the tail through the portable kernel. `cubic` receives the states.
+///
+/// # Safety
+/// As `bicubic_block`; `T` is u8 (`SimdSample::WINDOWS`).
+#[target_feature(enable = "avx2")]
+unsafe fn bicubic_steps<T: SimdSample, Q: CubicPositions>(
+    g: &SourceGeometry,
+    pos: &Q,
+    planes: &[&[T]],
+    outs: &mut [&mut [T]],
+    (taps, bases, state): (&mut [CubicTap], &mut [u32], &mut [u8]),
+    nodata: T,
+) {
+    let n = pos.len().min(taps.len()).min(bases.len()).min(state.len());
+    let k = Consts::new(g);
+    let mut i = 0;
+    while i + 8 <= n {
+        // SAFETY: i + 8 <= n.
+        let s = unsafe { pos.cubic8(&k, i) };
+        if let Some(win) = cubic_window(&k, &s) {
+            let (wx, wy) = (keys_lanes(s.tx), keys_lanes(s.ty));
+            for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+                // SAFETY: `cubic_window` checked the rows and columns; i + 8 <= n.
+                unsafe { T::cubic_window8(&win, (&wx, &wy), plane, g.width(), &mut out[i..i + 8]) };
+            }
+            state[i..i + 8].fill(1);
+        } else {
+            // SAFETY: i + 8 <= n, every slice's length; the taps of these pixels are written
+            // before they are applied.
+            unsafe {
+                store_taps8(&k, &s, i, (&mut *taps, &mut *bases, &mut *state));
+                for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+                    let t = (&taps[..], &bases[..], &state[..]);
+                    bicubic_apply_range(g, plane, pos, t, nodata, out, i..i + 8);
+                }
+            }
+        }
+        i += 8;
+    }
+    tail_states(g, pos, i, &mut state[..n]);
+    for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+        let t = (&taps[..], &bases[..], &state[..]);
+        // SAFETY: the tail's states are 0 or 2: only the portable kernel reads them.
+        unsafe { bicubic_apply_range(g, plane, pos, t, nodata, out, i..n) };
+    }
+}
+
 /// Bicubic for one block: the taps of `pos` (in `simd`), then every band; `valid` receives the
 /// inside flags.
 ///
@@ -1508,6 +1719,14 @@ pub(crate) unsafe fn bicubic_block<T: SimdSample, Q: CubicPositions>(
 ) {
     let n = pos.len();
     let (taps, bases, state) = (&mut cubic.0[..n], &mut cubic.1[..n], &mut cubic.2[..n]);
+    if T::WINDOWS && Q::MONOTONIC {
+        // SAFETY: the contract.
+        unsafe { bicubic_steps(g, pos, planes, outs, (taps, bases, state), nodata) };
+        for (v, &s) in valid.iter_mut().zip(state.iter()) {
+            *v = s != 0;
+        }
+        return;
+    }
     // SAFETY: the contract; the taps come from `bicubic_taps` on the same positions.
     unsafe { bicubic_taps(g, pos, taps, bases, state) };
     for (plane, o) in planes.iter().zip(outs.iter_mut()) {
@@ -1533,10 +1752,31 @@ unsafe fn bicubic_apply<T: SimdSample, Q: CubicPositions>(
     nodata: T,
     out: &mut [T],
 ) {
-    assert!(plane.len() == g.width() * g.height());
-    let (w, p) = (g.width(), plane.as_ptr());
     let n = out.len().min(state.len()).min(taps.len()).min(bases.len());
-    let mut k = 0;
+    // SAFETY: the contract.
+    unsafe { bicubic_apply_range(g, plane, pos, (taps, bases, state), nodata, out, 0..n) };
+}
+
+/// `bicubic_apply` over the pixels `range` of the block.
+///
+/// # Safety
+/// As `bicubic_apply`; `range` within every slice's length.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn bicubic_apply_range<T: SimdSample, Q: CubicPositions>(
+    g: &SourceGeometry,
+    plane: &[T],
+    pos: &Q,
+    (taps, bases, state): (&[CubicTap], &[u32], &[u8]),
+    nodata: T,
+    out: &mut [T],
+    range: std::ops::Range<usize>,
+) {
+    assert!(plane.len() == g.width() * g.height());
+    assert!(range.end <= out.len().min(state.len()).min(taps.len()).min(bases.len()));
+    let (w, p) = (g.width(), plane.as_ptr());
+    let n = range.end;
+    let mut k = range.start;
     while k + 2 <= n {
         // SAFETY: k + 1 < n <= every slice's length. Interior pixels (state 1): base =
         // (yi-1) w + xi-1 with 1 <= xi <= w-3, 1 <= yi <= h-3, so the four rows of four samples
