@@ -1611,36 +1611,36 @@ unsafe fn cubic_window8(
     debug_assert!(win.start + (win.rows - 1) * width + 16 <= plane.len() && out.len() >= 8);
     // Branch-free: with four rows, the fifth is the fourth again (and `lower` all clear).
     // SAFETY: the contract.
-    let row = |j: usize| unsafe {
+    let row = |j: usize, ctrl: __m128i| unsafe {
         let v = _mm_loadu_si128(
             plane.as_ptr().add(win.start + j.min(win.rows - 1) * width) as *const __m128i
         );
-        [
-            _mm_shuffle_epi8(v, win.ctrl01),
-            _mm_shuffle_epi8(v, win.ctrl23),
-        ]
+        _mm_shuffle_epi8(v, ctrl)
     };
     let f32s = |v: __m128i| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(v));
-    let mut col = [_mm256_setzero_ps(); 4];
-    let mut upper = row(0);
-    for (r, &wr) in wy.iter().enumerate() {
-        let below = row(r + 1);
-        let v01 = _mm_blendv_epi8(upper[0], below[0], win.lower);
-        let v23 = _mm_blendv_epi8(upper[1], below[1], win.lower);
-        let taps = [
-            f32s(v01),
-            f32s(_mm_srli_si128::<8>(v01)),
-            f32s(v23),
-            f32s(_mm_srli_si128::<8>(v23)),
-        ];
-        for (c, p) in col.iter_mut().zip(taps) {
-            let m = _mm256_mul_ps(p, wr);
-            *c = if r == 0 { m } else { _mm256_add_ps(*c, m) };
+    // One pair of tap columns at a time (fewer live registers): the two columns' sums over
+    // the four tap rows, each times its horizontal weight.
+    let pair = |ctrl: __m128i, (wa, wb): (__m256, __m256)| {
+        let mut upper = row(0, ctrl);
+        let (mut a, mut b) = (_mm256_setzero_ps(), _mm256_setzero_ps());
+        for (r, &wr) in wy.iter().enumerate() {
+            let below = row(r + 1, ctrl);
+            let v = _mm_blendv_epi8(upper, below, win.lower);
+            let (ma, mb) = (
+                _mm256_mul_ps(f32s(v), wr),
+                _mm256_mul_ps(f32s(_mm_srli_si128::<8>(v)), wr),
+            );
+            (a, b) = match r {
+                0 => (ma, mb),
+                _ => (_mm256_add_ps(a, ma), _mm256_add_ps(b, mb)),
+            };
+            upper = below;
         }
-        upper = below;
-    }
-    let h = |c: usize| _mm256_mul_ps(col[c], wx[c]);
-    let v = _mm256_add_ps(_mm256_add_ps(h(0), h(2)), _mm256_add_ps(h(1), h(3)));
+        (_mm256_mul_ps(a, wa), _mm256_mul_ps(b, wb))
+    };
+    let (h0, h1) = pair(win.ctrl01, (wx[0], wx[1]));
+    let (h2, h3) = pair(win.ctrl23, (wx[2], wx[3]));
+    let v = _mm256_add_ps(_mm256_add_ps(h0, h2), _mm256_add_ps(h1, h3));
     let q = _mm256_cvttps_epi32(_mm256_add_ps(v, _mm256_set1_ps(0.5)));
     // Saturating packs (as `as u8` saturates): lanes 0..4 lead the low half, 4..8 the high one.
     let q16 = _mm256_packus_epi32(q, q);
