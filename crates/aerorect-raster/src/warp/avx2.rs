@@ -350,21 +350,41 @@ pub(crate) trait SimdSample: Sample {
     /// AVX2; the four samples from `p` on are readable.
     unsafe fn row4(p: *const Self) -> __m128;
 
-    /// Bicubic of a window's eight pixels (`cubic_window8`); only u8, the only type with
-    /// `WINDOWS`, has windows: the others never get here.
+    /// Whether bicubic reads windows (`cubic_window`) where they apply: not for f32, whose
+    /// pair kernel loads its four-sample rows as they are (measured 3.5 against 4.2 ms).
+    const CUBIC_WINDOWS: bool = true;
+
+    /// Sixteen samples from `p` as two f32 vectors (columns 0..8, 8..16).
     ///
     /// # Safety
-    /// As `cubic_window8`.
+    /// AVX2; the sixteen samples from `p` on are readable.
+    unsafe fn row16(p: *const Self) -> [__m256; 2];
+
+    /// Bicubic of a window's eight pixels (`cubic_window`) with per-tap weight vectors `w`
+    /// (`keys_lanes`), written to `out[..8]` as `from_f32` writes them; here through
+    /// `cubic_window8_wide` and `store8`, byte shuffles for u8.
+    ///
+    /// # Safety
+    /// AVX2; `win.rows` rows of 16 samples from `win.start` (stride `width`) inside `plane`;
+    /// `out.len() >= 8`.
     unsafe fn cubic_window8(
+        k: &Consts,
         win: &CubicWindow,
         w: (&[__m256; 4], &[__m256; 4]),
         plane: &[Self],
         width: usize,
         out: &mut [Self],
     ) {
-        let _ = (win, w, plane, width, out);
-        debug_assert!(false, "{} has no bicubic windows", Self::NAME);
+        let _ = k;
+        // SAFETY: the contract.
+        unsafe { Self::store8(cubic_window8_wide(win, w, plane, width), out) };
     }
+
+    /// Eight values written to `out[..8]` as `from_f32` writes them.
+    ///
+    /// # Safety
+    /// AVX2; `out.len() >= 8`.
+    unsafe fn store8(v: __m256, out: &mut [Self]);
 
     /// The eight nearest samples of a window (`nearest_window`) into `out[..8]`; the
     /// portable reading here, a shuffle for u8 (the only type with `WINDOWS`).
@@ -393,6 +413,7 @@ impl SimdSample for u8 {
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn cubic_window8(
+        k: &Consts,
         win: &CubicWindow,
         w: (&[__m256; 4], &[__m256; 4]),
         plane: &[u8],
@@ -400,7 +421,33 @@ impl SimdSample for u8 {
         out: &mut [u8],
     ) {
         // SAFETY: the contract.
-        unsafe { cubic_window8(win, w, plane, width, out) };
+        unsafe { cubic_window8_u8(k, win, w, plane, width, out) };
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn row16(p: *const u8) -> [__m256; 2] {
+        // SAFETY: the contract.
+        let v = unsafe { _mm_loadu_si128(p as *const __m128i) };
+        [
+            _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(v)),
+            _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_srli_si128::<8>(v))),
+        ]
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn store8(v: __m256, out: &mut [u8]) {
+        let q = _mm256_cvttps_epi32(_mm256_add_ps(v, _mm256_set1_ps(0.5)));
+        let q16 = _mm256_packus_epi32(q, q);
+        let q8 = _mm256_packus_epi16(q16, q16);
+        let bytes = _mm_unpacklo_epi32(
+            _mm256_castsi256_si128(q8),
+            _mm256_extracti128_si256::<1>(q8),
+        );
+        debug_assert!(out.len() >= 8);
+        // SAFETY: out.len() >= 8 (the contract).
+        unsafe { _mm_storel_epi64(out.as_mut_ptr() as *mut __m128i, bytes) };
     }
 
     #[target_feature(enable = "avx2")]
@@ -537,6 +584,34 @@ impl SimdSample for u16 {
 
     #[target_feature(enable = "avx2")]
     #[inline]
+    unsafe fn row16(p: *const u16) -> [__m256; 2] {
+        // SAFETY: the contract.
+        let v = unsafe { _mm256_loadu_si256(p as *const __m256i) };
+        [
+            _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(_mm256_castsi256_si128(v))),
+            _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(_mm256_extracti128_si256::<1>(v))),
+        ]
+    }
+
+    /// (v + 0.5) truncated, saturated to [0, 65535] as `as u16` saturates.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn store8(v: __m256, out: &mut [u16]) {
+        let q = _mm256_cvttps_epi32(_mm256_add_ps(v, _mm256_set1_ps(0.5)));
+        // Lanes [q0..q3 q0..q3 | q4..q7 q4..q7] as u16, then the two low quarters together.
+        let packed = _mm256_permute4x64_epi64::<0b1000>(_mm256_packus_epi32(q, q));
+        debug_assert!(out.len() >= 8);
+        // SAFETY: out.len() >= 8 (the contract).
+        unsafe {
+            _mm_storeu_si128(
+                out.as_mut_ptr() as *mut __m128i,
+                _mm256_castsi256_si128(packed),
+            )
+        };
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
     unsafe fn row4(p: *const u16) -> __m128 {
         // SAFETY: four u16 from p are readable (the contract).
         let v = unsafe { _mm_loadl_epi64(p as *const __m128i) };
@@ -545,6 +620,8 @@ impl SimdSample for u16 {
 }
 
 impl SimdSample for f32 {
+    const CUBIC_WINDOWS: bool = false;
+
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn bilinear8(
@@ -591,6 +668,21 @@ impl SimdSample for f32 {
         debug_assert!(at + 8 <= out.len());
         // SAFETY: at + 8 <= out.len() (the contract).
         unsafe { _mm256_storeu_ps(out.as_mut_ptr().add(at), v) };
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn row16(p: *const f32) -> [__m256; 2] {
+        // SAFETY: the contract.
+        unsafe { [_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(8))] }
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn store8(v: __m256, out: &mut [f32]) {
+        debug_assert!(out.len() >= 8);
+        // SAFETY: out.len() >= 8 (the contract).
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) };
     }
 
     #[target_feature(enable = "avx2")]
@@ -1549,18 +1641,16 @@ unsafe fn cubic2<T: SimdSample>(
     }
 }
 
-/// Eight interior u8 bicubic pixels whose 4 x 4 neighbourhoods lie within 16 bytes of four or
-/// five source rows: each row is loaded once and its taps picked by byte shuffles (the `Window`
-/// layout of bilinear, for 4 x 4 taps).
+/// Eight interior bicubic pixels whose 4 x 4 neighbourhoods lie within 16 samples of four or
+/// five source rows: each row is loaded once and the taps are picked from it by shuffles (the
+/// `Window` layout of bilinear, for 4 x 4 taps).
 pub(crate) struct CubicWindow {
-    /// Offset of the first byte of the first row (column xmin - 1 of row ymin - 1).
+    /// Index of the first sample of the first row (column xmin - 1 of row ymin - 1).
     start: usize,
-    /// `pshufb` controls: bytes 0..8 pick tap column 0 of each pixel, 8..16 column 1 ...
-    ctrl01: __m128i,
-    /// ... and columns 2 and 3.
-    ctrl23: __m128i,
-    /// 0xFF in bytes j and 8 + j where pixel j's rows start one row lower.
-    lower: __m128i,
+    /// Per pixel: its first tap column from the window's first (x - xmin, 0..=12).
+    rel: __m256i,
+    /// All ones where the pixel's tap rows start one row lower (y = ymin + 1).
+    lower: __m256i,
     /// Rows read: 4 when the eight pixels' rows are equal, else 5.
     rows: usize,
 }
@@ -1573,7 +1663,7 @@ fn cubic_window(k: &Consts, s: &CubicSplit8) -> Option<CubicWindow> {
     let (w, h) = k.size;
     let (xmin, xmax) = ends8(s.xi);
     let (ymin, ymax) = ends8(s.yi);
-    // Interior (1 <= x <= w - 3, 1 <= y <= h - 3); 16 bytes from xmin - 1 hold the columns
+    // Interior (1 <= x <= w - 3, 1 <= y <= h - 3); 16 samples from xmin - 1 hold the columns
     // xmin - 1 ..= xmax + 2 and end inside the row.
     if xmin < 1 || xmax > w - 3 || ymin < 1 || ymax > h - 3 {
         return None;
@@ -1581,34 +1671,71 @@ fn cubic_window(k: &Consts, s: &CubicSplit8) -> Option<CubicWindow> {
     if xmax - xmin > 12 || ymax - ymin > 1 || xmin + 15 > w {
         return None;
     }
-    let rel = pack_low_bytes(k, _mm256_sub_epi32(s.xi, _mm256_set1_epi32(xmin)));
-    let plus = |c: i8| _mm_add_epi8(rel, _mm_set1_epi8(c));
-    let lower = pack_low_bytes(k, _mm256_cmpgt_epi32(s.yi, _mm256_set1_epi32(ymin)));
     Some(CubicWindow {
         start: ((ymin - 1) * w + xmin - 1) as usize,
-        ctrl01: _mm_unpacklo_epi64(rel, plus(1)),
-        ctrl23: _mm_unpacklo_epi64(plus(2), plus(3)),
-        lower: _mm_unpacklo_epi64(lower, lower),
+        rel: _mm256_sub_epi32(s.xi, _mm256_set1_epi32(xmin)),
+        lower: _mm256_cmpgt_epi32(s.yi, _mm256_set1_epi32(ymin)),
         rows: (4 + ymax - ymin) as usize,
     })
 }
 
-/// Bicubic of a window's eight pixels with per-tap weight vectors `wx`, `wy` (`keys_lanes`), in
-/// `Bicubic::apply`'s order, rounded and saturated as `u8::from_f32`, into `out[..8]`.
+/// The vertical-then-horizontal bicubic sum of eight pixels (`Bicubic::apply`'s order). One pair
+/// of tap columns (`p`: columns 2p, 2p + 1) at a time, so that few registers are live:
+/// `row(j, p)` reads the pair from the window's row j, `split(upper, lower)` gives the pair's
+/// two columns of each pixel, from its upper or its lower row (`CubicWindow::lower`).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn cubic_sum8<R: Copy>(
+    (wx, wy): (&[__m256; 4], &[__m256; 4]),
+    row: impl Fn(usize, usize) -> R,
+    split: impl Fn(R, R) -> [__m256; 2],
+) -> __m256 {
+    let pair = |p: usize| {
+        let (mut a, mut b) = (_mm256_setzero_ps(), _mm256_setzero_ps());
+        let mut upper = row(0, p);
+        for (r, &wr) in wy.iter().enumerate() {
+            let below = row(r + 1, p);
+            let [ta, tb] = split(upper, below);
+            let (ma, mb) = (_mm256_mul_ps(ta, wr), _mm256_mul_ps(tb, wr));
+            (a, b) = match r {
+                0 => (ma, mb),
+                _ => (_mm256_add_ps(a, ma), _mm256_add_ps(b, mb)),
+            };
+            upper = below;
+        }
+        (_mm256_mul_ps(a, wx[2 * p]), _mm256_mul_ps(b, wx[2 * p + 1]))
+    };
+    let (h0, h1) = pair(0);
+    let (h2, h3) = pair(1);
+    _mm256_add_ps(_mm256_add_ps(h0, h2), _mm256_add_ps(h1, h3))
+}
+
+/// u8 bicubic of a window's eight pixels with per-tap weight vectors `w` (`keys_lanes`),
+/// rounded and saturated as `u8::from_f32`, into `out[..8]`: the taps are byte shuffles of
+/// 16-byte row loads, two tap columns per shuffle.
 ///
 /// # Safety
 /// AVX2; `win.rows` rows of 16 bytes from `win.start` (stride `width`) inside `plane`;
 /// `out.len() >= 8`.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn cubic_window8(
+unsafe fn cubic_window8_u8(
+    k: &Consts,
     win: &CubicWindow,
-    (wx, wy): (&[__m256; 4], &[__m256; 4]),
+    w: (&[__m256; 4], &[__m256; 4]),
     plane: &[u8],
     width: usize,
     out: &mut [u8],
 ) {
     debug_assert!(win.start + (win.rows - 1) * width + 16 <= plane.len() && out.len() >= 8);
+    let rel = pack_low_bytes(k, win.rel);
+    let plus = |c: i8| _mm_add_epi8(rel, _mm_set1_epi8(c));
+    let ctrl = [
+        _mm_unpacklo_epi64(rel, plus(1)),
+        _mm_unpacklo_epi64(plus(2), plus(3)),
+    ];
+    let lower = pack_low_bytes(k, win.lower);
+    let lower = _mm_unpacklo_epi64(lower, lower);
     // Branch-free: with four rows, the fifth is the fourth again (and `lower` all clear).
     // SAFETY: the contract.
     let row = |j: usize, ctrl: __m128i| unsafe {
@@ -1618,29 +1745,11 @@ unsafe fn cubic_window8(
         _mm_shuffle_epi8(v, ctrl)
     };
     let f32s = |v: __m128i| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(v));
-    // One pair of tap columns at a time (fewer live registers): the two columns' sums over
-    // the four tap rows, each times its horizontal weight.
-    let pair = |ctrl: __m128i, (wa, wb): (__m256, __m256)| {
-        let mut upper = row(0, ctrl);
-        let (mut a, mut b) = (_mm256_setzero_ps(), _mm256_setzero_ps());
-        for (r, &wr) in wy.iter().enumerate() {
-            let below = row(r + 1, ctrl);
-            let v = _mm_blendv_epi8(upper, below, win.lower);
-            let (ma, mb) = (
-                _mm256_mul_ps(f32s(v), wr),
-                _mm256_mul_ps(f32s(_mm_srli_si128::<8>(v)), wr),
-            );
-            (a, b) = match r {
-                0 => (ma, mb),
-                _ => (_mm256_add_ps(a, ma), _mm256_add_ps(b, mb)),
-            };
-            upper = below;
-        }
-        (_mm256_mul_ps(a, wa), _mm256_mul_ps(b, wb))
+    let split = |upper: __m128i, below: __m128i| {
+        let v = _mm_blendv_epi8(upper, below, lower);
+        [f32s(v), f32s(_mm_srli_si128::<8>(v))]
     };
-    let (h0, h1) = pair(win.ctrl01, (wx[0], wx[1]));
-    let (h2, h3) = pair(win.ctrl23, (wx[2], wx[3]));
-    let v = _mm256_add_ps(_mm256_add_ps(h0, h2), _mm256_add_ps(h1, h3));
+    let v = cubic_sum8(w, |j, p| row(j, ctrl[p]), split);
     let q = _mm256_cvttps_epi32(_mm256_add_ps(v, _mm256_set1_ps(0.5)));
     // Saturating packs (as `as u8` saturates): lanes 0..4 lead the low half, 4..8 the high one.
     let q16 = _mm256_packus_epi32(q, q);
@@ -1653,12 +1762,49 @@ unsafe fn cubic_window8(
     unsafe { _mm_storel_epi64(out.as_mut_ptr() as *mut __m128i, bytes) };
 }
 
-/// Bicubic of a block step by step, for u8 on monotonic positions: each step of eight pixels
+/// Bicubic of a window's eight pixels for u16 and f32 (`SimdSample::cubic_window8`): each row's
+/// 16 samples as two f32 vectors (`SimdSample::row16`), the taps picked by lane permutes.
+///
+/// # Safety
+/// AVX2; `win.rows` rows of 16 samples from `win.start` (stride `width`) inside `plane`.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn cubic_window8_wide<T: SimdSample>(
+    win: &CubicWindow,
+    w: (&[__m256; 4], &[__m256; 4]),
+    plane: &[T],
+    width: usize,
+) -> __m256 {
+    debug_assert!(win.start + (win.rows - 1) * width + 16 <= plane.len());
+    // Branch-free: with four rows, the fifth is the fourth again (and `lower` all clear).
+    // SAFETY: the contract.
+    let rows: [[__m256; 2]; 5] = std::array::from_fn(|j| unsafe {
+        T::row16(plane.as_ptr().add(win.start + j.min(win.rows - 1) * width))
+    });
+    let lower = _mm256_castsi256_ps(win.lower);
+    // Lane permutes read the low three bits; bit 3 chooses the second vector.
+    let cols: [__m256i; 4] =
+        std::array::from_fn(|c| _mm256_add_epi32(win.rel, _mm256_set1_epi32(c as i32)));
+    let take = |r: &[__m256; 2], i: __m256i| {
+        _mm256_blendv_ps(
+            _mm256_permutevar8x32_ps(r[0], i),
+            _mm256_permutevar8x32_ps(r[1], i),
+            _mm256_castsi256_ps(_mm256_slli_epi32::<28>(i)),
+        )
+    };
+    let pair = |j: usize, p: usize| [take(&rows[j], cols[2 * p]), take(&rows[j], cols[2 * p + 1])];
+    let split = |upper: [__m256; 2], below: [__m256; 2]| {
+        [0, 1].map(|c| _mm256_blendv_ps(upper[c], below[c], lower))
+    };
+    cubic_sum8(w, pair, split)
+}
+
+/// Bicubic of a block step by step, on monotonic positions: each step of eight pixels
 /// through a window (`cubic_window`) where one applies, else through the taps (`store_taps8`)
 /// and the pair kernel; the tail through the portable kernel. `cubic` receives the states.
 ///
 /// # Safety
-/// As `bicubic_block`; `T` is u8 (`SimdSample::WINDOWS`).
+/// As `bicubic_block`.
 #[target_feature(enable = "avx2")]
 unsafe fn bicubic_steps<T: SimdSample, Q: CubicPositions>(
     g: &SourceGeometry,
@@ -1678,7 +1824,9 @@ unsafe fn bicubic_steps<T: SimdSample, Q: CubicPositions>(
             let (wx, wy) = (keys_lanes(s.tx), keys_lanes(s.ty));
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 // SAFETY: `cubic_window` checked the rows and columns; i + 8 <= n.
-                unsafe { T::cubic_window8(&win, (&wx, &wy), plane, g.width(), &mut out[i..i + 8]) };
+                unsafe {
+                    T::cubic_window8(&k, &win, (&wx, &wy), plane, g.width(), &mut out[i..i + 8])
+                };
             }
             state[i..i + 8].fill(1);
         } else {
@@ -1719,7 +1867,7 @@ pub(crate) unsafe fn bicubic_block<T: SimdSample, Q: CubicPositions>(
 ) {
     let n = pos.len();
     let (taps, bases, state) = (&mut cubic.0[..n], &mut cubic.1[..n], &mut cubic.2[..n]);
-    if T::WINDOWS && Q::MONOTONIC {
+    if T::CUBIC_WINDOWS && Q::MONOTONIC {
         // SAFETY: the contract.
         unsafe { bicubic_steps(g, pos, planes, outs, (taps, bases, state), nodata) };
         for (v, &s) in valid.iter_mut().zip(state.iter()) {
