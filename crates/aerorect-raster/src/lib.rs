@@ -17,4 +17,6 @@ pub mod warp;
 pub use error::RasterError;
 pub use map::{LensDirection, LensMap, PixelMap, Then};
 pub use raster::{AnyRaster, Raster, Sample};
-pub use warp::{Coordinates, Interp, WarpOptions, warp, warp_into, warp_into_portable};
+pub use warp::{
+    Coordinates, Interp, WarpOptions, warp, warp_into, warp_into_avx2, warp_into_portable,
+};

@@ -15,6 +15,17 @@ pub(crate) struct SourceGeometry {
     step_y: usize,
     /// Use the AVX2 build of the row loop.
     simd: bool,
+    /// The AVX2 build may also use AVX-512 byte permutes (`Build::Best` on a CPU with them).
+    pub(crate) vbmi: bool,
+}
+
+/// Which build of the kernels a warp runs: the portable one, AVX2 alone, or the best this CPU
+/// has (AVX2, with AVX-512 byte permutes where it has them). Tests compare all three.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Build {
+    Portable,
+    Avx2,
+    Best,
 }
 
 impl SourceGeometry {
@@ -26,15 +37,17 @@ impl SourceGeometry {
         self.height
     }
 
-    /// The geometry of `src`; `allow_simd` false forces the portable build (tests compare both).
-    pub(crate) fn of<T: Sample>(src: &Raster<T>, allow_simd: bool) -> Self {
+    /// The geometry of `src`, for kernels of `build` (as far as the CPU has it).
+    pub(crate) fn of<T: Sample>(src: &Raster<T>, build: Build) -> Self {
         let (width, height) = (src.width(), src.height());
+        let simd = build != Build::Portable && crate::cpu::avx2();
         Self {
             width,
             height,
             step_x: usize::from(width > 1),
             step_y: if height > 1 { width } else { 0 },
-            simd: allow_simd && crate::cpu::avx2(),
+            simd,
+            vbmi: simd && build == Build::Best && crate::cpu::avx512_vbmi(),
         }
     }
 

@@ -138,7 +138,7 @@ pub fn warp_into<T: Sample, M: PixelMap>(
     opts: &WarpOptions,
     dst: &mut Raster<T>,
 ) -> Result<(), RasterError> {
-    warp_into_impl(src, map, opts, dst, true)
+    warp_into_impl(src, map, opts, dst, kernel::Build::Best)
 }
 
 /// [`warp_into`] with the portable (non-SIMD) build of the kernels, for agreement tests.
@@ -149,7 +149,19 @@ pub fn warp_into_portable<T: Sample, M: PixelMap>(
     opts: &WarpOptions,
     dst: &mut Raster<T>,
 ) -> Result<(), RasterError> {
-    warp_into_impl(src, map, opts, dst, false)
+    warp_into_impl(src, map, opts, dst, kernel::Build::Portable)
+}
+
+/// [`warp_into`] with the AVX2 build alone (no AVX-512 even where the CPU has it), for
+/// agreement tests.
+#[doc(hidden)]
+pub fn warp_into_avx2<T: Sample, M: PixelMap>(
+    src: &Raster<T>,
+    map: &M,
+    opts: &WarpOptions,
+    dst: &mut Raster<T>,
+) -> Result<(), RasterError> {
+    warp_into_impl(src, map, opts, dst, kernel::Build::Avx2)
 }
 
 fn warp_into_impl<T: Sample, M: PixelMap>(
@@ -157,7 +169,7 @@ fn warp_into_impl<T: Sample, M: PixelMap>(
     map: &M,
     opts: &WarpOptions,
     dst: &mut Raster<T>,
-    allow_simd: bool,
+    build: kernel::Build,
 ) -> Result<(), RasterError> {
     let want = opts.output_bands(src.bands());
     if dst.bands() != want {
@@ -181,9 +193,9 @@ fn warp_into_impl<T: Sample, M: PixelMap>(
         && matches!(opts.interp, Interp::Bilinear | Interp::Bicubic)
         && let Some(plan) = prefilter::plan(map, dst.size(), src.size())
     {
-        return prefilter::run(src, map, opts, dst, &plan, allow_simd);
+        return prefilter::run(src, map, opts, dst, &plan, build);
     }
-    dispatch(src, map, opts, nodata, dst, allow_simd);
+    dispatch(src, map, opts, nodata, dst, build);
     Ok(())
 }
 
@@ -194,9 +206,9 @@ fn dispatch<T: Sample, M: PixelMap>(
     opts: &WarpOptions,
     nodata: T,
     dst: &mut Raster<T>,
-    allow_simd: bool,
+    build: kernel::Build,
 ) {
-    let g = kernel::SourceGeometry::of(src, allow_simd);
+    let g = kernel::SourceGeometry::of(src, build);
     // The AVX2 build moves the image's limits by the origin in f32: exact below 2^22 pixels.
     let small = src.width().max(src.height()) < 1 << 22;
     let fast = match opts.coordinates {

@@ -168,7 +168,7 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
     opts: &WarpOptions,
     dst: &mut Raster<T>,
     plan: &Plan,
-    allow_simd: bool,
+    build: super::kernel::Build,
 ) -> Result<(), RasterError> {
     let crop = crop_of(map, plan, dst.size(), src.size());
     let cropped_src = crop.map(|c| cropped(src, c)).transpose()?;
@@ -209,7 +209,7 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
                     origin: origin(k),
                 };
                 let mut tile = Raster::new(ImageSize::new(cols, rows), bands)?;
-                super::dispatch(level(k), &tmap, opts, nodata, &mut tile, allow_simd);
+                super::dispatch(level(k), &tmap, opts, nodata, &mut tile, build);
                 if k > 0 {
                     outside_level0(src.size(), &tmap, nodata, opts.alpha, &mut tile);
                 }
