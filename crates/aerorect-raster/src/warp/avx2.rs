@@ -387,8 +387,8 @@ pub(crate) trait SimdSample: Sample {
     unsafe fn store8(v: __m256, out: &mut [Self]);
 
     /// Nearest at sixteen pixels i..i + 16, all inside, at columns `ix` and rows `iy` (two
-    /// vectors of eight), from 32-sample windows of two source rows by AVX-512 permutes, into
-    /// every output; false where they do not apply (nothing written). Only u8 has them.
+    /// vectors of eight), from 32-sample windows of up to four source rows by AVX-512 permutes,
+    /// into every output; false where they do not apply (nothing written). Only u8 has them.
     ///
     /// # Safety
     /// AVX-512 F, BW, VL and VBMI; the pixels inside; i + 16 <= every output's length; every
@@ -428,18 +428,65 @@ pub(crate) trait SimdSample: Sample {
 impl SimdSample for u8 {
     const WINDOWS: bool = true;
 
+    /// The extremes of the columns and rows are the first lane of the first vector and the
+    /// last of the second (monotonic positions). Where the columns lie within 32 and the rows
+    /// within four, four 32-byte row loads per band and one two-table byte permute (`vpermi2b`
+    /// over 128 bytes) give all sixteen samples.
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
     unsafe fn nearest_window16(
         k: &Consts,
-        at: ([__m256i; 2], [__m256i; 2]),
+        (ix, iy): ([__m256i; 2], [__m256i; 2]),
         planes: &[&[u8]],
         outs: &mut [&mut [u8]],
         i: usize,
     ) -> bool {
-        // SAFETY: the contract.
-        unsafe { nearest_window16_vbmi(k, at, planes, outs, i) }
+        let w = k.size.0;
+        let ends = |v: [__m256i; 2]| {
+            let (a, b) = (_mm256_cvtsi256_si32(v[0]), _mm256_extract_epi32::<7>(v[1]));
+            (a.min(b), a.max(b))
+        };
+        let ((xmin, xmax), (ymin, ymax)) = (ends(ix), ends(iy));
+        // The window's first column: xmin, or less where 32 bytes from xmin pass the row's end.
+        let x0 = xmin.min(w - 32);
+        if w < 32 || x0 < 0 || xmax - x0 > 31 || ymax - ymin > 3 {
+            return false;
+        }
+        // Per pixel: its byte in the 128-byte table (32 bytes of each row from ymin on).
+        let rel = |a: usize| {
+            let col = _mm256_sub_epi32(ix[a], _mm256_set1_epi32(x0));
+            let row = _mm256_sub_epi32(iy[a], _mm256_set1_epi32(ymin));
+            _mm256_add_epi32(col, _mm256_slli_epi32::<5>(row))
+        };
+        // 16 i32 -> 16 bytes in order (each pack interleaves the 128-bit halves).
+        let words = _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_packus_epi32(rel(0), rel(1)));
+        let bytes = _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_packus_epi16(words, words));
+        let index = _mm512_castsi256_si512(bytes);
+        let start = (ymin * w + x0) as usize;
+        let last = (ymax - ymin) as usize;
+        // Branch-free: rows past the last are the last again (no pixel's index reaches them).
+        let offset = |r: usize| r.min(last) * w as usize;
+        for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+            debug_assert!(start + offset(3) + 32 <= plane.len() && i + 16 <= out.len());
+            // SAFETY: rows ymin..=ymax are inside and x0 + 32 <= w: every load stays in the plane;
+            // i + 16 <= out.len() (the contract).
+            unsafe {
+                let p = plane.as_ptr().add(start);
+                let row = |r: usize| _mm256_loadu_si256(p.add(offset(r)) as *const __m256i);
+                let pair =
+                    |r: usize| _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(r)), row(r + 1));
+                let v = _mm512_permutex2var_epi8(pair(0), index, pair(2));
+                _mm_storeu_si128(
+                    out.as_mut_ptr().add(i) as *mut __m128i,
+                    _mm512_castsi512_si128(v),
+                );
+            }
+        }
+        true
     }
 
+    /// The taps are byte shuffles of 16-byte row loads, two tap columns per shuffle; rounded
+    /// and saturated as `u8::from_f32`.
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn cubic_window8(
@@ -450,8 +497,39 @@ impl SimdSample for u8 {
         width: usize,
         out: &mut [u8],
     ) {
+        debug_assert!(win.start + (win.rows - 1) * width + 16 <= plane.len() && out.len() >= 8);
+        let rel = pack_low_bytes(k, win.rel);
+        let plus = |c: i8| _mm_add_epi8(rel, _mm_set1_epi8(c));
+        let ctrl = [
+            _mm_unpacklo_epi64(rel, plus(1)),
+            _mm_unpacklo_epi64(plus(2), plus(3)),
+        ];
+        let lower = pack_low_bytes(k, win.lower);
+        let lower = _mm_unpacklo_epi64(lower, lower);
+        // Branch-free: with four rows, the fifth is the fourth again (and `lower` all clear).
         // SAFETY: the contract.
-        unsafe { cubic_window8_u8(k, win, w, plane, width, out) };
+        let row = |j: usize, ctrl: __m128i| unsafe {
+            let v = _mm_loadu_si128(
+                plane.as_ptr().add(win.start + j.min(win.rows - 1) * width) as *const __m128i
+            );
+            _mm_shuffle_epi8(v, ctrl)
+        };
+        let f32s = |v: __m128i| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(v));
+        let split = |upper: __m128i, below: __m128i| {
+            let v = _mm_blendv_epi8(upper, below, lower);
+            [f32s(v), f32s(_mm_srli_si128::<8>(v))]
+        };
+        let v = cubic_sum8(w, |j, p| row(j, ctrl[p]), split);
+        let q = _mm256_cvttps_epi32(_mm256_add_ps(v, _mm256_set1_ps(0.5)));
+        // Saturating packs (as `as u8` saturates): lanes 0..4 lead the low half, 4..8 the high one.
+        let q16 = _mm256_packus_epi32(q, q);
+        let q8 = _mm256_packus_epi16(q16, q16);
+        let bytes = _mm_unpacklo_epi32(
+            _mm256_castsi256_si128(q8),
+            _mm256_extracti128_si256::<1>(q8),
+        );
+        // SAFETY: out.len() >= 8 (the contract).
+        unsafe { _mm_storel_epi64(out.as_mut_ptr() as *mut __m128i, bytes) };
     }
 
     #[target_feature(enable = "avx2")]
@@ -538,68 +616,6 @@ impl SimdSample for u8 {
         // SAFETY: out.len() >= 8 (the contract).
         unsafe { _mm_storel_epi64(out.as_mut_ptr() as *mut __m128i, v) };
     }
-}
-
-/// u8 nearest at sixteen inside pixels with columns `ix` and rows `iy` (monotonic: the
-/// extremes are the first lane of the first vector and the last of the second): where their
-/// columns lie within 32 and their rows within four, four 32-byte row loads per band and one
-/// two-table byte permute (`vpermi2b` over 128 bytes) give all sixteen samples. False where that
-/// does not apply (nothing written).
-///
-/// # Safety
-/// AVX-512 F, BW, VL and VBMI; the pixels inside the image; i + 16 <= every output's length;
-/// every plane `k.size.0 * k.size.1` bytes.
-#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
-#[inline]
-unsafe fn nearest_window16_vbmi(
-    k: &Consts,
-    (ix, iy): ([__m256i; 2], [__m256i; 2]),
-    planes: &[&[u8]],
-    outs: &mut [&mut [u8]],
-    i: usize,
-) -> bool {
-    let w = k.size.0;
-    let ends = |v: [__m256i; 2]| {
-        let (a, b) = (_mm256_cvtsi256_si32(v[0]), _mm256_extract_epi32::<7>(v[1]));
-        (a.min(b), a.max(b))
-    };
-    let ((xmin, xmax), (ymin, ymax)) = (ends(ix), ends(iy));
-    // The window's first column: xmin, or less where 32 bytes from xmin pass the row's end.
-    let x0 = xmin.min(w - 32);
-    if w < 32 || x0 < 0 || xmax - x0 > 31 || ymax - ymin > 3 {
-        return false;
-    }
-    // Per pixel: its byte in the 128-byte table (32 bytes of each row from ymin on).
-    let rel = |a: usize| {
-        let col = _mm256_sub_epi32(ix[a], _mm256_set1_epi32(x0));
-        let row = _mm256_sub_epi32(iy[a], _mm256_set1_epi32(ymin));
-        _mm256_add_epi32(col, _mm256_slli_epi32::<5>(row))
-    };
-    // 16 i32 -> 16 bytes in order (each pack interleaves the 128-bit halves).
-    let words = _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_packus_epi32(rel(0), rel(1)));
-    let bytes = _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_packus_epi16(words, words));
-    let index = _mm512_castsi256_si512(bytes);
-    let start = (ymin * w + x0) as usize;
-    let last = (ymax - ymin) as usize;
-    // Branch-free: rows past the last are the last again (no pixel's index reaches them).
-    let offset = |r: usize| r.min(last) * w as usize;
-    for (plane, out) in planes.iter().zip(outs.iter_mut()) {
-        debug_assert!(start + offset(3) + 32 <= plane.len() && i + 16 <= out.len());
-        // SAFETY: rows ymin..=ymax are inside and x0 + 32 <= w: every load stays in the plane;
-        // i + 16 <= out.len() (the contract).
-        unsafe {
-            let p = plane.as_ptr().add(start);
-            let row = |r: usize| _mm256_loadu_si256(p.add(offset(r)) as *const __m256i);
-            let pair =
-                |r: usize| _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(r)), row(r + 1));
-            let v = _mm512_permutex2var_epi8(pair(0), index, pair(2));
-            _mm_storeu_si128(
-                out.as_mut_ptr().add(i) as *mut __m128i,
-                _mm512_castsi512_si128(v),
-            );
-        }
-    }
-    true
 }
 
 /// The upper pairs (bytes 0, 1 of each lane) and lower pairs (bytes 2, 3) of a window's taps,
@@ -1860,58 +1876,6 @@ fn cubic_sum8<R: Copy>(
     let (h0, h1) = pair(0);
     let (h2, h3) = pair(1);
     _mm256_add_ps(_mm256_add_ps(h0, h2), _mm256_add_ps(h1, h3))
-}
-
-/// u8 bicubic of a window's eight pixels with per-tap weight vectors `w` (`keys_lanes`),
-/// rounded and saturated as `u8::from_f32`, into `out[..8]`: the taps are byte shuffles of
-/// 16-byte row loads, two tap columns per shuffle.
-///
-/// # Safety
-/// AVX2; `win.rows` rows of 16 bytes from `win.start` (stride `width`) inside `plane`;
-/// `out.len() >= 8`.
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn cubic_window8_u8(
-    k: &Consts,
-    win: &CubicWindow,
-    w: (&[__m256; 4], &[__m256; 4]),
-    plane: &[u8],
-    width: usize,
-    out: &mut [u8],
-) {
-    debug_assert!(win.start + (win.rows - 1) * width + 16 <= plane.len() && out.len() >= 8);
-    let rel = pack_low_bytes(k, win.rel);
-    let plus = |c: i8| _mm_add_epi8(rel, _mm_set1_epi8(c));
-    let ctrl = [
-        _mm_unpacklo_epi64(rel, plus(1)),
-        _mm_unpacklo_epi64(plus(2), plus(3)),
-    ];
-    let lower = pack_low_bytes(k, win.lower);
-    let lower = _mm_unpacklo_epi64(lower, lower);
-    // Branch-free: with four rows, the fifth is the fourth again (and `lower` all clear).
-    // SAFETY: the contract.
-    let row = |j: usize, ctrl: __m128i| unsafe {
-        let v = _mm_loadu_si128(
-            plane.as_ptr().add(win.start + j.min(win.rows - 1) * width) as *const __m128i
-        );
-        _mm_shuffle_epi8(v, ctrl)
-    };
-    let f32s = |v: __m128i| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(v));
-    let split = |upper: __m128i, below: __m128i| {
-        let v = _mm_blendv_epi8(upper, below, lower);
-        [f32s(v), f32s(_mm_srli_si128::<8>(v))]
-    };
-    let v = cubic_sum8(w, |j, p| row(j, ctrl[p]), split);
-    let q = _mm256_cvttps_epi32(_mm256_add_ps(v, _mm256_set1_ps(0.5)));
-    // Saturating packs (as `as u8` saturates): lanes 0..4 lead the low half, 4..8 the high one.
-    let q16 = _mm256_packus_epi32(q, q);
-    let q8 = _mm256_packus_epi16(q16, q16);
-    let bytes = _mm_unpacklo_epi32(
-        _mm256_castsi256_si128(q8),
-        _mm256_extracti128_si256::<1>(q8),
-    );
-    // SAFETY: out.len() >= 8 (the contract).
-    unsafe { _mm_storel_epi64(out.as_mut_ptr() as *mut __m128i, bytes) };
 }
 
 /// Bicubic of a window's eight pixels for u16 and f32 (`SimdSample::cubic_window8`): each row's
