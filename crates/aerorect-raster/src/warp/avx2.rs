@@ -1408,8 +1408,9 @@ fn inside_run<P: Positions>(k: &Consts, pos: &P, n: usize) -> Option<usize> {
     (first & 1 != 0 && last & 0x80 != 0).then_some(whole)
 }
 
-/// `nearest_steps` over `whole` pixels all inside: no inside test, no nodata. One band reads
-/// and writes through its own two pointers (kept in registers, not reloaded per step).
+/// `nearest_steps` over `whole` pixels all inside: no inside test, no nodata. Two bands or
+/// more take AVX-512 byte permutes sixteen pixels at a time where the CPU has them
+/// (`nearest_inside_vbmi`); the rest goes eight at a time (`nearest_inside_range`).
 ///
 /// # Safety
 /// As `nearest_block`; `whole` a multiple of eight, at most every output's length, and every
@@ -1466,6 +1467,8 @@ unsafe fn nearest_inside_vbmi<T: SimdSample, P: Positions, const WINDOWS: bool>(
 }
 
 /// `nearest_inside` over the pixels `range` (whole steps), eight at a time with the AVX2 build.
+/// One band reads and writes through its own two pointers (kept in registers, not reloaded per
+/// step).
 ///
 /// # Safety
 /// As `nearest_inside`; `range` whole steps within `whole`.

@@ -294,9 +294,9 @@ unsafe fn row_avx2<T: super::avx2::SimdSample, K: Kernel, M: PixelMap>(
             *o = &mut chunk[range.clone()];
         }
         let outs = &mut outs[..bands];
+        let cubic = (&mut simd.cubic[..], &mut simd.base[..], &mut simd.state[..]);
         // SAFETY (all arms): AVX2 is enabled; the source is at least 4 x 4 with full planes;
         // positions and outputs are n long.
-        let cubic = (&mut simd.cubic[..], &mut simd.base[..], &mut simd.state[..]);
         match fast {
             Some(block) => {
                 let rel = Relative::new(g, &block, n);
