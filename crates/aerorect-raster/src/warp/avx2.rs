@@ -380,7 +380,8 @@ pub(crate) trait SimdSample: Sample {
         unsafe { Self::store8(cubic_window8_wide(win, w, plane, width), out) };
     }
 
-    /// Eight values written to `out[..8]` as `from_f32` writes them.
+    /// Eight values written to `out[..8]` as `from_f32` writes them (for |v| < 2^31: beyond,
+    /// the integer types' truncation overflows to 0 where `as` saturates).
     ///
     /// # Safety
     /// AVX2; `out.len() >= 8`.
@@ -520,16 +521,8 @@ impl SimdSample for u8 {
             [f32s(v), f32s(_mm_srli_si128::<8>(v))]
         };
         let v = cubic_sum8(w, |j, p| row(j, ctrl[p]), split);
-        let q = _mm256_cvttps_epi32(_mm256_add_ps(v, _mm256_set1_ps(0.5)));
-        // Saturating packs (as `as u8` saturates): lanes 0..4 lead the low half, 4..8 the high one.
-        let q16 = _mm256_packus_epi32(q, q);
-        let q8 = _mm256_packus_epi16(q16, q16);
-        let bytes = _mm_unpacklo_epi32(
-            _mm256_castsi256_si128(q8),
-            _mm256_extracti128_si256::<1>(q8),
-        );
         // SAFETY: out.len() >= 8 (the contract).
-        unsafe { _mm_storel_epi64(out.as_mut_ptr() as *mut __m128i, bytes) };
+        unsafe { Self::store8(v, out) };
     }
 
     #[target_feature(enable = "avx2")]
@@ -547,7 +540,9 @@ impl SimdSample for u8 {
     #[inline]
     unsafe fn store8(v: __m256, out: &mut [u8]) {
         let q = _mm256_cvttps_epi32(_mm256_add_ps(v, _mm256_set1_ps(0.5)));
-        let q16 = _mm256_packus_epi32(q, q);
+        // Saturating packs (as `as u8` saturates; the second pack reads signed words, so they
+        // are capped at 255 first): lanes 0..4 lead the low half, 4..8 the high one.
+        let q16 = _mm256_min_epu16(_mm256_packus_epi32(q, q), _mm256_set1_epi16(255));
         let q8 = _mm256_packus_epi16(q16, q16);
         let bytes = _mm_unpacklo_epi32(
             _mm256_castsi256_si128(q8),
@@ -2095,5 +2090,45 @@ unsafe fn bicubic_one<T: SimdSample, Q: CubicPositions>(
             Bicubic::apply(plane, g, &tap)
         }
         _ => nodata,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `row16` reads sixteen samples as their f32 values, and `store8` writes eight values as
+    /// `Sample::from_f32` does (rounding and saturating for the integer types), for every type.
+    fn rows_and_stores_match_the_scalar_definitions<T: SimdSample>(samples: [T; 16]) {
+        if !crate::cpu::avx2() {
+            return;
+        }
+        let values = [-3.7f32, -0.4, 0.49, 0.5, 254.5, 255.6, 65535.4, 70000.0];
+        // SAFETY: AVX2 is there; sixteen samples are readable, eight writable.
+        let (row, mut out) = unsafe {
+            let row = T::row16(samples.as_ptr());
+            let mut out = [T::default(); 8];
+            T::store8(_mm256_loadu_ps(values.as_ptr()), &mut out);
+            (std::mem::transmute::<[__m256; 2], [f32; 16]>(row), out)
+        };
+        for (j, (r, s)) in row.iter().zip(samples).enumerate() {
+            assert_eq!(*r, s.to_f32(), "{}: sample {j}", T::NAME);
+        }
+        for (j, (o, v)) in out.iter_mut().zip(values).enumerate() {
+            assert!(*o == T::from_f32(v), "{}: value {v} (lane {j})", T::NAME);
+        }
+    }
+
+    #[test]
+    fn simd_rows_and_stores_match_the_scalar_definitions() {
+        rows_and_stores_match_the_scalar_definitions::<u8>(std::array::from_fn(|i| {
+            (i * 17 + 3) as u8
+        }));
+        rows_and_stores_match_the_scalar_definitions::<u16>(std::array::from_fn(|i| {
+            (i * 4099 + 7) as u16
+        }));
+        rows_and_stores_match_the_scalar_definitions::<f32>(std::array::from_fn(|i| {
+            i as f32 * -1.25 + 0.1
+        }));
     }
 }
