@@ -1950,7 +1950,7 @@ unsafe fn bicubic_steps<T: SimdSample, Q: CubicPositions>(
                 store_taps8(&k, &s, i, (&mut *taps, &mut *bases, &mut *state));
                 for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                     let t = (&taps[..], &bases[..], &state[..]);
-                    bicubic_apply_range(g, plane, pos, t, nodata, out, i..i + 8);
+                    bicubic_apply(g, plane, pos, t, nodata, out, i..i + 8);
                 }
             }
         }
@@ -1960,7 +1960,7 @@ unsafe fn bicubic_steps<T: SimdSample, Q: CubicPositions>(
     for (plane, out) in planes.iter().zip(outs.iter_mut()) {
         let t = (&taps[..], &bases[..], &state[..]);
         // SAFETY: the tail's states are 0 or 2: only the portable kernel reads them.
-        unsafe { bicubic_apply_range(g, plane, pos, t, nodata, out, i..n) };
+        unsafe { bicubic_apply(g, plane, pos, t, nodata, out, i..n) };
     }
 }
 
@@ -1983,49 +1983,39 @@ pub(crate) unsafe fn bicubic_block<T: SimdSample, Q: CubicPositions>(
     let (taps, bases, state) = (&mut cubic.0[..n], &mut cubic.1[..n], &mut cubic.2[..n]);
     if T::CUBIC_WINDOWS && Q::MONOTONIC {
         // SAFETY: the contract.
-        unsafe { bicubic_steps(g, pos, planes, outs, (taps, bases, state), nodata) };
-        for (v, &s) in valid.iter_mut().zip(state.iter()) {
-            *v = s != 0;
+        unsafe {
+            bicubic_steps(
+                g,
+                pos,
+                planes,
+                outs,
+                (&mut *taps, &mut *bases, &mut *state),
+                nodata,
+            )
+        };
+    } else {
+        // SAFETY: the contract; the taps come from `bicubic_taps` on the same positions.
+        unsafe { bicubic_taps(g, pos, taps, bases, state) };
+        for (plane, o) in planes.iter().zip(outs.iter_mut()) {
+            let taps = (&taps[..], &bases[..], &state[..]);
+            // SAFETY: as above; n <= every slice's length.
+            unsafe { bicubic_apply(g, plane, pos, taps, nodata, o, 0..n) };
         }
-        return;
-    }
-    // SAFETY: the contract; the taps come from `bicubic_taps` on the same positions.
-    unsafe { bicubic_taps(g, pos, taps, bases, state) };
-    for (plane, o) in planes.iter().zip(outs.iter_mut()) {
-        let taps = (&taps[..], &bases[..], &state[..]);
-        unsafe { bicubic_apply(g, plane, pos, taps, nodata, o) };
     }
     for (v, &s) in valid.iter_mut().zip(state.iter()) {
         *v = s != 0;
     }
 }
 
-/// One band of bicubic from prepared taps; border pixels through the portable kernel.
+/// One band of bicubic from prepared taps over the pixels `range` of the block; border pixels
+/// through the portable kernel.
 ///
 /// # Safety
-/// AVX2; `plane` holds `g.width * g.height` samples; taps and states from `bicubic_taps` for the
-/// same positions `xs`, `ys`.
-#[target_feature(enable = "avx2")]
-unsafe fn bicubic_apply<T: SimdSample, Q: CubicPositions>(
-    g: &SourceGeometry,
-    plane: &[T],
-    pos: &Q,
-    (taps, bases, state): (&[CubicTap], &[u32], &[u8]),
-    nodata: T,
-    out: &mut [T],
-) {
-    let n = out.len().min(state.len()).min(taps.len()).min(bases.len());
-    // SAFETY: the contract.
-    unsafe { bicubic_apply_range(g, plane, pos, (taps, bases, state), nodata, out, 0..n) };
-}
-
-/// `bicubic_apply` over the pixels `range` of the block.
-///
-/// # Safety
-/// As `bicubic_apply`; `range` within every slice's length.
+/// AVX2; `plane` holds `g.width * g.height` samples; taps and states from `bicubic_taps` (or
+/// `store_taps8`) for the same positions `pos`; `range` within every slice's length.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn bicubic_apply_range<T: SimdSample, Q: CubicPositions>(
+unsafe fn bicubic_apply<T: SimdSample, Q: CubicPositions>(
     g: &SourceGeometry,
     plane: &[T],
     pos: &Q,
@@ -2105,7 +2095,7 @@ mod tests {
         }
         let values = [-3.7f32, -0.4, 0.49, 0.5, 254.5, 255.6, 65535.4, 70000.0];
         // SAFETY: AVX2 is there; sixteen samples are readable, eight writable.
-        let (row, mut out) = unsafe {
+        let (row, out) = unsafe {
             let row = T::row16(samples.as_ptr());
             let mut out = [T::default(); 8];
             T::store8(_mm256_loadu_ps(values.as_ptr()), &mut out);
@@ -2114,7 +2104,7 @@ mod tests {
         for (j, (r, s)) in row.iter().zip(samples).enumerate() {
             assert_eq!(*r, s.to_f32(), "{}: sample {j}", T::NAME);
         }
-        for (j, (o, v)) in out.iter_mut().zip(values).enumerate() {
+        for (j, (o, v)) in out.iter().zip(values).enumerate() {
             assert!(*o == T::from_f32(v), "{}: value {v} (lane {j})", T::NAME);
         }
     }
