@@ -220,11 +220,22 @@ fn simd_and_portable_builds_agree_exactly() {
         0.95, 0.08, 50.0, -0.06, 0.9, 40.0, 5e-5, 8e-5, 1.0,
     ))
     .unwrap();
+    // Rotated by about 30 degrees and inside: sixteen pixels cross five source rows, so the
+    // all-inside steps read sample by sample, not from row windows.
+    let rotated = Homography::new(Mat3::new(
+        0.6, -0.35, 150.0, 0.35, 0.6, 5.0, 1e-5, 1e-5, 1.0,
+    ))
+    .unwrap();
+    // Nearly a shift whose last output row reads the source's last row up to its last column:
+    // the windows there start early, and no read may pass the plane's end.
+    let corner = Homography::new(Mat3::new(1.0, 0.0, 40.0, 0.0, 1.0, 50.0, 0.0, 0.0, 1.0)).unwrap();
     let cases = [
         (test_homography(), ImageSize::new(700, 90)),
         (mild, ImageSize::new(700, 90)),
         (mild, ImageSize::new(600, 70)),
         (right, ImageSize::new(640, 70)),
+        (rotated, ImageSize::new(200, 40)),
+        (corner, ImageSize::new(600, 70)),
     ];
     for ((h, size), coordinates) in cases
         .into_iter()

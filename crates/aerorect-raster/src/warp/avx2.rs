@@ -7,7 +7,9 @@
 //! origin + offset in f64. Loads are laid out per kernel:
 //! - nearest: the tap index is computed eight at a time, then one scalar load per pixel and band
 //!   (scalar loads beat a gather for single samples); u8 with three bands or more reads byte
-//!   windows of one or two rows where the eight samples lie within 16 columns;
+//!   windows of one or two rows where the eight samples lie within 16 columns. Blocks all inside
+//!   go sixteen at a time with AVX-512 where the CPU has it (`avx512`): one 512-bit position
+//!   step, and per band one two-table permute of two source rows;
 //! - bilinear: one gather brings the upper neighbour pair (2 adjacent samples) of eight pixels and
 //!   one the lower pair (u8, u16: 32-bit lanes; f32: 64-bit lanes, four pixels per gather);
 //! - bicubic: per pixel, four row loads of four adjacent samples, blended vertically as one 4-lane
@@ -17,6 +19,8 @@ use super::kernel::{BLOCK, Bicubic, Bilinear, Kernel, Nearest, SourceGeometry};
 use super::relative::RelativeBlock;
 use crate::raster::Sample;
 use std::arch::x86_64::*;
+
+mod avx512;
 
 /// Per-task buffers for the AVX2 builds, one block long.
 pub(crate) struct SimdScratch {
@@ -387,23 +391,17 @@ pub(crate) trait SimdSample: Sample {
     /// AVX2; `out.len() >= 8`.
     unsafe fn store8(v: __m256, out: &mut [Self]);
 
-    /// Nearest at sixteen pixels i..i + 16, all inside, at columns `ix` and rows `iy` (two
-    /// vectors of eight), from 32-sample windows of up to four source rows by AVX-512 permutes,
-    /// into every output; false where they do not apply (nothing written). Only u8 has them.
+    /// The columns of each source row `nearest_rows16` takes (a 512-bit vector's samples, or
+    /// two vectors' for f32).
+    const ROW_SPAN: i32;
+
+    /// Nearest at sixteen pixels placed by `rows` (two source rows of `ROW_SPAN` samples), by
+    /// an AVX-512 two-table permute, into `out[..16]`.
     ///
     /// # Safety
-    /// AVX-512 F, BW, VL and VBMI; the pixels inside; i + 16 <= every output's length; every
-    /// plane `k.size.0 * k.size.1` samples.
-    unsafe fn nearest_window16(
-        k: &Consts,
-        at: ([__m256i; 2], [__m256i; 2]),
-        planes: &[&[Self]],
-        outs: &mut [&mut [Self]],
-        i: usize,
-    ) -> bool {
-        let _ = (k, at, planes, outs, i);
-        false
-    }
+    /// AVX-512 F, BW, VL and VBMI; `rows` from `Rows16::of` with `ROW_SPAN` on an image the size
+    /// of `plane`; sixteen samples writable at `out`.
+    unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[Self], out: *mut Self);
 
     /// The eight nearest samples of a window (`nearest_window`) into `out[..8]`; the
     /// portable reading here, a shuffle for u8 (the only type with `WINDOWS`).
@@ -429,61 +427,26 @@ pub(crate) trait SimdSample: Sample {
 impl SimdSample for u8 {
     const WINDOWS: bool = true;
 
-    /// The extremes of the columns and rows are the first lane of the first vector and the
-    /// last of the second (monotonic positions). Where the columns lie within 32 and the rows
-    /// within four, four 32-byte row loads per band and one two-table byte permute (`vpermi2b`
-    /// over 128 bytes) give all sixteen samples.
+    const ROW_SPAN: i32 = 32;
+
+    /// Two rows of 32 samples, one byte permute (`vpermi2b`) over the two 256-bit loads.
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
-    unsafe fn nearest_window16(
-        k: &Consts,
-        (ix, iy): ([__m256i; 2], [__m256i; 2]),
-        planes: &[&[u8]],
-        outs: &mut [&mut [u8]],
-        i: usize,
-    ) -> bool {
-        let w = k.size.0;
-        let ends = |v: [__m256i; 2]| {
-            let (a, b) = (_mm256_cvtsi256_si32(v[0]), _mm256_extract_epi32::<7>(v[1]));
-            (a.min(b), a.max(b))
-        };
-        let ((xmin, xmax), (ymin, ymax)) = (ends(ix), ends(iy));
-        // The window's first column: xmin, or less where 32 bytes from xmin pass the row's end.
-        let x0 = xmin.min(w - 32);
-        if w < 32 || x0 < 0 || xmax - x0 > 31 || ymax - ymin > 3 {
-            return false;
+    unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[u8], out: *mut u8) {
+        debug_assert!(rows.start + rows.step + 32 <= plane.len());
+        // SAFETY: `Rows16::of`: 32 samples from `start` and from `start + step` in the plane;
+        // sixteen writable at `out` (the contract).
+        unsafe {
+            let p = plane.as_ptr().add(rows.start);
+            let (a, b) = (
+                _mm512_castsi256_si512(_mm256_loadu_si256(p as *const __m256i)),
+                _mm512_castsi256_si512(_mm256_loadu_si256(p.add(rows.step) as *const __m256i)),
+            );
+            let place = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<6>(rows.row));
+            let index = _mm512_castsi128_si512(_mm512_cvtepi32_epi8(place));
+            let v = _mm512_permutex2var_epi8(a, index, b);
+            _mm_storeu_si128(out as *mut __m128i, _mm512_castsi512_si128(v));
         }
-        // Per pixel: its byte in the 128-byte table (32 bytes of each row from ymin on).
-        let rel = |a: usize| {
-            let col = _mm256_sub_epi32(ix[a], _mm256_set1_epi32(x0));
-            let row = _mm256_sub_epi32(iy[a], _mm256_set1_epi32(ymin));
-            _mm256_add_epi32(col, _mm256_slli_epi32::<5>(row))
-        };
-        // 16 i32 -> 16 bytes in order (each pack interleaves the 128-bit halves).
-        let words = _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_packus_epi32(rel(0), rel(1)));
-        let bytes = _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_packus_epi16(words, words));
-        let index = _mm512_castsi256_si512(bytes);
-        let start = (ymin * w + x0) as usize;
-        let last = (ymax - ymin) as usize;
-        // Branch-free: rows past the last are the last again (no pixel's index reaches them).
-        let offset = |r: usize| r.min(last) * w as usize;
-        for (plane, out) in planes.iter().zip(outs.iter_mut()) {
-            debug_assert!(start + offset(3) + 32 <= plane.len() && i + 16 <= out.len());
-            // SAFETY: rows ymin..=ymax are inside and x0 + 32 <= w: every load stays in the plane;
-            // i + 16 <= out.len() (the contract).
-            unsafe {
-                let p = plane.as_ptr().add(start);
-                let row = |r: usize| _mm256_loadu_si256(p.add(offset(r)) as *const __m256i);
-                let pair =
-                    |r: usize| _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(r)), row(r + 1));
-                let v = _mm512_permutex2var_epi8(pair(0), index, pair(2));
-                _mm_storeu_si128(
-                    out.as_mut_ptr().add(i) as *mut __m128i,
-                    _mm512_castsi512_si128(v),
-                );
-            }
-        }
-        true
     }
 
     /// The taps are byte shuffles of 16-byte row loads, two tap columns per shuffle; rounded
@@ -648,6 +611,28 @@ unsafe fn window_pairs(win: &Window, plane: &[u8], width: usize) -> (__m256i, __
 }
 
 impl SimdSample for u16 {
+    const ROW_SPAN: i32 = 32;
+
+    /// Two rows of 32 samples, one word permute (`vpermi2w`).
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[inline]
+    unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[u16], out: *mut u16) {
+        debug_assert!(rows.start + rows.step + 32 <= plane.len());
+        // SAFETY: `Rows16::of`: 32 samples from `start` and from `start + step` in the plane;
+        // sixteen writable at `out` (the contract).
+        unsafe {
+            let p = plane.as_ptr().add(rows.start);
+            let (a, b) = (
+                _mm512_loadu_si512(p as *const __m512i),
+                _mm512_loadu_si512(p.add(rows.step) as *const __m512i),
+            );
+            let place = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<5>(rows.row));
+            let index = _mm512_castsi256_si512(_mm512_cvtepi32_epi16(place));
+            let v = _mm512_permutex2var_epi16(a, index, b);
+            _mm256_storeu_si256(out as *mut __m256i, _mm512_castsi512_si256(v));
+        }
+    }
+
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn bilinear8(
@@ -723,6 +708,34 @@ impl SimdSample for u16 {
 }
 
 impl SimdSample for f32 {
+    const ROW_SPAN: i32 = 32;
+
+    /// Where the columns lie within 16: one permute over 16 samples of each row; else two
+    /// rows of 32 (two vectors each), one permute per row, blended by row.
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[inline]
+    unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[f32], out: *mut f32) {
+        debug_assert!(rows.start + rows.step + 32 <= plane.len());
+        // SAFETY: `Rows16::of`: 32 samples from `start` and from `start + step` in the plane;
+        // sixteen writable at `out` (the contract).
+        unsafe {
+            let p = plane.as_ptr().add(rows.start);
+            let load = |r: usize, c: usize| _mm512_loadu_ps(p.add(r * rows.step + c));
+            let v = match rows.cols <= 16 {
+                true => {
+                    let place = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<4>(rows.row));
+                    _mm512_permutex2var_ps(load(0, 0), place, load(1, 0))
+                }
+                false => {
+                    let row = |r: usize| _mm512_permutex2var_ps(load(r, 0), rows.col, load(r, 16));
+                    let second = _mm512_cmpgt_epi32_mask(rows.row, _mm512_setzero_si512());
+                    _mm512_mask_blend_ps(second, row(0), row(1))
+                }
+            };
+            _mm512_storeu_ps(out, v);
+        }
+    }
+
     const CUBIC_WINDOWS: bool = false;
 
     #[target_feature(enable = "avx2")]
@@ -889,6 +902,11 @@ pub(crate) trait Positions {
 
     /// The pixels from `from` on (fewer than eight), as f64 positions.
     fn tail(&self, from: usize) -> Tail;
+
+    /// The fused fast positions, where these are they.
+    fn relative(&self) -> Option<&Relative> {
+        None
+    }
 }
 
 /// The nearest taps of eight pixels.
@@ -1113,6 +1131,10 @@ impl Relative {
 
 /// Fused: each step computes its eight offsets (best for nearest, whose loads are cheap).
 impl Positions for Relative {
+    fn relative(&self) -> Option<&Relative> {
+        Some(self)
+    }
+
     /// x(k) - x(0) = k a / (1 + c k) is monotonic in k (while 1 + c k > 0), and so are its
     /// floor and its clamp.
     const MONOTONIC: bool = true;
@@ -1403,9 +1425,9 @@ fn inside_run<P: Positions>(k: &Consts, pos: &P, n: usize) -> Option<usize> {
     (first & 1 != 0 && last & 0x80 != 0).then_some(whole)
 }
 
-/// `nearest_steps` over `whole` pixels all inside: no inside test, no nodata. Two bands or
-/// more take AVX-512 byte permutes sixteen pixels at a time where the CPU has them
-/// (`nearest_inside_vbmi`); the rest goes eight at a time (`nearest_inside_range`).
+/// `nearest_steps` over `whole` pixels all inside: no inside test, no nodata. Where the CPU has
+/// AVX-512 (and the positions are fused), sixteen at a time (`avx512::nearest_inside16`); the
+/// rest goes eight at a time (`nearest_inside_range`).
 ///
 /// # Safety
 /// As `nearest_block`; `whole` a multiple of eight, at most every output's length, and every
@@ -1420,45 +1442,13 @@ unsafe fn nearest_inside<T: SimdSample, P: Positions, const WINDOWS: bool>(
     outs: &mut [&mut [T]],
     whole: usize,
 ) {
-    // One band keeps the scalar loads: its permute path measured slower (0.87 against
-    // 0.81 ms), where three or four bands share the positions and gain (1.50 to 1.10 ms).
-    let i = match T::WINDOWS && g.vbmi && planes.len() > 1 {
-        // SAFETY: `g.vbmi`: the CPU has the permutes; as this function's contract.
-        true => unsafe { nearest_inside_vbmi::<T, P, WINDOWS>(k, g, pos, planes, outs, whole) },
-        false => 0,
+    let i = match (g.vbmi, pos.relative()) {
+        // SAFETY: `g.vbmi`: the CPU has AVX-512 F, BW, VL, VBMI; as this function's contract.
+        (true, Some(rel)) => unsafe { avx512::nearest_inside16(rel, k.size, planes, outs, whole) },
+        _ => 0,
     };
     // SAFETY: as this function's contract.
     unsafe { nearest_inside_range::<T, P, WINDOWS>(k, g, pos, planes, outs, i..whole) };
-}
-
-/// `nearest_inside` sixteen pixels at a time through `SimdSample::nearest_window16` where it
-/// applies, else eight at a time (`nearest_inside_range`); returns where it stopped (the last
-/// fewer than sixteen pixels are left). Built with AVX-512 so that the window is inlined.
-///
-/// # Safety
-/// As `nearest_inside`; the CPU has AVX-512 F, BW, VL and VBMI.
-#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
-unsafe fn nearest_inside_vbmi<T: SimdSample, P: Positions, const WINDOWS: bool>(
-    k: &Consts,
-    g: &SourceGeometry,
-    pos: &P,
-    planes: &[&[T]],
-    outs: &mut [&mut [T]],
-    whole: usize,
-) -> usize {
-    let mut i = 0;
-    while i + 16 <= whole {
-        // SAFETY: i + 16 <= whole <= len; the pixels are inside (the contract).
-        let (a, b) = unsafe { (pos.nearest_inside8(k, i), pos.nearest_inside8(k, i + 8)) };
-        let (ix, iy) = ([a[1], b[1]], [a[2], b[2]]);
-        // SAFETY: the CPU has the permutes; as this function's contract.
-        if !unsafe { T::nearest_window16(k, (ix, iy), planes, outs, i) } {
-            // SAFETY: as this function's contract.
-            unsafe { nearest_inside_range::<T, P, WINDOWS>(k, g, pos, planes, outs, i..i + 16) };
-        }
-        i += 16;
-    }
-    i
 }
 
 /// `nearest_inside` over the pixels `range` (whole steps), eight at a time with the AVX2 build.
