@@ -228,16 +228,21 @@ fn simd_and_portable_builds_agree_exactly() {
     .unwrap();
     // Nearly a shift whose last output row reads the source's last row up to its last column:
     // the windows there start early, and no read may pass the plane's end.
-    let corner = Homography::new(Mat3::new(1.0, 0.0, 40.0, 0.0, 1.0, 50.0, 0.0, 0.0, 1.0)).unwrap();
+    let corner = Homography::new(Mat3::new(1.0, 0.0, 40.3, 0.0, 1.0, 50.2, 0.0, 0.0, 1.0)).unwrap();
+    // Stretched 2.07-fold along rows (no prefilter): sixteen pixels' taps span 32 or 33
+    // columns, just past what one window of 32 holds.
+    let stretched =
+        Homography::new(Mat3::new(2.07, 0.0, 3.3, 0.02, 0.5, 20.7, 0.0, 0.0, 1.0)).unwrap();
     let cases = [
-        (test_homography(), ImageSize::new(700, 90)),
-        (mild, ImageSize::new(700, 90)),
-        (mild, ImageSize::new(600, 70)),
-        (right, ImageSize::new(640, 70)),
-        (rotated, ImageSize::new(200, 40)),
-        (corner, ImageSize::new(600, 70)),
+        (test_homography(), ImageSize::new(700, 90), true),
+        (mild, ImageSize::new(700, 90), true),
+        (mild, ImageSize::new(600, 70), true),
+        (right, ImageSize::new(640, 70), true),
+        (rotated, ImageSize::new(200, 40), true),
+        (corner, ImageSize::new(600, 70), true),
+        (stretched, ImageSize::new(300, 60), false),
     ];
-    for ((h, size), coordinates) in cases
+    for ((h, size, prefilter), coordinates) in cases
         .into_iter()
         .flat_map(|hs| COORDINATES.map(|c| (hs, c)))
     {
@@ -246,7 +251,7 @@ fn simd_and_portable_builds_agree_exactly() {
                 interp,
                 nodata: 3.0,
                 alpha: true,
-                prefilter: true,
+                prefilter,
                 coordinates,
             };
             for bands in [1, 3, 4] {

@@ -11,7 +11,9 @@
 //!   go sixteen at a time with AVX-512 where the CPU has it (`avx512`): one 512-bit position
 //!   step, and per band one two-table permute of two source rows;
 //! - bilinear: one gather brings the upper neighbour pair (2 adjacent samples) of eight pixels and
-//!   one the lower pair (u8, u16: 32-bit lanes; f32: 64-bit lanes, four pixels per gather);
+//!   one the lower pair (u8, u16: 32-bit lanes; f32: 64-bit lanes, four pixels per gather).
+//!   Blocks all inside go sixteen at a time with AVX-512 where the CPU has it: the taps as
+//!   permutes of three source rows, the blend at sixteen lanes;
 //! - bicubic: per pixel, four row loads of four adjacent samples, blended vertically as one 4-lane
 //!   vector and then horizontally; taps that cross the border go through the portable kernel.
 
@@ -403,6 +405,19 @@ pub(crate) trait SimdSample: Sample {
     /// of `plane`; sixteen samples writable at `out`.
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[Self], out: *mut Self);
 
+    /// Bilinear at sixteen pixels placed by `rows` with fractions `f` (x, y), from AVX-512
+    /// permutes of the rows, written to `out[..16]` as `from_f32` writes them.
+    ///
+    /// # Safety
+    /// AVX-512 F, BW, VL and VBMI; `rows` from `PairRows16::of` with `ROW_SPAN` on an image the
+    /// size of `plane`; sixteen samples writable at `out`.
+    unsafe fn bilinear_rows16(
+        rows: &avx512::PairRows16,
+        f: (__m512, __m512),
+        plane: &[Self],
+        out: *mut Self,
+    );
+
     /// The eight nearest samples of a window (`nearest_window`) into `out[..8]`; the
     /// portable reading here, a shuffle for u8 (the only type with `WINDOWS`).
     ///
@@ -428,6 +443,43 @@ impl SimdSample for u8 {
     const WINDOWS: bool = true;
 
     const ROW_SPAN: i32 = 32;
+
+    /// The three rows' 32 bytes as one 96-byte table; one byte permute brings each pixel's
+    /// four taps into its 32-bit lane (bytes: upper pair, lower pair), as `window_pairs` does.
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[inline]
+    unsafe fn bilinear_rows16(
+        rows: &avx512::PairRows16,
+        f: (__m512, __m512),
+        plane: &[u8],
+        out: *mut u8,
+    ) {
+        debug_assert!(rows.row_start(2) + 32 <= plane.len());
+        // SAFETY: `PairRows16::of`: 32 samples from each row start in the plane; sixteen
+        // writable at `out` (the contract).
+        unsafe {
+            let row = |r: usize| {
+                _mm256_loadu_si256(plane.as_ptr().add(rows.row_start(r)) as *const __m256i)
+            };
+            let a = _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(0)), row(1));
+            let b = _mm512_castsi256_si512(row(2));
+            let base = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<5>(rows.row));
+            let index = _mm512_add_epi32(
+                _mm512_mullo_epi32(base, _mm512_set1_epi32(0x0101_0101)),
+                _mm512_set1_epi32(0x2120_0100),
+            );
+            let v = _mm512_permutex2var_epi8(a, index, b);
+            let byte = _mm512_set1_epi32(0xFF);
+            let p = [
+                _mm512_and_si512(v, byte),
+                _mm512_and_si512(_mm512_srli_epi32::<8>(v), byte),
+                _mm512_and_si512(_mm512_srli_epi32::<16>(v), byte),
+                _mm512_srli_epi32::<24>(v),
+            ];
+            let q = avx512::rounded16(avx512::blend16(f, p.map(|v| _mm512_cvtepi32_ps(v))));
+            _mm_storeu_si128(out as *mut __m128i, _mm512_cvtepi32_epi8(q));
+        }
+    }
 
     /// Two rows of 32 samples, one byte permute (`vpermi2b`) over the two 256-bit loads.
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
@@ -613,6 +665,43 @@ unsafe fn window_pairs(win: &Window, plane: &[u8], width: usize) -> (__m256i, __
 impl SimdSample for u16 {
     const ROW_SPAN: i32 = 32;
 
+    /// One word permute over the upper two rows brings each pixel's upper pair into its
+    /// 32-bit lane, one over the lower two its lower pair.
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[inline]
+    unsafe fn bilinear_rows16(
+        rows: &avx512::PairRows16,
+        f: (__m512, __m512),
+        plane: &[u16],
+        out: *mut u16,
+    ) {
+        debug_assert!(rows.row_start(2) + 32 <= plane.len());
+        // SAFETY: `PairRows16::of`: 32 samples from each row start in the plane; sixteen
+        // writable at `out` (the contract).
+        unsafe {
+            let row = |r: usize| {
+                _mm512_loadu_si512(plane.as_ptr().add(rows.row_start(r)) as *const __m512i)
+            };
+            let (r0, r1, r2) = (row(0), row(1), row(2));
+            let base = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<5>(rows.row));
+            let index = _mm512_add_epi32(
+                _mm512_mullo_epi32(base, _mm512_set1_epi32(0x1_0001)),
+                _mm512_set1_epi32(0x1_0000),
+            );
+            let top = _mm512_permutex2var_epi16(r0, index, r1);
+            let low = _mm512_permutex2var_epi16(r1, index, r2);
+            let word = _mm512_set1_epi32(0xFFFF);
+            let p = [
+                _mm512_and_si512(top, word),
+                _mm512_srli_epi32::<16>(top),
+                _mm512_and_si512(low, word),
+                _mm512_srli_epi32::<16>(low),
+            ];
+            let q = avx512::rounded16(avx512::blend16(f, p.map(|v| _mm512_cvtepi32_ps(v))));
+            _mm256_storeu_si256(out as *mut __m256i, _mm512_cvtepi32_epi16(q));
+        }
+    }
+
     /// Two rows of 32 samples, one word permute (`vpermi2w`).
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
@@ -709,6 +798,39 @@ impl SimdSample for u16 {
 
 impl SimdSample for f32 {
     const ROW_SPAN: i32 = 32;
+
+    /// Per row two 16-sample vectors, one permute per row and tap column; the upper and
+    /// lower taps then blended by each pixel's upper row.
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[inline]
+    unsafe fn bilinear_rows16(
+        rows: &avx512::PairRows16,
+        f: (__m512, __m512),
+        plane: &[f32],
+        out: *mut f32,
+    ) {
+        debug_assert!(rows.row_start(2) + 32 <= plane.len());
+        // SAFETY: `PairRows16::of`: 32 samples from each row start in the plane; sixteen
+        // writable at `out` (the contract).
+        unsafe {
+            let row = |r: usize| {
+                let q = plane.as_ptr().add(rows.row_start(r));
+                (_mm512_loadu_ps(q), _mm512_loadu_ps(q.add(16)))
+            };
+            let col1 = _mm512_add_epi32(rows.col, _mm512_set1_epi32(1));
+            let pick = |r: (__m512, __m512), c: __m512i| _mm512_permutex2var_ps(r.0, c, r.1);
+            let (r0, r1, r2) = (row(0), row(1), row(2));
+            let (b0, b1) = (pick(r1, rows.col), pick(r1, col1));
+            let second = _mm512_cmpgt_epi32_mask(rows.row, _mm512_setzero_si512());
+            let p = [
+                _mm512_mask_blend_ps(second, pick(r0, rows.col), b0),
+                _mm512_mask_blend_ps(second, pick(r0, col1), b1),
+                _mm512_mask_blend_ps(second, b0, pick(r2, rows.col)),
+                _mm512_mask_blend_ps(second, b1, pick(r2, col1)),
+            ];
+            _mm512_storeu_ps(out, avx512::blend16(f, p));
+        }
+    }
 
     /// Where the columns lie within 16: one permute over 16 samples of each row; else two
     /// rows of 32 (two vectors each), one permute per row, blended by row.
@@ -828,6 +950,11 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample, P: Positions>(
     let mut i = 0;
     if let Some(whole) = inside_run(&k, pos, n) {
         valid[..whole].fill(true);
+        if let (true, Some(buffered)) = (g.vbmi, pos.buffered()) {
+            // SAFETY: `g.vbmi`: the CPU has AVX-512 F, BW, VL, VBMI; as this function's
+            // contract; every pixel of the whole steps is inside.
+            i = unsafe { avx512::bilinear_inside16(&k, buffered, planes, outs, whole, nodata) };
+        }
         while i < whole {
             // SAFETY: i + 8 <= whole <= n; every pixel of the whole steps is inside.
             let t = unsafe { pos.bilinear_inside8(&k, i, T::WINDOWS) };
@@ -905,6 +1032,11 @@ pub(crate) trait Positions {
 
     /// The fused fast positions, where these are they.
     fn relative(&self) -> Option<&Relative> {
+        None
+    }
+
+    /// The buffered fast positions, where these are they.
+    fn buffered(&self) -> Option<&Buffered<'_>> {
         None
     }
 }
@@ -1202,6 +1334,10 @@ impl Buffered<'_> {
 }
 
 impl Positions for Buffered<'_> {
+    fn buffered(&self) -> Option<&Buffered<'_>> {
+        Some(self)
+    }
+
     const MONOTONIC: bool = true;
 
     fn len(&self) -> usize {

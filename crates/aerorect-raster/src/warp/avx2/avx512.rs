@@ -1,10 +1,14 @@
-//! AVX-512 (F, BW, VL, VBMI) nearest over a block whose pixels are all inside: sixteen
-//! positions per step in one 512-bit vector (`Relative16`, the operations of
-//! `Relative::offsets8`), and per band the sixteen samples as a two-table permute of two source
-//! rows where they lie within them (`Rows16`, `SimdSample::nearest_rows16`), else one scalar
-//! load each.
+//! AVX-512 (F, BW, VL, VBMI) steps over blocks whose pixels are all inside, sixteen pixels per
+//! 512-bit vector, each the arithmetic of its AVX2 counterpart in the same order:
+//! - nearest: the positions of `Relative::offsets8` (`Relative16`), and per band the sixteen
+//!   samples as a two-table permute of two source rows where they lie within them (`Rows16`,
+//!   `SimdSample::nearest_rows16`), else one scalar load each;
+//! - bilinear: the split of `Relative::bilinear_taps` on buffered offsets (`Split16`), and per
+//!   band the four taps as permutes of three source rows where they lie within them
+//!   (`PairRows16`, `SimdSample::bilinear_rows16`), blended at sixteen lanes; else two AVX2
+//!   steps on the same taps.
 
-use super::{Relative, SimdSample};
+use super::{Buffered, Consts, Relative, SimdSample, Taps8, window};
 use std::arch::x86_64::*;
 
 /// `Relative`'s vectors at sixteen lanes.
@@ -152,6 +156,182 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
         i += 16;
     }
     i
+}
+
+/// Bilinear over `whole` pixels of buffered positions, all inside, sixteen at a time into
+/// every output; returns where it stopped (fewer than sixteen left). Steps whose taps do not
+/// lie within `PairRows16` go as two AVX2 steps.
+///
+/// # Safety
+/// AVX-512 F, BW, VL and VBMI; the source at least 2 x 2; `whole` at most every output's length
+/// and the buffers'; every pixel inside; every plane `k.size.0 * k.size.1` samples.
+#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+pub(super) unsafe fn bilinear_inside16<T: SimdSample>(
+    k: &Consts,
+    pos: &Buffered<'_>,
+    planes: &[&[T]],
+    outs: &mut [&mut [T]],
+    whole: usize,
+    nodata: T,
+) -> usize {
+    let split = Split16::new(pos.rel, k.size);
+    let mut i = 0;
+    while i + 16 <= whole {
+        debug_assert!(i + 16 <= pos.px.len() && i + 16 <= pos.py.len());
+        // SAFETY: i + 16 <= whole <= the buffers' length.
+        let (x, y) = unsafe {
+            (
+                _mm512_loadu_ps(pos.px.as_ptr().add(i)),
+                _mm512_loadu_ps(pos.py.as_ptr().add(i)),
+            )
+        };
+        let ((x0, fx), (y0, fy)) = (split.axis(x, 0), split.axis(y, 1));
+        if let Some(rows) = PairRows16::of(x0, y0, k.size, T::ROW_SPAN) {
+            for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+                debug_assert!(i + 16 <= out.len());
+                // SAFETY: `PairRows16::of` checked the rows; i + 16 <= whole <= the length.
+                unsafe { T::bilinear_rows16(&rows, (fx, fy), plane, out.as_mut_ptr().add(i)) };
+            }
+        } else {
+            let taps = taps8_pair::<T>(k, (x0, fx), (y0, fy));
+            for (h, t) in [i, i + 8].into_iter().zip(taps.iter()) {
+                for (plane, out) in planes.iter().zip(outs.iter_mut()) {
+                    // SAFETY: as this function's contract; h + 8 <= every output's length.
+                    unsafe { T::bilinear8(k, t, plane, out, h, nodata) };
+                }
+            }
+        }
+        i += 16;
+    }
+    i
+}
+
+/// The AVX2 taps (`Relative::bilinear_taps::<true>`) of pixels 0..8 and 8..16 of a split.
+#[target_feature(enable = "avx2,avx512f")]
+#[inline]
+fn taps8_pair<T: SimdSample>(
+    k: &Consts,
+    (x0, fx): (__m512i, __m512),
+    (y0, fy): (__m512i, __m512),
+) -> [Taps8; 2] {
+    let off = _mm512_add_epi32(_mm512_mullo_epi32(y0, _mm512_set1_epi32(k.size.0)), x0);
+    let half = |v: __m512i, h: usize| match h {
+        0 => _mm512_castsi512_si256(v),
+        _ => _mm512_extracti64x4_epi64::<1>(v),
+    };
+    let half_ps = |v: __m512, h: usize| _mm256_castsi256_ps(half(_mm512_castps_si512(v), h));
+    [0, 1].map(|h| {
+        let (x, y) = (half(x0, h), half(y0, h));
+        Taps8 {
+            off: half(off, h),
+            fx: half_ps(fx, h),
+            fy: half_ps(fy, h),
+            lanes: _mm256_set1_epi32(-1),
+            mask: 0xFF,
+            window: if T::WINDOWS {
+                window(k, x, y, true)
+            } else {
+                None
+            },
+        }
+    })
+}
+
+/// `Relative::bilinear_taps`'s split of offsets into upper-left neighbours and fractions
+/// (`left_neighbour`), at sixteen lanes.
+struct Split16 {
+    cmin: [__m512; 2],
+    cmax: [__m512; 2],
+    origin: [__m512i; 2],
+    /// The last upper-left column and row: width - 2, height - 2.
+    imax: [__m512i; 2],
+}
+
+impl Split16 {
+    #[target_feature(enable = "avx512f")]
+    fn new(rel: &Relative, size: (i32, i32)) -> Self {
+        let wide = |v: __m256| _mm512_castsi512_ps(_mm512_broadcast_i64x4(_mm256_castps_si256(v)));
+        Self {
+            cmin: rel.cmin.map(wide),
+            cmax: rel.cmax.map(wide),
+            origin: rel.origin.map(|v| _mm512_broadcast_i64x4(v)),
+            imax: [_mm512_set1_epi32(size.0 - 2), _mm512_set1_epi32(size.1 - 2)],
+        }
+    }
+
+    /// The upper-left neighbours and fractions of offsets `p` on axis `a`: clamp, floor (with
+    /// the conversion, exact here), origin added and capped, fraction against the capped one.
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    fn axis(&self, p: __m512, a: usize) -> (__m512i, __m512) {
+        let c = _mm512_min_ps(_mm512_max_ps(p, self.cmin[a]), self.cmax[a]);
+        let rel = _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(c);
+        let i0 = _mm512_min_epi32(_mm512_add_epi32(rel, self.origin[a]), self.imax[a]);
+        let back = _mm512_cvtepi32_ps(_mm512_sub_epi32(i0, self.origin[a]));
+        (i0, _mm512_sub_ps(c, back))
+    }
+}
+
+/// The four taps of sixteen pixels in source rows of `span` samples: the upper rows are `ymin`
+/// and perhaps `ymin + 1`, so three rows from `ymin` (two where all are on one) hold them all.
+pub(crate) struct PairRows16 {
+    /// Offset of row `ymin`'s first sample (column `xs`).
+    start: usize,
+    /// The row stride.
+    width: usize,
+    /// The last row needed, 1 or 2.
+    last: usize,
+    /// Per pixel: its upper-left column minus `xs`, in [0, span - 1) ...
+    pub(crate) col: __m512i,
+    /// ... and its upper row minus `ymin`, 0 or 1.
+    pub(crate) row: __m512i,
+}
+
+impl PairRows16 {
+    /// Where the taps of sixteen pixels with monotonic upper-left columns `x0` and rows `y0`
+    /// (at most width - 2, height - 2) lie in rows of `span` samples of a `size` image, if they
+    /// do.
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    pub(crate) fn of(x0: __m512i, y0: __m512i, size: (i32, i32), span: i32) -> Option<Self> {
+        let w = size.0;
+        let ((xmin, xmax), (ymin, ymax)) = (ends16(x0), ends16(y0));
+        let xs = xmin.min(w - span);
+        if xs < 0 || xmax + 1 - xs >= span || ymax - ymin > 1 {
+            return None;
+        }
+        Some(Self {
+            start: (ymin * w + xs) as usize,
+            width: w as usize,
+            last: (ymax - ymin + 1) as usize,
+            col: _mm512_sub_epi32(x0, _mm512_set1_epi32(xs)),
+            row: _mm512_sub_epi32(y0, _mm512_set1_epi32(ymin)),
+        })
+    }
+
+    /// The offset of row `r` (0, 1 or 2) from `ymin`, the last needed where `r` passes it.
+    #[inline]
+    pub(crate) fn row_start(&self, r: usize) -> usize {
+        self.start + r.min(self.last) * self.width
+    }
+}
+
+/// The bilinear blend of `blend` (same operations, same order) at sixteen lanes.
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(crate) fn blend16(f: (__m512, __m512), p: [__m512; 4]) -> __m512 {
+    let [p00, p01, p10, p11] = p;
+    let top = _mm512_add_ps(p00, _mm512_mul_ps(f.0, _mm512_sub_ps(p01, p00)));
+    let bottom = _mm512_add_ps(p10, _mm512_mul_ps(f.0, _mm512_sub_ps(p11, p10)));
+    _mm512_add_ps(top, _mm512_mul_ps(f.1, _mm512_sub_ps(bottom, top)))
+}
+
+/// Sixteen blended values of an integer type rounded as `from_f32` rounds in range (v + 0.5,
+/// truncated).
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(crate) fn rounded16(v: __m512) -> __m512i {
+    _mm512_cvttps_epi32(_mm512_add_ps(v, _mm512_set1_ps(0.5)))
 }
 
 #[cfg(test)]
