@@ -195,7 +195,7 @@ fn builds_agree<T: Sample>(src: &Raster<T>, h: &Homography, size: ImageSize, opt
     let mut a = Raster::new(size, bands).unwrap();
     let mut b = Raster::new(size, bands).unwrap();
     let mut c = Raster::new(size, bands).unwrap();
-    // The best build (AVX-512 byte permutes where the CPU has them), AVX2 alone, portable.
+    // The best build (AVX-512 steps where the CPU has them), AVX2 alone, portable.
     aerorect_raster::warp_into(src, h, opts, &mut a).unwrap();
     aerorect_raster::warp_into_avx2(src, h, opts, &mut c).unwrap();
     aerorect_raster::warp_into_portable(src, h, opts, &mut b).unwrap();

@@ -950,8 +950,8 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample, P: Positions>(
     let mut i = 0;
     if let Some(whole) = inside_run(&k, pos, n) {
         valid[..whole].fill(true);
-        if let (true, Some(buffered)) = (g.vbmi, pos.buffered()) {
-            // SAFETY: `g.vbmi`: the CPU has AVX-512 F, BW, VL, VBMI; as this function's
+        if let (true, Some(buffered)) = (g.avx512, pos.buffered()) {
+            // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI; as this function's
             // contract; every pixel of the whole steps is inside.
             i = unsafe { avx512::bilinear_inside16(&k, buffered, planes, outs, whole, nodata) };
         }
@@ -1578,8 +1578,8 @@ unsafe fn nearest_inside<T: SimdSample, P: Positions, const WINDOWS: bool>(
     outs: &mut [&mut [T]],
     whole: usize,
 ) {
-    let i = match (g.vbmi, pos.relative()) {
-        // SAFETY: `g.vbmi`: the CPU has AVX-512 F, BW, VL, VBMI; as this function's contract.
+    let i = match (g.avx512, pos.relative()) {
+        // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI; as this function's contract.
         (true, Some(rel)) => unsafe { avx512::nearest_inside16(rel, k.size, planes, outs, whole) },
         _ => 0,
     };
