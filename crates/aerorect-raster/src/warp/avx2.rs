@@ -401,7 +401,7 @@ pub(crate) trait SimdSample: Sample {
     /// an AVX-512 two-table permute, into `out[..16]`.
     ///
     /// # Safety
-    /// AVX-512 F, BW, VL and VBMI; `rows` from `Rows16::of` with `ROW_SPAN` on an image the size
+    /// AVX-512 F, BW, VL and VBMI; `rows` from `Rows16::of` with `ROW_SPAN` and one tap on an image the size
     /// of `plane`; sixteen samples writable at `out`.
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[Self], out: *mut Self);
 
@@ -409,10 +409,10 @@ pub(crate) trait SimdSample: Sample {
     /// permutes of the rows, written to `out[..16]` as `from_f32` writes them.
     ///
     /// # Safety
-    /// AVX-512 F, BW, VL and VBMI; `rows` from `PairRows16::of` with `ROW_SPAN` on an image the
+    /// AVX-512 F, BW, VL and VBMI; `rows` from `Rows16::of` with `ROW_SPAN` and two taps on an image the
     /// size of `plane`; sixteen samples writable at `out`.
     unsafe fn bilinear_rows16(
-        rows: &avx512::PairRows16,
+        rows: &avx512::Rows16,
         f: (__m512, __m512),
         plane: &[Self],
         out: *mut Self,
@@ -449,13 +449,13 @@ impl SimdSample for u8 {
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
     unsafe fn bilinear_rows16(
-        rows: &avx512::PairRows16,
+        rows: &avx512::Rows16,
         f: (__m512, __m512),
         plane: &[u8],
         out: *mut u8,
     ) {
         debug_assert!(rows.row_start(2) + 32 <= plane.len());
-        // SAFETY: `PairRows16::of`: 32 samples from each row start in the plane; sixteen
+        // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen
         // writable at `out` (the contract).
         unsafe {
             let row = |r: usize| {
@@ -485,14 +485,18 @@ impl SimdSample for u8 {
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[u8], out: *mut u8) {
-        debug_assert!(rows.start + rows.step + 32 <= plane.len());
-        // SAFETY: `Rows16::of`: 32 samples from `start` and from `start + step` in the plane;
-        // sixteen writable at `out` (the contract).
+        debug_assert!(rows.row_start(1) + 32 <= plane.len());
+        // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen writable
+        // at `out` (the contract).
         unsafe {
-            let p = plane.as_ptr().add(rows.start);
+            let p = plane.as_ptr();
             let (a, b) = (
-                _mm512_castsi256_si512(_mm256_loadu_si256(p as *const __m256i)),
-                _mm512_castsi256_si512(_mm256_loadu_si256(p.add(rows.step) as *const __m256i)),
+                _mm512_castsi256_si512(_mm256_loadu_si256(
+                    p.add(rows.row_start(0)) as *const __m256i
+                )),
+                _mm512_castsi256_si512(_mm256_loadu_si256(
+                    p.add(rows.row_start(1)) as *const __m256i
+                )),
             );
             let place = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<6>(rows.row));
             let index = _mm512_castsi128_si512(_mm512_cvtepi32_epi8(place));
@@ -670,13 +674,13 @@ impl SimdSample for u16 {
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
     unsafe fn bilinear_rows16(
-        rows: &avx512::PairRows16,
+        rows: &avx512::Rows16,
         f: (__m512, __m512),
         plane: &[u16],
         out: *mut u16,
     ) {
         debug_assert!(rows.row_start(2) + 32 <= plane.len());
-        // SAFETY: `PairRows16::of`: 32 samples from each row start in the plane; sixteen
+        // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen
         // writable at `out` (the contract).
         unsafe {
             let row = |r: usize| {
@@ -706,14 +710,14 @@ impl SimdSample for u16 {
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[u16], out: *mut u16) {
-        debug_assert!(rows.start + rows.step + 32 <= plane.len());
-        // SAFETY: `Rows16::of`: 32 samples from `start` and from `start + step` in the plane;
-        // sixteen writable at `out` (the contract).
+        debug_assert!(rows.row_start(1) + 32 <= plane.len());
+        // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen writable
+        // at `out` (the contract).
         unsafe {
-            let p = plane.as_ptr().add(rows.start);
+            let p = plane.as_ptr();
             let (a, b) = (
-                _mm512_loadu_si512(p as *const __m512i),
-                _mm512_loadu_si512(p.add(rows.step) as *const __m512i),
+                _mm512_loadu_si512(p.add(rows.row_start(0)) as *const __m512i),
+                _mm512_loadu_si512(p.add(rows.row_start(1)) as *const __m512i),
             );
             let place = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<5>(rows.row));
             let index = _mm512_castsi256_si512(_mm512_cvtepi32_epi16(place));
@@ -804,13 +808,13 @@ impl SimdSample for f32 {
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
     unsafe fn bilinear_rows16(
-        rows: &avx512::PairRows16,
+        rows: &avx512::Rows16,
         f: (__m512, __m512),
         plane: &[f32],
         out: *mut f32,
     ) {
         debug_assert!(rows.row_start(2) + 32 <= plane.len());
-        // SAFETY: `PairRows16::of`: 32 samples from each row start in the plane; sixteen
+        // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen
         // writable at `out` (the contract).
         unsafe {
             let row = |r: usize| {
@@ -837,12 +841,12 @@ impl SimdSample for f32 {
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[f32], out: *mut f32) {
-        debug_assert!(rows.start + rows.step + 32 <= plane.len());
-        // SAFETY: `Rows16::of`: 32 samples from `start` and from `start + step` in the plane;
-        // sixteen writable at `out` (the contract).
+        debug_assert!(rows.row_start(1) + 32 <= plane.len());
+        // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen writable
+        // at `out` (the contract).
         unsafe {
-            let p = plane.as_ptr().add(rows.start);
-            let load = |r: usize, c: usize| _mm512_loadu_ps(p.add(r * rows.step + c));
+            let p = plane.as_ptr();
+            let load = |r: usize, c: usize| _mm512_loadu_ps(p.add(rows.row_start(r) + c));
             let v = match rows.cols <= 16 {
                 true => {
                     let place = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<4>(rows.row));

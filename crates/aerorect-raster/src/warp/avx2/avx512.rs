@@ -5,7 +5,7 @@
 //!   `SimdSample::nearest_rows16`), else one scalar load each;
 //! - bilinear: the split of `Relative::bilinear_taps` on buffered offsets (`Split16`), and per
 //!   band the four taps as permutes of three source rows where they lie within them
-//!   (`PairRows16`, `SimdSample::bilinear_rows16`), blended at sixteen lanes; else two AVX2
+//!   (`Rows16` again, `SimdSample::bilinear_rows16`), blended at sixteen lanes; else two AVX2
 //!   steps on the same taps.
 
 use super::{Buffered, Consts, Relative, SimdSample, Taps8, window};
@@ -56,21 +56,6 @@ impl Relative16 {
     }
 }
 
-/// Sixteen samples' places in two source rows of `span` samples: rows `ymin` and `ymax`
-/// (`ymax - ymin <= 1`), from column `x0` on.
-pub(crate) struct Rows16 {
-    /// Offset of the first row's first sample.
-    pub(super) start: usize,
-    /// Offset from the first row to the second (0 where all sixteen are on one row).
-    pub(super) step: usize,
-    /// Per pixel: its column minus `x0`, in [0, span) ...
-    pub(super) col: __m512i,
-    /// ... and its row minus `ymin`, 0 or 1.
-    pub(super) row: __m512i,
-    /// The columns used: the largest `col` + 1.
-    pub(super) cols: i32,
-}
-
 /// The first and last lanes of sixteen, in order (the extremes where they are monotonic).
 #[target_feature(enable = "avx512f")]
 #[inline]
@@ -80,26 +65,55 @@ fn ends16(v: __m512i) -> (i32, i32) {
     (a.min(b), a.max(b))
 }
 
+/// Where sixteen pixels' taps lie in source rows of `span` samples from column `xs` on: a
+/// pixel takes `TAPS` adjacent samples (1 nearest, 2 bilinear) from its row and, for bilinear,
+/// from the row below; its row is `ymin` or `ymin + 1`.
+pub(crate) struct Rows16 {
+    /// Per row r from `ymin` on: the offset of its sample at column `xs`, that of the last row
+    /// read where r passes it.
+    starts: [usize; 3],
+    /// Per pixel: its (first) column minus `xs`, so that its taps lie in [0, span) ...
+    pub(crate) col: __m512i,
+    /// ... and its row minus `ymin`, 0 or 1.
+    pub(crate) row: __m512i,
+    /// The columns read: the largest `col` + `TAPS`.
+    pub(crate) cols: i32,
+}
+
 impl Rows16 {
-    /// Where sixteen inside samples at monotonic columns `ix`, rows `iy` lie in two rows of
-    /// `span` samples of a `size` image, if they do.
+    /// The rows of sixteen pixels at monotonic (first) columns `x` and rows `y`, all of whose
+    /// taps are inside a `size` image, if they lie within `span` columns and two rows (three
+    /// with the lower taps).
     #[target_feature(enable = "avx512f")]
     #[inline]
-    pub(super) fn of(ix: __m512i, iy: __m512i, size: (i32, i32), span: i32) -> Option<Self> {
+    pub(crate) fn of<const TAPS: i32>(
+        x: __m512i,
+        y: __m512i,
+        size: (i32, i32),
+        span: i32,
+    ) -> Option<Self> {
         let w = size.0;
-        let ((xmin, xmax), (ymin, ymax)) = (ends16(ix), ends16(iy));
+        let ((xmin, xmax), (ymin, ymax)) = (ends16(x), ends16(y));
         // The first column: xmin, or less where `span` samples from xmin pass the row's end.
-        let x0 = xmin.min(w - span);
-        if x0 < 0 || xmax - x0 >= span || ymax - ymin > 1 {
+        let xs = xmin.min(w - span);
+        if xs < 0 || xmax + TAPS - xs > span || ymax - ymin > 1 {
             return None;
         }
+        let (start, width, last) = ((ymin * w + xs) as usize, w as usize, ymax - ymin + TAPS - 1);
+        let second = if last >= 1 { start + width } else { start };
+        let third = if last >= 2 { second + width } else { second };
         Some(Self {
-            start: (ymin * w + x0) as usize,
-            step: ((ymax - ymin) * w) as usize,
-            col: _mm512_sub_epi32(ix, _mm512_set1_epi32(x0)),
-            row: _mm512_sub_epi32(iy, _mm512_set1_epi32(ymin)),
-            cols: xmax - x0 + 1,
+            starts: [start, second, third],
+            col: _mm512_sub_epi32(x, _mm512_set1_epi32(xs)),
+            row: _mm512_sub_epi32(y, _mm512_set1_epi32(ymin)),
+            cols: xmax + TAPS - xs,
         })
+    }
+
+    /// The offset of row `r` from `ymin` on, the last row read where `r` passes it.
+    #[inline]
+    pub(crate) fn row_start(&self, r: usize) -> usize {
+        self.starts[r]
     }
 }
 
@@ -122,7 +136,7 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
     let mut i = 0;
     while i + 16 <= whole {
         let [ix, iy] = z.cols_rows16(i);
-        if let Some(rows) = Rows16::of(ix, iy, size, T::ROW_SPAN) {
+        if let Some(rows) = Rows16::of::<1>(ix, iy, size, T::ROW_SPAN) {
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 debug_assert!(i + 16 <= out.len());
                 // SAFETY: `Rows16::of` checked the rows; i + 16 <= whole <= the output's length.
@@ -160,7 +174,7 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
 
 /// Bilinear over `whole` pixels of buffered positions, all inside, sixteen at a time into
 /// every output; returns where it stopped (fewer than sixteen left). Steps whose taps do not
-/// lie within `PairRows16` go as two AVX2 steps.
+/// lie within `Rows16` go as two AVX2 steps.
 ///
 /// # Safety
 /// AVX-512 F, BW, VL and VBMI; the source at least 2 x 2; `whole` at most every output's length
@@ -186,10 +200,10 @@ pub(super) unsafe fn bilinear_inside16<T: SimdSample>(
             )
         };
         let ((x0, fx), (y0, fy)) = (split.axis(x, 0), split.axis(y, 1));
-        if let Some(rows) = PairRows16::of(x0, y0, k.size, T::ROW_SPAN) {
+        if let Some(rows) = Rows16::of::<2>(x0, y0, k.size, T::ROW_SPAN) {
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 debug_assert!(i + 16 <= out.len());
-                // SAFETY: `PairRows16::of` checked the rows; i + 16 <= whole <= the length.
+                // SAFETY: `Rows16::of` checked the rows; i + 16 <= whole <= the length.
                 unsafe { T::bilinear_rows16(&rows, (fx, fy), plane, out.as_mut_ptr().add(i)) };
             }
         } else {
@@ -272,50 +286,6 @@ impl Split16 {
     }
 }
 
-/// The four taps of sixteen pixels in source rows of `span` samples: the upper rows are `ymin`
-/// and perhaps `ymin + 1`, so three rows from `ymin` (two where all are on one) hold them all.
-pub(crate) struct PairRows16 {
-    /// Offset of row `ymin`'s first sample (column `xs`).
-    start: usize,
-    /// The row stride.
-    width: usize,
-    /// The last row needed, 1 or 2.
-    last: usize,
-    /// Per pixel: its upper-left column minus `xs`, in [0, span - 1) ...
-    pub(crate) col: __m512i,
-    /// ... and its upper row minus `ymin`, 0 or 1.
-    pub(crate) row: __m512i,
-}
-
-impl PairRows16 {
-    /// Where the taps of sixteen pixels with monotonic upper-left columns `x0` and rows `y0`
-    /// (at most width - 2, height - 2) lie in rows of `span` samples of a `size` image, if they
-    /// do.
-    #[target_feature(enable = "avx512f")]
-    #[inline]
-    pub(crate) fn of(x0: __m512i, y0: __m512i, size: (i32, i32), span: i32) -> Option<Self> {
-        let w = size.0;
-        let ((xmin, xmax), (ymin, ymax)) = (ends16(x0), ends16(y0));
-        let xs = xmin.min(w - span);
-        if xs < 0 || xmax + 1 - xs >= span || ymax - ymin > 1 {
-            return None;
-        }
-        Some(Self {
-            start: (ymin * w + xs) as usize,
-            width: w as usize,
-            last: (ymax - ymin + 1) as usize,
-            col: _mm512_sub_epi32(x0, _mm512_set1_epi32(xs)),
-            row: _mm512_sub_epi32(y0, _mm512_set1_epi32(ymin)),
-        })
-    }
-
-    /// The offset of row `r` (0, 1 or 2) from `ymin`, the last needed where `r` passes it.
-    #[inline]
-    pub(crate) fn row_start(&self, r: usize) -> usize {
-        self.start + r.min(self.last) * self.width
-    }
-}
-
 /// The bilinear blend of `blend` (same operations, same order) at sixteen lanes.
 #[target_feature(enable = "avx512f")]
 #[inline]
@@ -355,13 +325,20 @@ mod tests {
         }
         let size = (40, 10);
         // SAFETY: the CPU has AVX-512 (checked above).
-        let of = |ix, iy| unsafe { Rows16::of(ix, iy, size, 32) };
+        let of = |ix, iy| unsafe { Rows16::of::<1>(ix, iy, size, 32) };
         let rows = of(lanes(|j| 20 + j), lanes(|j| 5 + j / 8)).expect("two rows, 16 columns");
-        assert_eq!((rows.start % 40, rows.start / 40, rows.step), (8, 5, 40));
-        assert!(rows.start % 40 + 32 <= 40 && rows.start + rows.step + 32 <= 40 * 10);
+        assert_eq!(
+            (rows.row_start(0), rows.row_start(1)),
+            (5 * 40 + 8, 6 * 40 + 8)
+        );
+        assert_eq!(rows.row_start(2), rows.row_start(1), "no third row read");
         assert_eq!(rows.cols, 20 + 15 - 8 + 1);
         let one_row = of(lanes(|j| 2 * j), lanes(|_| 9)).expect("one row, 31 columns");
-        assert_eq!((one_row.start, one_row.step, one_row.cols), (9 * 40, 0, 31));
+        assert_eq!(
+            (one_row.row_start(0), one_row.row_start(1)),
+            (9 * 40, 9 * 40)
+        );
+        assert_eq!(one_row.cols, 31);
         assert!(of(lanes(|j| j * 3), lanes(|_| 0)).is_none(), "46 columns");
         assert!(of(lanes(|j| j), lanes(|j| j / 6)).is_none(), "three rows");
     }
