@@ -18,7 +18,8 @@ pub(super) struct Relative16 {
     c: __m512,
     one: __m512,
     lanes: __m512,
-    origin: [__m512i; 2],
+    /// The block's integer origin (column, row), added to the floors by their users.
+    pub(super) origin: [i32; 2],
     width: __m512i,
 }
 
@@ -35,23 +36,28 @@ impl Relative16 {
                 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0,
                 15.0,
             ),
-            origin: b.origin.map(|v| _mm512_set1_epi32(v)),
+            origin: b.origin,
             width: _mm512_set1_epi32(width),
         }
     }
 
-    /// The columns and rows of pixels i..i + 16: origin + floor(offset), as
+    /// The pixel numbers i..i + 16 within the block, as f32 (exact below 2^24).
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    pub(super) fn ks(&self, i: usize) -> __m512 {
+        _mm512_add_ps(_mm512_set1_ps(i as f32), self.lanes)
+    }
+
+    /// The columns and rows of pixels `k` (from `ks`) less the origin: floor(offset), as
     /// `Relative::nearest_index` (floor and conversion in one, exact for inside pixels).
     #[target_feature(enable = "avx512f")]
     #[inline]
-    pub(super) fn cols_rows16(&self, i: usize) -> [__m512i; 2] {
-        let k = _mm512_add_ps(_mm512_set1_ps(i as f32), self.lanes);
+    pub(super) fn cols_rows16(&self, k: __m512) -> [__m512i; 2] {
         let den = _mm512_add_ps(self.one, _mm512_mul_ps(self.c, k));
         let kr = _mm512_mul_ps(k, _mm512_div_ps(self.one, den));
         [0, 1].map(|a| {
             let p = _mm512_add_ps(self.first[a], _mm512_mul_ps(self.slope[a], kr));
-            let f = _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(p);
-            _mm512_add_epi32(f, self.origin[a])
+            _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(p)
         })
     }
 }
@@ -81,7 +87,8 @@ pub(crate) struct Rows16 {
 }
 
 impl Rows16 {
-    /// The rows of sixteen pixels at monotonic (first) columns `x` and rows `y`, all of whose
+    /// The rows of sixteen pixels at monotonic (first) columns `origin[0] + x` and rows
+    /// `origin[1] + y`, all of whose
     /// taps are inside a `size` image, if they lie within `span` columns and two rows (three
     /// with the lower taps).
     #[target_feature(enable = "avx512f")]
@@ -89,11 +96,16 @@ impl Rows16 {
     pub(crate) fn of<const TAPS: i32>(
         x: __m512i,
         y: __m512i,
+        origin: [i32; 2],
         size: (i32, i32),
         span: i32,
     ) -> Option<Self> {
         let w = size.0;
-        let ((xmin, xmax), (ymin, ymax)) = (ends16(x), ends16(y));
+        let at = |v, o: i32| {
+            let (lo, hi) = ends16(v);
+            (lo + o, hi + o)
+        };
+        let ((xmin, xmax), (ymin, ymax)) = (at(x, origin[0]), at(y, origin[1]));
         // The first column: xmin, or less where `span` samples from xmin pass the row's end.
         let xs = xmin.min(w - span);
         if xs < 0 || xmax + TAPS - xs > span || ymax - ymin > 1 {
@@ -104,8 +116,8 @@ impl Rows16 {
         let third = if last >= 2 { second + width } else { second };
         Some(Self {
             starts: [start, second, third],
-            col: _mm512_sub_epi32(x, _mm512_set1_epi32(xs)),
-            row: _mm512_sub_epi32(y, _mm512_set1_epi32(ymin)),
+            col: _mm512_sub_epi32(x, _mm512_set1_epi32(xs - origin[0])),
+            row: _mm512_sub_epi32(y, _mm512_set1_epi32(ymin - origin[1])),
             cols: xmax + TAPS - xs,
         })
     }
@@ -133,10 +145,14 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
 ) -> usize {
     let z = Relative16::new(rel, size.0);
     let mut at = [0u32; 16];
-    let mut i = 0;
+    let (mut i, mut k, step) = (0, z.ks(0), _mm512_set1_ps(16.0));
+    // The origin's sample index, added to the floors' (inside pixels: never negative).
+    let base = _mm512_set1_epi32(z.origin[1] * size.0 + z.origin[0]);
     while i + 16 <= whole {
-        let [ix, iy] = z.cols_rows16(i);
-        if let Some(rows) = Rows16::of::<1>(ix, iy, size, T::ROW_SPAN) {
+        let [ix, iy] = z.cols_rows16(k);
+        // Exact: whole numbers below 2^24.
+        k = _mm512_add_ps(k, step);
+        if let Some(rows) = Rows16::of::<1>(ix, iy, z.origin, size, T::ROW_SPAN) {
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 debug_assert!(i + 16 <= out.len());
                 // SAFETY: `Rows16::of` checked the rows; i + 16 <= whole <= the output's length.
@@ -145,7 +161,7 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
             i += 16;
             continue;
         }
-        let idx = _mm512_add_epi32(_mm512_mullo_epi32(iy, z.width), ix);
+        let idx = _mm512_add_epi32(_mm512_add_epi32(_mm512_mullo_epi32(iy, z.width), ix), base);
         // SAFETY: `at` holds sixteen u32. Two 256-bit stores: the scalar loads below then take
         // their values forwarded from them.
         unsafe {
@@ -200,7 +216,7 @@ pub(super) unsafe fn bilinear_inside16<T: SimdSample>(
             )
         };
         let ((x0, fx), (y0, fy)) = (split.axis(x, 0), split.axis(y, 1));
-        if let Some(rows) = Rows16::of::<2>(x0, y0, k.size, T::ROW_SPAN) {
+        if let Some(rows) = Rows16::of::<2>(x0, y0, [0, 0], k.size, T::ROW_SPAN) {
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 debug_assert!(i + 16 <= out.len());
                 // SAFETY: `Rows16::of` checked the rows; i + 16 <= whole <= the length.
@@ -325,7 +341,7 @@ mod tests {
         }
         let size = (40, 10);
         // SAFETY: the CPU has AVX-512 (checked above).
-        let of = |ix, iy| unsafe { Rows16::of::<1>(ix, iy, size, 32) };
+        let of = |ix, iy| unsafe { Rows16::of::<1>(ix, iy, [0, 0], size, 32) };
         let rows = of(lanes(|j| 20 + j), lanes(|j| 5 + j / 8)).expect("two rows, 16 columns");
         assert_eq!(
             (rows.row_start(0), rows.row_start(1)),
