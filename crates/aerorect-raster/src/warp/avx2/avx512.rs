@@ -41,15 +41,9 @@ impl Relative16 {
         }
     }
 
-    /// The pixel numbers i..i + 16 within the block, as f32 (exact below 2^24).
-    #[target_feature(enable = "avx512f")]
-    #[inline]
-    pub(super) fn ks(&self, i: usize) -> __m512 {
-        _mm512_add_ps(_mm512_set1_ps(i as f32), self.lanes)
-    }
-
-    /// The columns and rows of pixels `k` (from `ks`) less the origin: floor(offset), as
-    /// `Relative::nearest_index` (floor and conversion in one, exact for inside pixels).
+    /// The columns and rows of pixels `k` (their numbers in the block, as f32) less the
+    /// origin: floor(offset), as `Relative::nearest_index` (floor and conversion in one, exact
+    /// for inside pixels).
     #[target_feature(enable = "avx512f")]
     #[inline]
     pub(super) fn cols_rows16(&self, k: __m512) -> [__m512i; 2] {
@@ -145,12 +139,12 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
 ) -> usize {
     let z = Relative16::new(rel, size.0);
     let mut at = [0u32; 16];
-    let (mut i, mut k, step) = (0, z.ks(0), _mm512_set1_ps(16.0));
+    // The pixel numbers of the step: 0..16, then 16 more each step (exact below 2^24).
+    let (mut i, mut k, step) = (0, z.lanes, _mm512_set1_ps(16.0));
     // The origin's sample index, added to the floors' (inside pixels: never negative).
     let base = _mm512_set1_epi32(z.origin[1] * size.0 + z.origin[0]);
     while i + 16 <= whole {
         let [ix, iy] = z.cols_rows16(k);
-        // Exact: whole numbers below 2^24.
         k = _mm512_add_ps(k, step);
         if let Some(rows) = Rows16::of::<1>(ix, iy, z.origin, size, T::ROW_SPAN) {
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
