@@ -233,8 +233,13 @@ fn simd_and_portable_builds_agree_exactly() {
     // columns, just past what one window of 32 holds.
     let stretched =
         Homography::new(Mat3::new(2.07, 0.0, 3.3, 0.02, 0.5, 20.7, 0.0, 0.0, 1.0)).unwrap();
+    // Rows descending 0.1 px per pixel, inside: sixteen pixels span three source rows, which
+    // the sixteen-pixel bicubic windows take (a third of their rows from two rows lower).
+    let sheared =
+        Homography::new(Mat3::new(0.95, 0.08, 20.0, 0.1, 0.9, 5.0, 1e-5, 1e-5, 1.0)).unwrap();
     let cases = [
         (test_homography(), ImageSize::new(700, 90), true),
+        (sheared, ImageSize::new(500, 60), true),
         (mild, ImageSize::new(700, 90), true),
         (mild, ImageSize::new(600, 70), true),
         (right, ImageSize::new(640, 70), true),
@@ -264,6 +269,50 @@ fn simd_and_portable_builds_agree_exactly() {
             let srcf: Raster<f32> = textured_scene(ImageSize::new(640, 120), 2, 1.0, 22);
             builds_agree(&srcf, &h, size, &opts);
         }
+    }
+}
+
+#[test]
+fn bicubic_overshoot_is_saturated_alike_in_every_build() {
+    // Hard edges between 0 and full scale: bicubic overshoots both ends, so the integer
+    // stores' saturation (below 0 and above 65535) decides many samples, in every build.
+    let size = ImageSize::new(640, 120);
+    let hard = |hi: f64| -> Vec<f64> {
+        (0..size.pixels())
+            .map(|i| {
+                let (x, y) = (i % 640, i / 640);
+                if (x / 3 + y / 5) % 2 == 0 { 0.0 } else { hi }
+            })
+            .collect()
+    };
+    let src16 = Raster::from_planes(
+        size,
+        vec![hard(65535.0).iter().map(|&v| v as u16).collect()],
+    )
+    .unwrap();
+    let srcf =
+        Raster::from_planes(size, vec![hard(1.0).iter().map(|&v| v as f32).collect()]).unwrap();
+    let mild = Homography::new(Mat3::new(
+        0.95, 0.08, 20.0, -0.06, 0.9, 40.0, 5e-5, 8e-5, 1.0,
+    ))
+    .unwrap();
+    for coordinates in COORDINATES {
+        let opts = WarpOptions {
+            interp: Interp::Bicubic,
+            nodata: 3.0,
+            alpha: false,
+            prefilter: true,
+            coordinates,
+        };
+        builds_agree(&src16, &mild, ImageSize::new(600, 70), &opts);
+        builds_agree(&srcf, &mild, ImageSize::new(600, 70), &opts);
+        // The case does overshoot: f32 values beyond [0, 1].
+        let out = warp(&srcf, &mild, ImageSize::new(600, 70), &opts).unwrap();
+        let (lo, hi) = out
+            .plane(0)
+            .iter()
+            .fold((0f32, 1f32), |(a, b), &v| (a.min(v), b.max(v)));
+        assert!(lo < -0.05 && hi > 1.05, "{lo} {hi}");
     }
 }
 

@@ -393,6 +393,48 @@ pub(crate) trait SimdSample: Sample {
     /// AVX2; `out.len() >= 8`.
     unsafe fn store8(v: __m256, out: &mut [Self]);
 
+    /// Whether bicubic takes sixteen-pixel windows (`avx512::bicubic_window16`) where the CPU
+    /// has AVX-512: u16 and f32 (u8's eight-pixel byte windows measured faster).
+    const CUBIC16: bool = false;
+
+    /// Thirty-two samples from `p` as two f32 vectors (columns 0..16, 16..32).
+    ///
+    /// # Safety
+    /// AVX-512 F; the 32 samples from `p` on are readable.
+    #[target_feature(enable = "avx2,avx512f")]
+    #[inline]
+    unsafe fn row32(p: *const Self) -> [__m512; 2] {
+        // SAFETY: the contract.
+        let h: [[__m256; 2]; 2] = unsafe { [Self::row16(p), Self::row16(p.add(16))] };
+        h.map(|[a, b]| {
+            let (a, b) = (_mm256_castps_pd(a), _mm256_castps_pd(b));
+            _mm512_castpd_ps(_mm512_insertf64x4::<1>(_mm512_castpd256_pd512(a), b))
+        })
+    }
+
+    /// Sixteen values written to `out[..16]` as `from_f32` writes them (`store8`'s).
+    ///
+    /// # Safety
+    /// AVX-512 F; sixteen samples writable at `out`.
+    #[target_feature(enable = "avx2,avx512f")]
+    #[inline]
+    unsafe fn store16(v: __m512, out: *mut Self) {
+        // SAFETY: the contract: sixteen samples at `out`.
+        let out = unsafe { std::slice::from_raw_parts_mut(out, 16) };
+        let (lo, hi) = out.split_at_mut(8);
+        let half = |h: usize| {
+            _mm256_castsi256_ps(match h {
+                0 => _mm512_castsi512_si256(_mm512_castps_si512(v)),
+                _ => _mm512_extracti64x4_epi64::<1>(_mm512_castps_si512(v)),
+            })
+        };
+        // SAFETY: each half holds eight.
+        unsafe {
+            Self::store8(half(0), lo);
+            Self::store8(half(1), hi);
+        }
+    }
+
     /// The columns of each source row `nearest_rows16` takes (a 512-bit vector's samples, or
     /// two vectors' for f32).
     const ROW_SPAN: i32;
@@ -667,6 +709,31 @@ unsafe fn window_pairs(win: &Window, plane: &[u8], width: usize) -> (__m256i, __
 }
 
 impl SimdSample for u16 {
+    const CUBIC16: bool = true;
+
+    /// One 512-bit load, widened to two f32 vectors.
+    #[target_feature(enable = "avx2,avx512f")]
+    #[inline]
+    unsafe fn row32(p: *const u16) -> [__m512; 2] {
+        // SAFETY: the contract.
+        let v = unsafe { _mm512_loadu_si512(p as *const __m512i) };
+        let wide = |h: __m256i| _mm512_cvtepi32_ps(_mm512_cvtepu16_epi32(h));
+        [
+            wide(_mm512_castsi512_si256(v)),
+            wide(_mm512_extracti64x4_epi64::<1>(v)),
+        ]
+    }
+
+    /// `store8` at sixteen lanes: (v + 0.5) truncated, saturated to [0, 65535].
+    #[target_feature(enable = "avx2,avx512f")]
+    #[inline]
+    unsafe fn store16(v: __m512, out: *mut u16) {
+        let q = _mm512_cvttps_epi32(_mm512_add_ps(v, _mm512_set1_ps(0.5)));
+        let words = _mm512_cvtusepi32_epi16(_mm512_max_epi32(q, _mm512_setzero_si512()));
+        // SAFETY: sixteen samples writable at `out` (the contract).
+        unsafe { _mm256_storeu_si256(out as *mut __m256i, words) };
+    }
+
     const ROW_SPAN: i32 = 32;
 
     /// One word permute over the upper two rows brings each pixel's upper pair into its
@@ -801,6 +868,22 @@ impl SimdSample for u16 {
 }
 
 impl SimdSample for f32 {
+    const CUBIC16: bool = true;
+
+    #[target_feature(enable = "avx2,avx512f")]
+    #[inline]
+    unsafe fn row32(p: *const f32) -> [__m512; 2] {
+        // SAFETY: the contract.
+        unsafe { [_mm512_loadu_ps(p), _mm512_loadu_ps(p.add(16))] }
+    }
+
+    #[target_feature(enable = "avx2,avx512f")]
+    #[inline]
+    unsafe fn store16(v: __m512, out: *mut f32) {
+        // SAFETY: sixteen samples writable at `out` (the contract).
+        unsafe { _mm512_storeu_ps(out, v) };
+    }
+
     const ROW_SPAN: i32 = 32;
 
     /// Per row two 16-sample vectors, one permute per row and tap column; the upper and
@@ -2068,11 +2151,25 @@ unsafe fn bicubic_steps<T: SimdSample, Q: CubicPositions>(
 ) {
     let n = pos.len().min(taps.len()).min(bases.len()).min(state.len());
     let k = Consts::new(g);
+    let wide = if g.avx512 && T::CUBIC16 {
+        pos.buffered().filter(|b| avx512::cubic16_fits(b))
+    } else {
+        None
+    };
     let mut i = 0;
     while i + 8 <= n {
+        if let Some(b) = wide.filter(|_| i + 16 <= n) {
+            // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI; i + 16 <= n, within the
+            // buffers (whole steps of eight) and every output; the planes as this contract.
+            if unsafe { avx512::bicubic_window16(b, i, k.size, planes, outs) } {
+                state[i..i + 16].fill(1);
+                i += 16;
+                continue;
+            }
+        }
         // SAFETY: i + 8 <= n.
         let s = unsafe { pos.cubic8(&k, i) };
-        if let Some(win) = cubic_window(&k, &s) {
+        if let Some(win) = T::CUBIC_WINDOWS.then(|| cubic_window(&k, &s)).flatten() {
             let (wx, wy) = (keys_lanes(s.tx), keys_lanes(s.ty));
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 // SAFETY: `cubic_window` checked the rows and columns; i + 8 <= n.
@@ -2119,7 +2216,8 @@ pub(crate) unsafe fn bicubic_block<T: SimdSample, Q: CubicPositions>(
 ) {
     let n = pos.len();
     let (taps, bases, state) = (&mut cubic.0[..n], &mut cubic.1[..n], &mut cubic.2[..n]);
-    if T::CUBIC_WINDOWS && Q::MONOTONIC {
+    let wide = g.avx512 && T::CUBIC16 && pos.buffered().is_some_and(avx512::cubic16_fits);
+    if (T::CUBIC_WINDOWS || wide) && Q::MONOTONIC {
         // SAFETY: the contract.
         unsafe {
             bicubic_steps(
