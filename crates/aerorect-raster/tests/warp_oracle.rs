@@ -317,6 +317,36 @@ fn bicubic_overshoot_is_saturated_alike_in_every_build() {
 }
 
 #[test]
+fn runs_ending_on_the_last_column_read_no_further() {
+    // Output column 607, the end of a run of whole sixteens, lands exactly on the source's last
+    // column, 639 (rows a quarter pixel off, so that no integer-shift shortcut applies).
+    // Bilinear's upper-left neighbour there is capped at 638 with fraction 1, so column 0 of
+    // the next row, NaN here, is never read; a kernel taking 639 with fraction 0 would read it
+    // and give 0 x NaN.
+    let size = ImageSize::new(640, 120);
+    let mut src: Raster<f32> = textured_scene(size, 1, 1.0, 41);
+    for y in 0..120 {
+        src.plane_mut(0)[y * 640] = f32::NAN;
+    }
+    let h = Homography::new(Mat3::new(1.0, 0.0, 32.0, 0.0, 1.0, 3.25, 0.0, 0.0, 1.0)).unwrap();
+    for coordinates in COORDINATES {
+        let opts = WarpOptions {
+            interp: Interp::Bilinear,
+            nodata: 3.0,
+            alpha: false,
+            prefilter: true,
+            coordinates,
+        };
+        builds_agree(&src, &h, ImageSize::new(608, 100), &opts);
+        let out = warp(&src, &h, ImageSize::new(608, 100), &opts).unwrap();
+        assert!(
+            out.plane(0).iter().all(|v| v.is_finite()),
+            "{coordinates:?}"
+        );
+    }
+}
+
+#[test]
 fn tiny_sources_match_the_oracle() {
     // One-pixel, one-row and one-column sources take the portable path; 2 x 2 the AVX2 one.
     let h = Homography::new(Mat3::new(

@@ -199,6 +199,7 @@ pub(super) unsafe fn bilinear_inside16<T: SimdSample>(
     nodata: T,
 ) -> usize {
     let split = Split16::new(pos.rel, k.size);
+    let free = split.never_clamps(pos, whole);
     let mut i = 0;
     while i + 16 <= whole {
         debug_assert!(i + 16 <= pos.px.len() && i + 16 <= pos.py.len());
@@ -209,7 +210,11 @@ pub(super) unsafe fn bilinear_inside16<T: SimdSample>(
                 _mm512_loadu_ps(pos.py.as_ptr().add(i)),
             )
         };
-        let ((x0, fx), (y0, fy)) = (split.axis(x, 0), split.axis(y, 1));
+        let ((x0, fx), (y0, fy)) = if free {
+            (split.axis_free(x, 0), split.axis_free(y, 1))
+        } else {
+            (split.axis(x, 0), split.axis(y, 1))
+        };
         if let Some(rows) = Rows16::of::<2>(x0, y0, [0, 0], k.size, T::ROW_SPAN) {
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 debug_assert!(i + 16 <= out.len());
@@ -266,6 +271,8 @@ fn taps8_pair<T: SimdSample>(
 struct Split16 {
     cmin: [__m512; 2],
     cmax: [__m512; 2],
+    /// `cmin` and `cmax` as numbers (the block's offsets' clamp).
+    bounds: [(f32, f32); 2],
     origin: [__m512i; 2],
     /// The last upper-left column and row: width - 2, height - 2.
     imax: [__m512i; 2],
@@ -275,12 +282,34 @@ impl Split16 {
     #[target_feature(enable = "avx512f")]
     fn new(rel: &Relative, size: (i32, i32)) -> Self {
         let wide = |v: __m256| _mm512_castsi512_ps(_mm512_broadcast_i64x4(_mm256_castps_si256(v)));
+        let first = |v: __m256| _mm256_cvtss_f32(v);
         Self {
             cmin: rel.cmin.map(wide),
             cmax: rel.cmax.map(wide),
+            bounds: [0, 1].map(|a| (first(rel.cmin[a]), first(rel.cmax[a]))),
             origin: rel.origin.map(|v| _mm512_broadcast_i64x4(v)),
             imax: [_mm512_set1_epi32(size.0 - 2), _mm512_set1_epi32(size.1 - 2)],
         }
+    }
+
+    /// Whether the buffered offsets of pixels 0..`whole` all lie in [cmin, cmax) on both axes
+    /// (monotonic along the block: the first and the last decide): the clamp then changes
+    /// nothing, and the upper-left neighbour is at most size - 2, so the cap does not either.
+    fn never_clamps(&self, pos: &Buffered<'_>, whole: usize) -> bool {
+        let within = |buf: &[f32], (lo, hi): (f32, f32)| match (buf.first(), buf.get(whole - 1)) {
+            (Some(&a), Some(&b)) => [a, b].iter().all(|&p| p >= lo && p < hi),
+            _ => false,
+        };
+        whole > 0 && within(pos.px, self.bounds[0]) && within(pos.py, self.bounds[1])
+    }
+
+    /// `axis` where `never_clamps`: floor and fraction alone, the same values.
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    fn axis_free(&self, p: __m512, a: usize) -> (__m512i, __m512) {
+        let f = _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(p);
+        let rel = _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(p);
+        (_mm512_add_epi32(rel, self.origin[a]), _mm512_sub_ps(p, f))
     }
 
     /// The upper-left neighbours and fractions of offsets `p` on axis `a`: clamp, floor (with
