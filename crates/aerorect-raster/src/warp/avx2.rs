@@ -1209,6 +1209,8 @@ pub(crate) struct Relative {
     cmin: [__m256; 2],
     cmax: [__m256; 2],
     origin: [__m256i; 2],
+    /// Whether the CPU has the AVX-512 steps (`SourceGeometry::avx512`).
+    avx512: bool,
 }
 
 impl Relative {
@@ -1233,6 +1235,7 @@ impl Relative {
             cmin: per_axis(&|a| -o[a]),
             cmax: per_axis(&|a| size[a] - 1.0 - o[a]),
             origin: block.origin.map(|v| _mm256_set1_epi32(v)),
+            avx512: g.avx512,
         }
     }
 
@@ -1257,8 +1260,16 @@ impl Relative {
     #[target_feature(enable = "avx2")]
     pub(crate) fn fill_offsets(&self, px: &mut [f32], py: &mut [f32]) {
         let n = px.len().min(py.len());
+        let mut i = 0;
+        if self.avx512 {
+            // SAFETY: `avx512`: the CPU has AVX-512 F.
+            i = unsafe { avx512::fill_offsets16(self, px, py) };
+        }
         // A running k: converting i each step measured slower (as in `avx512`).
-        let (mut i, mut k, step) = (0, self.lanes, _mm256_set1_ps(8.0));
+        let (mut k, step) = (
+            _mm256_add_ps(self.lanes, _mm256_set1_ps(i as f32)),
+            _mm256_set1_ps(8.0),
+        );
         while i + 8 <= n {
             let p = self.offsets_at(k);
             k = _mm256_add_ps(k, step);

@@ -41,20 +41,50 @@ impl Relative16 {
         }
     }
 
-    /// The columns and rows of pixels `k` (their numbers in the block, as f32) less the
-    /// origin: floor(offset), as `Relative::nearest_index` (floor and conversion in one, exact
-    /// for inside pixels).
+    /// The offsets of pixels `k` (their numbers in the block, as f32), as
+    /// `Relative::offsets_at` (same operations, same order).
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    fn offsets(&self, k: __m512) -> [__m512; 2] {
+        let den = _mm512_add_ps(self.one, _mm512_mul_ps(self.c, k));
+        let kr = _mm512_mul_ps(k, _mm512_div_ps(self.one, den));
+        [0, 1].map(|a| _mm512_add_ps(self.first[a], _mm512_mul_ps(self.slope[a], kr)))
+    }
+
+    /// The columns and rows of pixels `k` less the origin: floor(offset), as
+    /// `Relative::nearest_index` (floor and conversion in one, exact for inside pixels).
     #[target_feature(enable = "avx512f")]
     #[inline]
     pub(super) fn cols_rows16(&self, k: __m512) -> [__m512i; 2] {
-        let den = _mm512_add_ps(self.one, _mm512_mul_ps(self.c, k));
-        let kr = _mm512_mul_ps(k, _mm512_div_ps(self.one, den));
-        [0, 1].map(|a| {
-            let p = _mm512_add_ps(self.first[a], _mm512_mul_ps(self.slope[a], kr));
-            _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(p)
-        })
+        self.offsets(k)
+            .map(|p| _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(p))
     }
 }
+
+/// `Relative::fill_offsets` sixteen at a time: the offsets of the first pixels into `px` and
+/// `py`; returns where it stopped (fewer than sixteen left).
+///
+/// # Safety
+/// AVX-512 F.
+#[target_feature(enable = "avx2,avx512f")]
+pub(super) unsafe fn fill_offsets16(rel: &Relative, px: &mut [f32], py: &mut [f32]) -> usize {
+    let z = Relative16::new(rel, 0);
+    let n = px.len().min(py.len());
+    let (mut i, mut k, step) = (0, z.lanes, _mm512_set1_ps(16.0));
+    while i + 16 <= n {
+        let [x, y] = z.offsets(k);
+        k = _mm512_add_ps(k, step);
+        // SAFETY: i + 16 <= n, the length of both.
+        unsafe {
+            _mm512_storeu_ps(px.as_mut_ptr().add(i), x);
+            _mm512_storeu_ps(py.as_mut_ptr().add(i), y);
+        }
+        i += 16;
+    }
+    i
+}
+
+impl Relative16 {}
 
 /// The first and last lanes of sixteen, in order (the extremes where they are monotonic).
 #[target_feature(enable = "avx512f")]
