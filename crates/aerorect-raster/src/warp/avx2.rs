@@ -439,6 +439,12 @@ pub(crate) trait SimdSample: Sample {
     /// two vectors' for f32).
     const ROW_SPAN: i32;
 
+    /// The source rows `nearest_rows16` takes: two.
+    const NEAREST_ROWS: i32 = 2;
+
+    /// The source rows `bilinear_rows16` takes: three (pixels on two rows and the row below).
+    const BILINEAR_ROWS: i32 = 3;
+
     /// Nearest at sixteen pixels placed by `rows` (two source rows of `ROW_SPAN` samples), by
     /// an AVX-512 two-table permute, into `out[..16]`.
     ///
@@ -486,7 +492,10 @@ impl SimdSample for u8 {
 
     const ROW_SPAN: i32 = 32;
 
-    /// The three rows' 32 bytes as one 96-byte table; one byte permute brings each pixel's
+    /// Four rows of 32 bytes fill the permute's two tables: pixels on three rows.
+    const BILINEAR_ROWS: i32 = 4;
+
+    /// The four rows' 32 bytes as one 128-byte table; one byte permute brings each pixel's
     /// four taps into its 32-bit lane (bytes: upper pair, lower pair), as `window_pairs` does.
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
@@ -496,7 +505,7 @@ impl SimdSample for u8 {
         plane: &[u8],
         out: *mut u8,
     ) {
-        debug_assert!(rows.row_start(2) + 32 <= plane.len());
+        debug_assert!(rows.row_start(3) + 32 <= plane.len());
         // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen
         // writable at `out` (the contract).
         unsafe {
@@ -504,7 +513,7 @@ impl SimdSample for u8 {
                 _mm256_loadu_si256(plane.as_ptr().add(rows.row_start(r)) as *const __m256i)
             };
             let a = _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(0)), row(1));
-            let b = _mm512_castsi256_si512(row(2));
+            let b = _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(2)), row(3));
             let base = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<5>(rows.row));
             let index = _mm512_add_epi32(
                 _mm512_mullo_epi32(base, _mm512_set1_epi32(0x0101_0101)),

@@ -97,14 +97,14 @@ fn ends16(v: __m512i) -> (i32, i32) {
 
 /// Where sixteen pixels' taps lie in source rows of `span` samples from column `xs` on: a
 /// pixel takes `TAPS` adjacent samples (1 nearest, 2 bilinear) from its row and, for bilinear,
-/// from the row below; its row is `ymin` or `ymin + 1`.
+/// from the row below; its row is `ymin` or one of the next.
 pub(crate) struct Rows16 {
     /// Per row r from `ymin` on: the offset of its sample at column `xs`, that of the last row
     /// read where r passes it.
-    starts: [usize; 3],
+    starts: [usize; 4],
     /// Per pixel: its (first) column minus `xs`, so that its taps lie in [0, span) ...
     pub(crate) col: __m512i,
-    /// ... and its row minus `ymin`, 0 or 1.
+    /// ... and its row minus `ymin`, so that its taps lie in rows [0, `rows`).
     pub(crate) row: __m512i,
     /// The columns read: the largest `col` + `TAPS`.
     pub(crate) cols: i32,
@@ -112,9 +112,8 @@ pub(crate) struct Rows16 {
 
 impl Rows16 {
     /// The rows of sixteen pixels at monotonic (first) columns `origin[0] + x` and rows
-    /// `origin[1] + y`, all of whose
-    /// taps are inside a `size` image, if they lie within `span` columns and two rows (three
-    /// with the lower taps).
+    /// `origin[1] + y`, all of whose taps are inside a `size` image, if their taps lie within
+    /// `span` columns and `rows` rows (at most 4).
     #[target_feature(enable = "avx512f")]
     #[inline]
     pub(crate) fn of<const TAPS: i32>(
@@ -122,8 +121,9 @@ impl Rows16 {
         y: __m512i,
         origin: [i32; 2],
         size: (i32, i32),
-        span: i32,
+        (span, rows): (i32, i32),
     ) -> Option<Self> {
+        debug_assert!(rows <= 4);
         let w = size.0;
         let at = |v, o: i32| {
             let (lo, hi) = ends16(v);
@@ -132,14 +132,13 @@ impl Rows16 {
         let ((xmin, xmax), (ymin, ymax)) = (at(x, origin[0]), at(y, origin[1]));
         // The first column: xmin, or less where `span` samples from xmin pass the row's end.
         let xs = xmin.min(w - span);
-        if xs < 0 || xmax + TAPS - xs > span || ymax - ymin > 1 {
+        let last = ymax - ymin + TAPS - 1;
+        if xs < 0 || xmax + TAPS - xs > span || last >= rows {
             return None;
         }
-        let (start, width, last) = ((ymin * w + xs) as usize, w as usize, ymax - ymin + TAPS - 1);
-        let second = if last >= 1 { start + width } else { start };
-        let third = if last >= 2 { second + width } else { second };
+        let (start, width) = ((ymin * w + xs) as usize, w as usize);
         Some(Self {
-            starts: [start, second, third],
+            starts: [0, 1, 2, 3].map(|r: i32| start + r.min(last) as usize * width),
             col: _mm512_sub_epi32(x, _mm512_set1_epi32(xs - origin[0])),
             row: _mm512_sub_epi32(y, _mm512_set1_epi32(ymin - origin[1])),
             cols: xmax + TAPS - xs,
@@ -176,7 +175,8 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
     while i + 16 <= whole {
         let [ix, iy] = z.cols_rows16(k);
         k = _mm512_add_ps(k, step);
-        if let Some(rows) = Rows16::of::<1>(ix, iy, z.origin, size, T::ROW_SPAN) {
+        if let Some(rows) = Rows16::of::<1>(ix, iy, z.origin, size, (T::ROW_SPAN, T::NEAREST_ROWS))
+        {
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 debug_assert!(i + 16 <= out.len());
                 // SAFETY: `Rows16::of` checked the rows; i + 16 <= whole <= the output's length.
@@ -245,7 +245,8 @@ pub(super) unsafe fn bilinear_inside16<T: SimdSample>(
         } else {
             (split.axis(x, 0), split.axis(y, 1))
         };
-        if let Some(rows) = Rows16::of::<2>(x0, y0, [0, 0], k.size, T::ROW_SPAN) {
+        if let Some(rows) = Rows16::of::<2>(x0, y0, [0, 0], k.size, (T::ROW_SPAN, T::BILINEAR_ROWS))
+        {
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 debug_assert!(i + 16 <= out.len());
                 // SAFETY: `Rows16::of` checked the rows; i + 16 <= whole <= the length.
@@ -580,7 +581,7 @@ mod tests {
         }
         let size = (40, 10);
         // SAFETY: the CPU has AVX-512 (checked above).
-        let of = |ix, iy| unsafe { Rows16::of::<1>(ix, iy, [0, 0], size, 32) };
+        let of = |ix, iy| unsafe { Rows16::of::<1>(ix, iy, [0, 0], size, (32, 2)) };
         let rows = of(lanes(|j| 20 + j), lanes(|j| 5 + j / 8)).expect("two rows, 16 columns");
         assert_eq!(
             (rows.row_start(0), rows.row_start(1)),
@@ -596,6 +597,23 @@ mod tests {
         assert_eq!(one_row.cols, 31);
         assert!(of(lanes(|j| j * 3), lanes(|_| 0)).is_none(), "46 columns");
         assert!(of(lanes(|j| j), lanes(|j| j / 6)).is_none(), "three rows");
+        // Bilinear's u8 windows: pixels on three rows and the row below fill four.
+        // SAFETY: as above.
+        let four = |ix, iy| unsafe { Rows16::of::<2>(ix, iy, [0, 0], size, (32, 4)) };
+        let rows = four(lanes(|j| 3 + j), lanes(|j| 2 + j / 6)).expect("three pixel rows");
+        let starts = [0, 1, 2, 3].map(|r| rows.row_start(r));
+        assert_eq!(starts, [2 * 40 + 3, 3 * 40 + 3, 4 * 40 + 3, 5 * 40 + 3]);
+        assert_eq!(rows.cols, 3 + 15 + 2 - 3);
+        let last = four(lanes(|j| 3 + j), lanes(|j| 7 + j / 8)).expect("the last two rows");
+        assert_eq!(
+            last.row_start(3),
+            last.row_start(2),
+            "no row past the image"
+        );
+        assert!(
+            four(lanes(|j| j), lanes(|j| j / 4)).is_none(),
+            "four pixel rows"
+        );
     }
 
     /// The bicubic window reads 32 samples of each row from its start, all inside the image
