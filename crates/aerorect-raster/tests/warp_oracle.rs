@@ -237,9 +237,14 @@ fn simd_and_portable_builds_agree_exactly() {
     // the sixteen-pixel bicubic windows take (a third of their rows from two rows lower).
     let sheared =
         Homography::new(Mat3::new(0.95, 0.08, 20.0, 0.1, 0.9, 5.0, 1e-5, 1e-5, 1.0)).unwrap();
+    // Steeper, 0.17 px per pixel: sixteen pixels' nearest samples span four source rows, which
+    // the wide u8 nearest layout (several bands) takes.
+    let steep =
+        Homography::new(Mat3::new(0.95, 0.08, 20.0, 0.17, 0.9, 5.0, 1e-5, 1e-5, 1.0)).unwrap();
     let cases = [
         (test_homography(), ImageSize::new(700, 90), true),
         (sheared, ImageSize::new(500, 60), true),
+        (steep, ImageSize::new(450, 30), true),
         (mild, ImageSize::new(700, 90), true),
         (mild, ImageSize::new(600, 70), true),
         (right, ImageSize::new(640, 70), true),

@@ -439,8 +439,9 @@ pub(crate) trait SimdSample: Sample {
     /// two vectors' for f32).
     const ROW_SPAN: i32;
 
-    /// The source rows `nearest_rows16` takes: two.
-    const NEAREST_ROWS: i32 = 2;
+    /// The source rows `nearest_rows16_wide` takes: two, as `nearest_rows16`, unless the type
+    /// has a wider layout.
+    const NEAREST_ROWS_WIDE: i32 = 2;
 
     /// The source rows `bilinear_rows16` takes: three (pixels on two rows and the row below).
     const BILINEAR_ROWS: i32 = 3;
@@ -452,6 +453,17 @@ pub(crate) trait SimdSample: Sample {
     /// AVX-512 F, BW, VL and VBMI; `rows` from `Rows16::of` with `ROW_SPAN` and one tap on an image the size
     /// of `plane`; sixteen samples writable at `out`.
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[Self], out: *mut Self);
+
+    /// `nearest_rows16` for `rows` of `NEAREST_ROWS_WIDE` rows.
+    ///
+    /// # Safety
+    /// As `nearest_rows16`, with `NEAREST_ROWS_WIDE` rows.
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[inline]
+    unsafe fn nearest_rows16_wide(rows: &avx512::Rows16, plane: &[Self], out: *mut Self) {
+        // SAFETY: the contract (two rows unless the type overrides both).
+        unsafe { Self::nearest_rows16(rows, plane, out) }
+    }
 
     /// Bilinear at sixteen pixels placed by `rows` with fractions `f` (x, y), from AVX-512
     /// permutes of the rows, written to `out[..16]` as `from_f32` writes them.
@@ -491,6 +503,10 @@ impl SimdSample for u8 {
     const WINDOWS: bool = true;
 
     const ROW_SPAN: i32 = 32;
+
+    /// Four rows of 32 bytes fill the permute's two tables (`nearest_rows16_wide`, used
+    /// where several bands share the positions): pixels on four rows.
+    const NEAREST_ROWS_WIDE: i32 = 4;
 
     /// Four rows of 32 bytes fill the permute's two tables: pixels on three rows.
     const BILINEAR_ROWS: i32 = 4;
@@ -540,16 +556,34 @@ impl SimdSample for u8 {
         // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen writable
         // at `out` (the contract).
         unsafe {
-            let p = plane.as_ptr();
+            let row = |r: usize| {
+                _mm256_loadu_si256(plane.as_ptr().add(rows.row_start(r)) as *const __m256i)
+            };
             let (a, b) = (
-                _mm512_castsi256_si512(_mm256_loadu_si256(
-                    p.add(rows.row_start(0)) as *const __m256i
-                )),
-                _mm512_castsi256_si512(_mm256_loadu_si256(
-                    p.add(rows.row_start(1)) as *const __m256i
-                )),
+                _mm512_castsi256_si512(row(0)),
+                _mm512_castsi256_si512(row(1)),
             );
             let place = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<6>(rows.row));
+            let index = _mm512_castsi128_si512(_mm512_cvtepi32_epi8(place));
+            let v = _mm512_permutex2var_epi8(a, index, b);
+            _mm_storeu_si128(out as *mut __m128i, _mm512_castsi512_si128(v));
+        }
+    }
+
+    /// Four rows of 32 samples, two per table of one byte permute (`vpermi2b`).
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[inline]
+    unsafe fn nearest_rows16_wide(rows: &avx512::Rows16, plane: &[u8], out: *mut u8) {
+        debug_assert!(rows.row_start(3) + 32 <= plane.len());
+        // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen writable
+        // at `out` (the contract).
+        unsafe {
+            let row = |r: usize| {
+                _mm256_loadu_si256(plane.as_ptr().add(rows.row_start(r)) as *const __m256i)
+            };
+            let a = _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(0)), row(1));
+            let b = _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(2)), row(3));
+            let place = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<5>(rows.row));
             let index = _mm512_castsi128_si512(_mm512_cvtepi32_epi8(place));
             let v = _mm512_permutex2var_epi8(a, index, b);
             _mm_storeu_si128(out as *mut __m128i, _mm512_castsi512_si128(v));

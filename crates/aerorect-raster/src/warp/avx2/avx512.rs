@@ -166,21 +166,52 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
     outs: &mut [&mut [T]],
     whole: usize,
 ) -> usize {
+    // One band takes two rows (runs across more read sample by sample: measured faster for
+    // gray8), several bands the type's wide layout.
+    // SAFETY: the contract.
+    unsafe {
+        match planes.len() {
+            1 => nearest_steps16::<T, false>(rel, size, planes, outs, whole),
+            _ => nearest_steps16::<T, true>(rel, size, planes, outs, whole),
+        }
+    }
+}
+
+/// `nearest_inside16` with the rows of `nearest_rows16` or, if `WIDE`, `nearest_rows16_wide`.
+///
+/// # Safety
+/// As `nearest_inside16`.
+#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+#[inline]
+unsafe fn nearest_steps16<T: SimdSample, const WIDE: bool>(
+    rel: &Relative,
+    size: (i32, i32),
+    planes: &[&[T]],
+    outs: &mut [&mut [T]],
+    whole: usize,
+) -> usize {
     let z = Relative16::new(rel, size.0);
     let mut at = [0u32; 16];
     // The pixel numbers of the step: 0..16, then 16 more each step (exact below 2^24).
     let (mut i, mut k, step) = (0, z.lanes, _mm512_set1_ps(16.0));
     // The origin's sample index, added to the floors' (inside pixels: never negative).
     let base = _mm512_set1_epi32(z.origin[1] * size.0 + z.origin[0]);
+    let span = (T::ROW_SPAN, if WIDE { T::NEAREST_ROWS_WIDE } else { 2 });
     while i + 16 <= whole {
         let [ix, iy] = z.cols_rows16(k);
         k = _mm512_add_ps(k, step);
-        if let Some(rows) = Rows16::of::<1>(ix, iy, z.origin, size, (T::ROW_SPAN, T::NEAREST_ROWS))
-        {
+        if let Some(rows) = Rows16::of::<1>(ix, iy, z.origin, size, span) {
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 debug_assert!(i + 16 <= out.len());
                 // SAFETY: `Rows16::of` checked the rows; i + 16 <= whole <= the output's length.
-                unsafe { T::nearest_rows16(&rows, plane, out.as_mut_ptr().add(i)) };
+                unsafe {
+                    let at = out.as_mut_ptr().add(i);
+                    if WIDE {
+                        T::nearest_rows16_wide(&rows, plane, at)
+                    } else {
+                        T::nearest_rows16(&rows, plane, at)
+                    }
+                };
             }
             i += 16;
             continue;
