@@ -499,6 +499,22 @@ pub(crate) trait SimdSample: Sample {
     }
 }
 
+/// The 32 bytes from each of `rows`' four row starts as a byte permute's two tables: rows 0
+/// and 1, rows 2 and 3 (byte 32 r + c is column c of row r).
+///
+/// # Safety
+/// AVX-512 F; 32 bytes from each row start inside `plane` (`Rows16::of` with four rows).
+#[target_feature(enable = "avx2,avx512f")]
+#[inline]
+unsafe fn byte_tables4(rows: &avx512::Rows16, plane: &[u8]) -> [__m512i; 2] {
+    debug_assert!(rows.row_start(3) + 32 <= plane.len());
+    // SAFETY: the contract.
+    let row = |r: usize| unsafe {
+        _mm256_loadu_si256(plane.as_ptr().add(rows.row_start(r)) as *const __m256i)
+    };
+    [0, 2].map(|r| _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(r)), row(r + 1)))
+}
+
 impl SimdSample for u8 {
     const WINDOWS: bool = true;
 
@@ -521,15 +537,10 @@ impl SimdSample for u8 {
         plane: &[u8],
         out: *mut u8,
     ) {
-        debug_assert!(rows.row_start(3) + 32 <= plane.len());
         // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen
         // writable at `out` (the contract).
         unsafe {
-            let row = |r: usize| {
-                _mm256_loadu_si256(plane.as_ptr().add(rows.row_start(r)) as *const __m256i)
-            };
-            let a = _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(0)), row(1));
-            let b = _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(2)), row(3));
+            let [a, b] = byte_tables4(rows, plane);
             let base = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<5>(rows.row));
             let index = _mm512_add_epi32(
                 _mm512_mullo_epi32(base, _mm512_set1_epi32(0x0101_0101)),
@@ -574,15 +585,10 @@ impl SimdSample for u8 {
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
     #[inline]
     unsafe fn nearest_rows16_wide(rows: &avx512::Rows16, plane: &[u8], out: *mut u8) {
-        debug_assert!(rows.row_start(3) + 32 <= plane.len());
         // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen writable
         // at `out` (the contract).
         unsafe {
-            let row = |r: usize| {
-                _mm256_loadu_si256(plane.as_ptr().add(rows.row_start(r)) as *const __m256i)
-            };
-            let a = _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(0)), row(1));
-            let b = _mm512_inserti64x4::<1>(_mm512_castsi256_si512(row(2)), row(3));
+            let [a, b] = byte_tables4(rows, plane);
             let place = _mm512_add_epi32(rows.col, _mm512_slli_epi32::<5>(rows.row));
             let index = _mm512_castsi128_si512(_mm512_cvtepi32_epi8(place));
             let v = _mm512_permutex2var_epi8(a, index, b);
