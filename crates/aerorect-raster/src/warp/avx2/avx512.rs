@@ -1,12 +1,17 @@
 //! AVX-512 (F, BW, VL, VBMI) steps over blocks whose pixels are all inside, sixteen pixels per
 //! 512-bit vector, each the arithmetic of its AVX2 counterpart in the same order:
 //! - nearest: the positions of `Relative::offsets8` (`Relative16`), and per band the sixteen
-//!   samples as a two-table permute of two source rows where they lie within them (`Rows16`,
-//!   `SimdSample::nearest_rows16`), else one scalar load each;
+//!   samples as a two-table permute of two source rows (u8 with several bands: four) where
+//!   they lie within them (`Rows16`, `SimdSample::nearest_rows16`), else one scalar load each;
 //! - bilinear: the split of `Relative::bilinear_taps` on buffered offsets (`Split16`), and per
-//!   band the four taps as permutes of three source rows where they lie within them
+//!   band the four taps as permutes of three (u8: four) source rows where they lie within them
 //!   (`Rows16` again, `SimdSample::bilinear_rows16`), blended at sixteen lanes; else two AVX2
-//!   steps on the same taps.
+//!   steps on the same taps. Where no offset of the block is clamped, the split is a floor and
+//!   a fraction alone (`Split16::axis_free`);
+//! - bicubic (u16, f32): the split of `Buffered::cubic8` (`CubicSplit16`), the Keys weights
+//!   (`keys16`), and per band each tap column as a two-table permute of each of up to six
+//!   source rows of 32 samples (`CubicWindow16`), summed in `cubic_sum8`'s order;
+//! - the buffered offsets themselves, sixteen at a time (`fill_offsets16`).
 
 use super::{Buffered, Consts, Relative, SimdSample, Taps8, window};
 use std::arch::x86_64::*;
@@ -83,8 +88,6 @@ pub(super) unsafe fn fill_offsets16(rel: &Relative, px: &mut [f32], py: &mut [f3
     }
     i
 }
-
-impl Relative16 {}
 
 /// The first and last lanes of sixteen, in order (the extremes where they are monotonic).
 #[target_feature(enable = "avx512f")]
