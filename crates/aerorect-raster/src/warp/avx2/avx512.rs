@@ -102,9 +102,11 @@ fn ends16(v: __m512i) -> (i32, i32) {
 /// pixel takes `TAPS` adjacent samples (1 nearest, 2 bilinear) from its row and, for bilinear,
 /// from the row below; its row is `ymin` or one of the next.
 pub(crate) struct Rows16 {
-    /// Per row r from `ymin` on: the offset of its sample at column `xs`, that of the last row
-    /// read where r passes it.
-    starts: [usize; 4],
+    /// The offset of the sample at column `xs` of row `ymin` ...
+    start: usize,
+    /// ... the row stride, and the last row read (from `ymin` on).
+    width: usize,
+    last: usize,
     /// Per pixel: its (first) column minus `xs`, so that its taps lie in [0, span) ...
     pub(crate) col: __m512i,
     /// ... and its row minus `ymin`, so that its taps lie in rows [0, `rows`).
@@ -139,9 +141,10 @@ impl Rows16 {
         if xs < 0 || xmax + TAPS - xs > span || last >= rows {
             return None;
         }
-        let (start, width) = ((ymin * w + xs) as usize, w as usize);
         Some(Self {
-            starts: [0, 1, 2, 3].map(|r: i32| start + r.min(last) as usize * width),
+            start: (ymin * w + xs) as usize,
+            width: w as usize,
+            last: last as usize,
             col: _mm512_sub_epi32(x, _mm512_set1_epi32(xs - origin[0])),
             row: _mm512_sub_epi32(y, _mm512_set1_epi32(ymin - origin[1])),
             cols: xmax + TAPS - xs,
@@ -151,7 +154,7 @@ impl Rows16 {
     /// The offset of row `r` from `ymin` on, the last row read where `r` passes it.
     #[inline]
     pub(crate) fn row_start(&self, r: usize) -> usize {
-        self.starts[r]
+        self.start + r.min(self.last) * self.width
     }
 }
 
