@@ -280,7 +280,7 @@ fn simd_and_portable_builds_agree_exactly() {
 #[test]
 fn bicubic_overshoot_is_saturated_alike_in_every_build() {
     // Hard edges between 0 and full scale: bicubic overshoots both ends, so the integer
-    // stores' saturation (below 0 and above 65535) decides many samples, in every build.
+    // stores' saturation (below 0, above 255 or 65535) decides many samples, in every build.
     let size = ImageSize::new(640, 120);
     let hard = |hi: f64| -> Vec<f64> {
         (0..size.pixels())
@@ -290,6 +290,8 @@ fn bicubic_overshoot_is_saturated_alike_in_every_build() {
             })
             .collect()
     };
+    let src8 =
+        Raster::from_planes(size, vec![hard(255.0).iter().map(|&v| v as u8).collect()]).unwrap();
     let src16 = Raster::from_planes(
         size,
         vec![hard(65535.0).iter().map(|&v| v as u16).collect()],
@@ -309,6 +311,7 @@ fn bicubic_overshoot_is_saturated_alike_in_every_build() {
             prefilter: true,
             coordinates,
         };
+        builds_agree(&src8, &mild, ImageSize::new(600, 70), &opts);
         builds_agree(&src16, &mild, ImageSize::new(600, 70), &opts);
         builds_agree(&srcf, &mild, ImageSize::new(600, 70), &opts);
         // The case does overshoot: f32 values beyond [0, 1].
