@@ -393,47 +393,18 @@ pub(crate) trait SimdSample: Sample {
     /// AVX2; `out.len() >= 8`.
     unsafe fn store8(v: __m256, out: &mut [Self]);
 
-    /// Whether bicubic takes sixteen-pixel windows (`avx512::bicubic_window16`) where the CPU
-    /// has AVX-512 (every type here).
-    const CUBIC16: bool = false;
-
-    /// Thirty-two samples from `p` as two f32 vectors (columns 0..16, 16..32).
+    /// Thirty-two samples from `p` as two f32 vectors (columns 0..16, 16..32), for bicubic's
+    /// sixteen-pixel windows (`avx512::bicubic_window16`).
     ///
     /// # Safety
     /// AVX-512 F; the 32 samples from `p` on are readable.
-    #[target_feature(enable = "avx2,avx512f")]
-    #[inline]
-    unsafe fn row32(p: *const Self) -> [__m512; 2] {
-        // SAFETY: the contract.
-        let h: [[__m256; 2]; 2] = unsafe { [Self::row16(p), Self::row16(p.add(16))] };
-        h.map(|[a, b]| {
-            let (a, b) = (_mm256_castps_pd(a), _mm256_castps_pd(b));
-            _mm512_castpd_ps(_mm512_insertf64x4::<1>(_mm512_castpd256_pd512(a), b))
-        })
-    }
+    unsafe fn row32(p: *const Self) -> [__m512; 2];
 
     /// Sixteen values written to `out[..16]` as `from_f32` writes them (`store8`'s).
     ///
     /// # Safety
     /// AVX-512 F; sixteen samples writable at `out`.
-    #[target_feature(enable = "avx2,avx512f")]
-    #[inline]
-    unsafe fn store16(v: __m512, out: *mut Self) {
-        // SAFETY: the contract: sixteen samples at `out`.
-        let out = unsafe { std::slice::from_raw_parts_mut(out, 16) };
-        let (lo, hi) = out.split_at_mut(8);
-        let half = |h: usize| {
-            _mm256_castsi256_ps(match h {
-                0 => _mm512_castsi512_si256(_mm512_castps_si512(v)),
-                _ => _mm512_extracti64x4_epi64::<1>(_mm512_castps_si512(v)),
-            })
-        };
-        // SAFETY: each half holds eight.
-        unsafe {
-            Self::store8(half(0), lo);
-            Self::store8(half(1), hi);
-        }
-    }
+    unsafe fn store16(v: __m512, out: *mut Self);
 
     /// The columns of each source row `nearest_rows16` takes (a 512-bit vector's samples, or
     /// two vectors' for f32).
@@ -516,8 +487,6 @@ unsafe fn byte_tables4(rows: &avx512::Rows16, plane: &[u8]) -> [__m512i; 2] {
 }
 
 impl SimdSample for u8 {
-    const CUBIC16: bool = true;
-
     /// One 256-bit load, widened to two f32 vectors.
     #[target_feature(enable = "avx2,avx512f")]
     #[inline]
@@ -783,8 +752,6 @@ unsafe fn window_pairs(win: &Window, plane: &[u8], width: usize) -> (__m256i, __
 }
 
 impl SimdSample for u16 {
-    const CUBIC16: bool = true;
-
     /// One 512-bit load, widened to two f32 vectors.
     #[target_feature(enable = "avx2,avx512f")]
     #[inline]
@@ -942,8 +909,6 @@ impl SimdSample for u16 {
 }
 
 impl SimdSample for f32 {
-    const CUBIC16: bool = true;
-
     #[target_feature(enable = "avx2,avx512f")]
     #[inline]
     unsafe fn row32(p: *const f32) -> [__m512; 2] {
@@ -2236,7 +2201,7 @@ unsafe fn bicubic_steps<T: SimdSample, Q: CubicPositions>(
 ) {
     let n = pos.len().min(taps.len()).min(bases.len()).min(state.len());
     let k = Consts::new(g);
-    let wide = if g.avx512 && T::CUBIC16 {
+    let wide = if g.avx512 {
         pos.buffered().filter(|b| avx512::cubic16_fits(b))
     } else {
         None
@@ -2301,7 +2266,7 @@ pub(crate) unsafe fn bicubic_block<T: SimdSample, Q: CubicPositions>(
 ) {
     let n = pos.len();
     let (taps, bases, state) = (&mut cubic.0[..n], &mut cubic.1[..n], &mut cubic.2[..n]);
-    let wide = g.avx512 && T::CUBIC16 && pos.buffered().is_some_and(avx512::cubic16_fits);
+    let wide = g.avx512 && pos.buffered().is_some_and(avx512::cubic16_fits);
     if (T::CUBIC_WINDOWS || wide) && Q::MONOTONIC {
         // SAFETY: the contract.
         unsafe {
