@@ -8,14 +8,15 @@ pub(crate) fn avx2() -> bool {
     false
 }
 
-/// Whether the CPU has AVX-512 with byte permutes at 256 bits (F, BW, VL and VBMI; false off
-/// x86-64).
+/// Whether the CPU has AVX-512 with byte permutes and byte dot products (F, BW, VL, VBMI and
+/// VNNI: Ice Lake, Zen 4 and later; false off x86-64).
 pub(crate) fn avx512_vbmi() -> bool {
     #[cfg(target_arch = "x86_64")]
     return std::arch::is_x86_feature_detected!("avx512f")
         && std::arch::is_x86_feature_detected!("avx512bw")
         && std::arch::is_x86_feature_detected!("avx512vl")
-        && std::arch::is_x86_feature_detected!("avx512vbmi");
+        && std::arch::is_x86_feature_detected!("avx512vbmi")
+        && std::arch::is_x86_feature_detected!("avx512vnni");
     #[cfg(not(target_arch = "x86_64"))]
     false
 }

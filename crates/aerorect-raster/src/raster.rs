@@ -15,6 +15,44 @@ pub trait Sample: Copy + Default + Send + Sync + PartialEq + std::fmt::Debug + '
     fn from_f32(v: f32) -> Self;
     /// `Some` when `v` is exactly representable (used to validate nodata values).
     fn from_f64_exact(v: f64) -> Option<Self>;
+
+    /// The bilinear blend of taps `[p00, p01, p10, p11]` (upper left, upper right, lower left,
+    /// lower right) at fractions `(fx, fy)` in [0, 1]: along x, then y, in f32, then
+    /// `from_f32`.
+    #[inline(always)]
+    fn bilinear(p: [Self; 4], (fx, fy): (f32, f32)) -> Self {
+        let [p00, p01, p10, p11] = p.map(Self::to_f32);
+        let top = p00 + fx * (p01 - p00);
+        let bottom = p10 + fx * (p11 - p10);
+        Self::from_f32(top + fy * (bottom - top))
+    }
+}
+
+/// u8's bilinear weights are integers summing to about 2^`U8_WEIGHT_BITS`.
+pub(crate) const U8_WEIGHT_BITS: u32 = 22;
+
+/// u8's four bilinear weights at fractions `(fx, fy)` in [0, 1], for taps
+/// `[p00, p01, p10, p11]`: each product (1 - fx)(1 - fy), fx (1 - fy), (1 - fx) fy, fx fy in f32,
+/// the x factor scaled by 2^22 first (exact), rounded half to even. Each is within 0.75 of
+/// 2^22 times the exact product, so a blend is within 255 * 4 * 0.75 / 2^22 < 2e-4 level.
+#[inline(always)]
+pub(crate) fn bilinear_weights_u8((fx, fy): (f32, f32)) -> [i32; 4] {
+    let scale = (1u32 << U8_WEIGHT_BITS) as f32;
+    let (bx, by) = (1.0 - fx, 1.0 - fy);
+    let (sbx, sfx) = (bx * scale, fx * scale);
+    // Half to even by the f32 addition itself (products in [0, 2^22], so w + 2^23 has unit
+    // spacing): a plain SSE2 loop, no `roundeven` call.
+    let magic = (1u32 << 23) as f32;
+    [sbx * by, sfx * by, sbx * fy, sfx * fy].map(|w| ((w + magic) - magic) as i32)
+}
+
+/// u8's bilinear blend in integers: the taps times `bilinear_weights_u8`, summed exactly (at
+/// most 255 * (2^22 + 3) < 2^31) and rounded half up. Every build computes these integers.
+#[inline(always)]
+pub(crate) fn bilinear_u8(p: [u8; 4], f: (f32, f32)) -> u8 {
+    let w = bilinear_weights_u8(f);
+    let sum: i32 = p.iter().zip(w).map(|(&p, w)| i32::from(p) * w).sum();
+    ((sum + (1 << (U8_WEIGHT_BITS - 1))) >> U8_WEIGHT_BITS) as u8
 }
 
 impl Sample for u8 {
@@ -30,6 +68,10 @@ impl Sample for u8 {
     }
     fn from_f64_exact(v: f64) -> Option<Self> {
         (v.fract() == 0.0 && (0.0..=255.0).contains(&v)).then_some(v as u8)
+    }
+    #[inline(always)]
+    fn bilinear(p: [Self; 4], f: (f32, f32)) -> Self {
+        bilinear_u8(p, f)
     }
 }
 
@@ -309,6 +351,78 @@ fn put_band_interleaved<T: Copy>(out: &mut [T], bands: usize, b: usize, src: &[T
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The exact bilinear value, in f64.
+    fn bilinear_f64(p: [u8; 4], (fx, fy): (f32, f32)) -> f64 {
+        let [p00, p01, p10, p11] = p.map(f64::from);
+        let (fx, fy) = (f64::from(fx), f64::from(fy));
+        (1.0 - fy) * ((1.0 - fx) * p00 + fx * p01) + fy * ((1.0 - fx) * p10 + fx * p11)
+    }
+
+    #[test]
+    fn u8_bilinear_rounds_the_exact_blend() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+        let mut near_half = 0;
+        for i in 0..200_000 {
+            let p: [u8; 4] = if i % 2 == 0 {
+                rng.random()
+            } else {
+                // Steps of the full range: the largest weight errors.
+                [0, 255, 255, 0].map(|v| if rng.random_bool(0.5) { v } else { 255 - v })
+            };
+            let f: (f32, f32) = (rng.random_range(0.0..=1.0), rng.random_range(0.0..=1.0));
+            let w = bilinear_weights_u8(f);
+            let total: i32 = w.iter().sum();
+            assert!(
+                (total - (1 << U8_WEIGHT_BITS)).abs() <= 2,
+                "{f:?}: weights sum to {total}"
+            );
+            let exact = bilinear_f64(p, f);
+            let sum: i64 = p
+                .iter()
+                .zip(w)
+                .map(|(&p, w)| i64::from(p) * i64::from(w))
+                .sum();
+            let ours = sum as f64 / f64::from(1u32 << U8_WEIGHT_BITS);
+            assert!(
+                (ours - exact).abs() < 2e-4,
+                "{p:?} {f:?}: {ours} vs {exact}"
+            );
+            let got = f64::from(bilinear_u8(p, f));
+            if ((exact + 0.5).fract() - 0.5).abs() < 0.5 - 2e-4 {
+                assert_eq!(got, (exact + 0.5).floor(), "{p:?} {f:?}: exact {exact}");
+            } else {
+                near_half += 1;
+                assert!(
+                    (got - exact).abs() <= 0.5 + 2e-4,
+                    "{p:?} {f:?}: exact {exact}"
+                );
+            }
+        }
+        assert!(
+            near_half < 2_000,
+            "{near_half} values within 2e-4 of a half"
+        );
+    }
+
+    #[test]
+    fn u8_bilinear_is_exact_at_the_taps_and_halves() {
+        let p = [10, 200, 33, 255];
+        for (f, want) in [
+            ((0.0, 0.0), 10),
+            ((1.0, 0.0), 200),
+            ((0.0, 1.0), 33),
+            ((1.0, 1.0), 255),
+        ] {
+            assert_eq!(bilinear_u8(p, f), want, "{f:?}");
+        }
+        // Means of 1.5 and 2.5 round half up, as `from_f32` does.
+        assert_eq!(bilinear_u8([1, 2, 1, 2], (0.5, 0.5)), 2);
+        assert_eq!(bilinear_u8([2, 3, 2, 3], (0.5, 0.5)), 3);
+        assert_eq!(bilinear_u8([0, 1, 0, 0], (0.5, 0.5)), 0);
+        assert_eq!(bilinear_u8([255; 4], (0.3, 0.7)), 255);
+    }
 
     #[test]
     fn interleaved_round_trip() {

@@ -19,7 +19,7 @@
 
 use super::kernel::{BLOCK, Bicubic, Bilinear, Kernel, Nearest, SourceGeometry};
 use super::relative::RelativeBlock;
-use crate::raster::Sample;
+use crate::raster::{Sample, U8_WEIGHT_BITS};
 use std::arch::x86_64::*;
 
 mod avx512;
@@ -68,7 +68,6 @@ pub(crate) struct Consts {
     i0max_y: __m128i,
     width: __m256i,
     w_minus_2: __m256i,
-    byte: __m256i,
     half: __m256,
     pick: __m256i,
     /// The source width and height.
@@ -90,7 +89,6 @@ impl Consts {
             i0max_y: _mm_set1_epi32(h as i32 - 2),
             width: _mm256_set1_epi32(w as i32),
             w_minus_2: _mm256_set1_epi32(w as i32 - 2),
-            byte: _mm256_set1_epi32(0xFF),
             half: _mm256_set1_ps(0.5),
             // Picks byte 0 of each 32-bit lane into the low 4 bytes of each 128-bit half.
             pick: _mm256_setr_epi8(
@@ -331,6 +329,29 @@ fn rounded(k: &Consts, t: &Taps8, v: __m256, nodata: i32) -> __m256i {
     _mm256_blendv_epi8(_mm256_set1_epi32(nodata), q, t.lanes)
 }
 
+/// `bilinear_weights_u8` at eight lanes (same operations, same order).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn bilinear_weights_u8_8((fx, fy): (__m256, __m256)) -> [__m256i; 4] {
+    let one = _mm256_set1_ps(1.0);
+    let scale = _mm256_set1_ps((1u32 << U8_WEIGHT_BITS) as f32);
+    let (bx, by) = (_mm256_sub_ps(one, fx), _mm256_sub_ps(one, fy));
+    let (sbx, sfx) = (_mm256_mul_ps(bx, scale), _mm256_mul_ps(fx, scale));
+    [(sbx, by), (sfx, by), (sbx, fy), (sfx, fy)]
+        .map(|(a, b)| _mm256_cvtps_epi32(_mm256_mul_ps(a, b)))
+}
+
+/// `bilinear_u8` at eight lanes, taps as 32-bit lanes.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn bilinear_u8_8(p: [__m256i; 4], f: (__m256, __m256)) -> __m256i {
+    let w = bilinear_weights_u8_8(f);
+    let [a, b, c, d] = [0, 1, 2, 3].map(|j| _mm256_mullo_epi32(p[j], w[j]));
+    let sum = _mm256_add_epi32(_mm256_add_epi32(a, b), _mm256_add_epi32(c, d));
+    let half = _mm256_set1_epi32(1 << (U8_WEIGHT_BITS - 1));
+    _mm256_srli_epi32::<{ U8_WEIGHT_BITS as i32 }>(_mm256_add_epi32(sum, half))
+}
+
 /// A sample type with an AVX2 bilinear step and a four-sample row load.
 pub(crate) trait SimdSample: Sample {
     /// Whether `bilinear8` reads byte windows (`Window`) where they apply.
@@ -421,7 +442,7 @@ pub(crate) trait SimdSample: Sample {
     /// an AVX-512 two-table permute, into `out[..16]`.
     ///
     /// # Safety
-    /// AVX-512 F, BW, VL and VBMI; `rows` from `Rows16::of` with `ROW_SPAN` and one tap on an image the size
+    /// AVX-512 F, BW, VL, VBMI and VNNI; `rows` from `Rows16::of` with `ROW_SPAN` and one tap on an image the size
     /// of `plane`; sixteen samples writable at `out`.
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[Self], out: *mut Self);
 
@@ -429,7 +450,7 @@ pub(crate) trait SimdSample: Sample {
     ///
     /// # Safety
     /// As `nearest_rows16`, with `NEAREST_ROWS_WIDE` rows.
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
     #[inline]
     unsafe fn nearest_rows16_wide(rows: &avx512::Rows16, plane: &[Self], out: *mut Self) {
         // SAFETY: the contract (two rows unless the type overrides both).
@@ -437,12 +458,13 @@ pub(crate) trait SimdSample: Sample {
     }
 
     /// Bilinear at sixteen pixels placed by `rows` with fractions `f` (x, y), from AVX-512
-    /// permutes of the rows, written to `out[..16]` as `from_f32` writes them.
+    /// permutes of the rows, written to `out[..16]` as `Sample::bilinear` writes them;
+    /// `SHARED` where several bands share the step (u8 then makes its weights' digits once).
     ///
     /// # Safety
-    /// AVX-512 F, BW, VL and VBMI; `rows` from `Rows16::of` with `ROW_SPAN` and two taps on an image the
+    /// AVX-512 F, BW, VL, VBMI and VNNI; `rows` from `Rows16::of` with `ROW_SPAN` and two taps on an image the
     /// size of `plane`; sixteen samples writable at `out`.
-    unsafe fn bilinear_rows16(
+    unsafe fn bilinear_rows16<const SHARED: bool>(
         rows: &avx512::Rows16,
         f: (__m512, __m512),
         plane: &[Self],
@@ -523,9 +545,9 @@ impl SimdSample for u8 {
 
     /// The four rows' 32 bytes as one 128-byte table; one byte permute brings each pixel's
     /// four taps into its 32-bit lane (bytes: upper pair, lower pair), as `window_pairs` does.
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
     #[inline]
-    unsafe fn bilinear_rows16(
+    unsafe fn bilinear_rows16<const SHARED: bool>(
         rows: &avx512::Rows16,
         f: (__m512, __m512),
         plane: &[u8],
@@ -541,20 +563,13 @@ impl SimdSample for u8 {
                 _mm512_set1_epi32(0x2120_0100),
             );
             let v = _mm512_permutex2var_epi8(a, index, b);
-            let byte = _mm512_set1_epi32(0xFF);
-            let p = [
-                _mm512_and_si512(v, byte),
-                _mm512_and_si512(_mm512_srli_epi32::<8>(v), byte),
-                _mm512_and_si512(_mm512_srli_epi32::<16>(v), byte),
-                _mm512_srli_epi32::<24>(v),
-            ];
-            let q = avx512::rounded16(avx512::blend16(f, p.map(|v| _mm512_cvtepi32_ps(v))));
+            let q = avx512::bilinear_u8_16::<SHARED>(v, f);
             _mm_storeu_si128(out as *mut __m128i, _mm512_cvtepi32_epi8(q));
         }
     }
 
     /// Two rows of 32 samples, one byte permute (`vpermi2b`) over the two 256-bit loads.
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
     #[inline]
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[u8], out: *mut u8) {
         debug_assert!(rows.row_start(1) + 32 <= plane.len());
@@ -576,7 +591,7 @@ impl SimdSample for u8 {
     }
 
     /// Four rows of 32 samples, two per table of one byte permute (`vpermi2b`).
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
     #[inline]
     unsafe fn nearest_rows16_wide(rows: &avx512::Rows16, plane: &[u8], out: *mut u8) {
         // SAFETY: `Rows16::of`: 32 samples from each row start in the plane; sixteen writable
@@ -682,11 +697,17 @@ impl SimdSample for u8 {
                 }
             }
         };
-        let p00 = _mm256_cvtepi32_ps(_mm256_and_si256(top, k.byte));
-        let p01 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<8>(top), k.byte));
-        let p10 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<16>(low), k.byte));
-        let p11 = _mm256_cvtepi32_ps(_mm256_srli_epi32::<24>(low));
-        let q = rounded(k, t, blend(t, p00, p01, p10, p11), i32::from(nodata));
+        // Words (p00, p10) and (p01, p11) per lane: the upper pair's byte 0 or 1, the lower's
+        // byte 2 or 3.
+        let byte = _mm256_set1_epi32(0xFF);
+        let p = [
+            _mm256_and_si256(top, byte),
+            _mm256_and_si256(_mm256_srli_epi32::<8>(top), byte),
+            _mm256_and_si256(_mm256_srli_epi32::<16>(low), byte),
+            _mm256_srli_epi32::<24>(low),
+        ];
+        let v = bilinear_u8_8(p, (t.fx, t.fy));
+        let q = _mm256_blendv_epi8(_mm256_set1_epi32(i32::from(nodata)), v, t.lanes);
         let packed = pack_low_bytes(k, q);
         debug_assert!(at + 8 <= out.len());
         // SAFETY: at + 8 <= out.len() (the contract): the 8-byte store stays inside.
@@ -779,9 +800,9 @@ impl SimdSample for u16 {
 
     /// One word permute over the upper two rows brings each pixel's upper pair into its
     /// 32-bit lane, one over the lower two its lower pair.
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
     #[inline]
-    unsafe fn bilinear_rows16(
+    unsafe fn bilinear_rows16<const SHARED: bool>(
         rows: &avx512::Rows16,
         f: (__m512, __m512),
         plane: &[u16],
@@ -815,7 +836,7 @@ impl SimdSample for u16 {
     }
 
     /// Two rows of 32 samples, one word permute (`vpermi2w`).
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
     #[inline]
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[u16], out: *mut u16) {
         debug_assert!(rows.row_start(1) + 32 <= plane.len());
@@ -927,9 +948,9 @@ impl SimdSample for f32 {
 
     /// Per row two 16-sample vectors, one permute per row and tap column; the upper and
     /// lower taps then blended by each pixel's upper row.
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
     #[inline]
-    unsafe fn bilinear_rows16(
+    unsafe fn bilinear_rows16<const SHARED: bool>(
         rows: &avx512::Rows16,
         f: (__m512, __m512),
         plane: &[f32],
@@ -960,7 +981,7 @@ impl SimdSample for f32 {
 
     /// Where the columns lie within 16: one permute over 16 samples of each row; else two
     /// rows of 32 (two vectors each), one permute per row, blended by row.
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
     #[inline]
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[f32], out: *mut f32) {
         debug_assert!(rows.row_start(1) + 32 <= plane.len());
@@ -1077,7 +1098,7 @@ pub(crate) unsafe fn bilinear_block<T: SimdSample, P: Positions>(
     if let Some(whole) = inside_run(&k, pos, n) {
         valid[..whole].fill(true);
         if let (true, Some(buffered)) = (g.avx512, pos.buffered()) {
-            // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI; as this function's
+            // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI, VNNI; as this function's
             // contract; every pixel of the whole steps is inside.
             i = unsafe { avx512::bilinear_inside16(&k, buffered, planes, outs, whole, nodata) };
         }
@@ -1724,7 +1745,7 @@ unsafe fn nearest_inside<T: SimdSample, P: Positions, const WINDOWS: bool>(
     whole: usize,
 ) {
     let i = match (g.avx512, pos.relative()) {
-        // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI; as this function's contract.
+        // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI, VNNI; as this function's contract.
         (true, Some(rel)) => unsafe { avx512::nearest_inside16(rel, k.size, planes, outs, whole) },
         _ => 0,
     };
@@ -2209,7 +2230,7 @@ unsafe fn bicubic_steps<T: SimdSample, Q: CubicPositions>(
     let mut i = 0;
     while i + 8 <= n {
         if let Some(b) = wide.filter(|_| i + 16 <= n) {
-            // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI; i + 16 <= n, within the
+            // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI, VNNI; i + 16 <= n, within the
             // buffers (whole steps of eight) and every output; the planes as this contract.
             if unsafe { avx512::bicubic_window16(b, i, k.size, planes, outs) } {
                 state[i..i + 16].fill(1);

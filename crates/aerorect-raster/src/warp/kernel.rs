@@ -15,12 +15,12 @@ pub(crate) struct SourceGeometry {
     step_y: usize,
     /// Use the AVX2 build of the row loop.
     simd: bool,
-    /// The AVX2 build may also use AVX-512 F, BW, VL and VBMI (`Build::Best` on a CPU with them).
+    /// The AVX2 build may also use AVX-512 F, BW, VL, VBMI and VNNI (`Build::Best` on a CPU with them).
     pub(crate) avx512: bool,
 }
 
 /// Which build of the kernels a warp runs: the portable one, AVX2 alone, or the best this CPU
-/// has (AVX2, with AVX-512 steps where it has F, BW, VL and VBMI). Tests compare all three.
+/// has (AVX2, with AVX-512 steps where it has F, BW, VL, VBMI and VNNI). Tests compare all three.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Build {
     Portable,
@@ -430,17 +430,15 @@ impl Kernel for Bilinear {
         let last = o + g.step_y + g.step_x;
         assert!(last < plane.len()); // one check instead of four; `prepare` keeps it true
         // SAFETY: o <= o + step_x, o + step_y <= last < plane.len(), checked just above.
-        let (p00, p01, p10, p11) = unsafe {
-            (
-                plane.get_unchecked(o).to_f32(),
-                plane.get_unchecked(o + g.step_x).to_f32(),
-                plane.get_unchecked(o + g.step_y).to_f32(),
-                plane.get_unchecked(last).to_f32(),
-            )
+        let p = unsafe {
+            [
+                *plane.get_unchecked(o),
+                *plane.get_unchecked(o + g.step_x),
+                *plane.get_unchecked(o + g.step_y),
+                *plane.get_unchecked(last),
+            ]
         };
-        let top = p00 + t.fx * (p01 - p00);
-        let bottom = p10 + t.fx * (p11 - p10);
-        T::from_f32(top + t.fy * (bottom - top))
+        T::bilinear(p, (t.fx, t.fy))
     }
 }
 

@@ -1,11 +1,13 @@
-//! AVX-512 (F, BW, VL, VBMI) steps over blocks whose pixels are all inside, sixteen pixels per
+//! AVX-512 (F, BW, VL, VBMI, VNNI) steps over blocks whose pixels are all inside, sixteen pixels per
 //! 512-bit vector, each the arithmetic of its AVX2 counterpart in the same order:
 //! - nearest: the positions of `Relative::offsets8` (`Relative16`), and per band the sixteen
 //!   samples as a two-table permute of two source rows (u8 with several bands: four) where
 //!   they lie within them (`Rows16`, `SimdSample::nearest_rows16`), else one scalar load each;
 //! - bilinear: the split of `Relative::bilinear_taps` on buffered offsets (`Split16`), and per
 //!   band the four taps as permutes of three (u8: four) source rows where they lie within them
-//!   (`Rows16` again, `SimdSample::bilinear_rows16`), blended at sixteen lanes; else two AVX2
+//!   (`Rows16` again, `SimdSample::bilinear_rows16`), blended at sixteen lanes (u8 in integers,
+//!   `bilinear_u8_16`: with several bands, byte dot products on weight digits made once per
+//!   step); else two AVX2
 //!   steps on the same taps. Where no offset of the block is clamped, the split is a floor and
 //!   a fraction alone (`Split16::axis_free`);
 //! - bicubic (u16, f32): the split of `Buffered::cubic8` (`CubicSplit16`), the Keys weights
@@ -14,6 +16,7 @@
 //! - the buffered offsets themselves, sixteen at a time (`fill_offsets16`).
 
 use super::{Buffered, Consts, Relative, SimdSample, Taps8, window};
+use crate::raster::U8_WEIGHT_BITS;
 use std::arch::x86_64::*;
 
 /// `Relative`'s vectors at sixteen lanes.
@@ -162,9 +165,9 @@ impl Rows16 {
 /// it stopped (fewer than sixteen left).
 ///
 /// # Safety
-/// AVX-512 F, BW, VL and VBMI; `whole` at most every output's length; every pixel inside; every
+/// AVX-512 F, BW, VL, VBMI and VNNI; `whole` at most every output's length; every pixel inside; every
 /// plane `size.0 * size.1` samples.
-#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
 pub(super) unsafe fn nearest_inside16<T: SimdSample>(
     rel: &Relative,
     size: (i32, i32),
@@ -187,7 +190,7 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
 ///
 /// # Safety
 /// As `nearest_inside16`.
-#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
 #[inline]
 unsafe fn nearest_steps16<T: SimdSample, const WIDE: bool>(
     rel: &Relative,
@@ -254,10 +257,33 @@ unsafe fn nearest_steps16<T: SimdSample, const WIDE: bool>(
 /// lie within `Rows16` go as two AVX2 steps.
 ///
 /// # Safety
-/// AVX-512 F, BW, VL and VBMI; the source at least 2 x 2; `whole` at most every output's length
+/// AVX-512 F, BW, VL, VBMI and VNNI; the source at least 2 x 2; `whole` at most every output's length
 /// and the buffers'; every pixel inside; every plane `k.size.0 * k.size.1` samples.
-#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
 pub(super) unsafe fn bilinear_inside16<T: SimdSample>(
+    k: &Consts,
+    pos: &Buffered<'_>,
+    planes: &[&[T]],
+    outs: &mut [&mut [T]],
+    whole: usize,
+    nodata: T,
+) -> usize {
+    // SAFETY: the contract, passed on.
+    unsafe {
+        if planes.len() > 1 {
+            bilinear_steps16::<T, true>(k, pos, planes, outs, whole, nodata)
+        } else {
+            bilinear_steps16::<T, false>(k, pos, planes, outs, whole, nodata)
+        }
+    }
+}
+
+/// `bilinear_inside16` with `SHARED` true where several bands share each step's weights.
+///
+/// # Safety
+/// As `bilinear_inside16`.
+#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
+unsafe fn bilinear_steps16<T: SimdSample, const SHARED: bool>(
     k: &Consts,
     pos: &Buffered<'_>,
     planes: &[&[T]],
@@ -287,7 +313,9 @@ pub(super) unsafe fn bilinear_inside16<T: SimdSample>(
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 debug_assert!(i + 16 <= out.len());
                 // SAFETY: `Rows16::of` checked the rows; i + 16 <= whole <= the length.
-                unsafe { T::bilinear_rows16(&rows, (fx, fy), plane, out.as_mut_ptr().add(i)) };
+                unsafe {
+                    T::bilinear_rows16::<SHARED>(&rows, (fx, fy), plane, out.as_mut_ptr().add(i))
+                };
             }
         } else {
             let taps = taps8_pair::<T>(k, (x0, fx), (y0, fy));
@@ -401,6 +429,92 @@ pub(crate) fn blend16(f: (__m512, __m512), p: [__m512; 4]) -> __m512 {
     let top = _mm512_add_ps(p00, _mm512_mul_ps(f.0, _mm512_sub_ps(p01, p00)));
     let bottom = _mm512_add_ps(p10, _mm512_mul_ps(f.0, _mm512_sub_ps(p11, p10)));
     _mm512_add_ps(top, _mm512_mul_ps(f.1, _mm512_sub_ps(bottom, top)))
+}
+
+/// `weights_u8_16`, each weight w = d2 2^16 + d1 2^8 + d0 as three signed-byte digits: d0 is w's low byte, d1 that of
+/// (w + 2^7) >> 8, d2 = (w + 2^15 + 2^7) >> 16 (at most 64). Digit k of the four weights is
+/// `Digits16`'s vector k, weight j in byte j of each lane, as `vpdpbusd` takes them.
+struct Digits16([__m512i; 3]);
+
+impl Digits16 {
+    #[target_feature(enable = "avx512f,avx512bw,avx512vbmi,avx512vnni")]
+    #[inline]
+    fn new(f: (__m512, __m512)) -> Self {
+        let w = weights_u8_16(f);
+        Self([(0, 0), (0x80, 1), (0x8080, 2)].map(|(add, k)| {
+            let b = w.map(|v| _mm512_add_epi32(v, _mm512_set1_epi32(add)));
+            // Byte k of each lane's four weights: byte 4 l + j takes byte 4 l + k of weight j.
+            let index = _mm512_add_epi8(
+                _mm512_set1_epi32(0x4000_4000 + 0x0101_0101 * k),
+                _mm512_set_epi32(
+                    60 * 0x0101_0101,
+                    56 * 0x0101_0101,
+                    52 * 0x0101_0101,
+                    48 * 0x0101_0101,
+                    44 * 0x0101_0101,
+                    40 * 0x0101_0101,
+                    36 * 0x0101_0101,
+                    32 * 0x0101_0101,
+                    28 * 0x0101_0101,
+                    24 * 0x0101_0101,
+                    20 * 0x0101_0101,
+                    16 * 0x0101_0101,
+                    12 * 0x0101_0101,
+                    8 * 0x0101_0101,
+                    4 * 0x0101_0101,
+                    0,
+                ),
+            );
+            let lo = _mm512_permutex2var_epi8(b[0], index, b[1]);
+            let hi = _mm512_permutex2var_epi8(b[2], index, b[3]);
+            _mm512_mask_blend_epi8(0xCCCC_CCCC_CCCC_CCCC, lo, hi)
+        }))
+    }
+}
+
+/// `bilinear_u8` at sixteen lanes of taps `v` (bytes p00, p01, p10, p11 per lane), two ways to
+/// the same integers:
+/// - `SHARED` (several bands, the digits made once per step): the digits' dot products
+///   (`vpdpbusd`), most significant first, shifted in between; the rounding's 2^21 rides in as
+///   32 << 16;
+/// - else (one band): the weights themselves, four 32-bit products summed.
+#[target_feature(enable = "avx512f,avx512bw,avx512vbmi,avx512vnni")]
+#[inline]
+pub(crate) fn bilinear_u8_16<const SHARED: bool>(v: __m512i, f: (__m512, __m512)) -> __m512i {
+    if SHARED {
+        let Digits16([d0, d1, d2]) = Digits16::new(f);
+        let t = _mm512_dpbusd_epi32(_mm512_set1_epi32(1 << (U8_WEIGHT_BITS - 1 - 16)), v, d2);
+        let t = _mm512_dpbusd_epi32(_mm512_slli_epi32::<8>(t), v, d1);
+        let t = _mm512_dpbusd_epi32(_mm512_slli_epi32::<8>(t), v, d0);
+        return _mm512_srli_epi32::<U8_WEIGHT_BITS>(t);
+    }
+    let w = weights_u8_16(f);
+    let byte = _mm512_set1_epi32(0xFF);
+    let p = [
+        _mm512_and_si512(v, byte),
+        _mm512_and_si512(_mm512_srli_epi32::<8>(v), byte),
+        _mm512_and_si512(_mm512_srli_epi32::<16>(v), byte),
+        _mm512_srli_epi32::<24>(v),
+    ];
+    let [a, b, c, d] = [0, 1, 2, 3].map(|j| _mm512_mullo_epi32(p[j], w[j]));
+    let sum = _mm512_add_epi32(_mm512_add_epi32(a, b), _mm512_add_epi32(c, d));
+    let half = _mm512_set1_epi32(1 << (U8_WEIGHT_BITS - 1));
+    _mm512_srli_epi32::<U8_WEIGHT_BITS>(_mm512_add_epi32(sum, half))
+}
+
+/// `bilinear_weights_u8` at sixteen lanes (same operations, same order).
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn weights_u8_16((fx, fy): (__m512, __m512)) -> [__m512i; 4] {
+    let one = _mm512_set1_ps(1.0);
+    let scale = _mm512_set1_ps((1u32 << U8_WEIGHT_BITS) as f32);
+    let (bx, by) = (_mm512_sub_ps(one, fx), _mm512_sub_ps(one, fy));
+    let (sbx, sfx) = (_mm512_mul_ps(bx, scale), _mm512_mul_ps(fx, scale));
+    [(sbx, by), (sfx, by), (sbx, fy), (sfx, fy)].map(|(a, b)| {
+        _mm512_cvt_roundps_epi32::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(
+            _mm512_mul_ps(a, b),
+        )
+    })
 }
 
 /// Sixteen blended values of an integer type rounded as `from_f32` rounds in range (v + 0.5,
@@ -570,9 +684,9 @@ pub(super) fn cubic16_fits(pos: &Buffered<'_>) -> bool {
 /// false (nothing written) where they do not.
 ///
 /// # Safety
-/// AVX-512 F, BW, VL and VBMI; i + 16 <= the buffers' and every output's length; every plane
+/// AVX-512 F, BW, VL, VBMI and VNNI; i + 16 <= the buffers' and every output's length; every plane
 /// `size.0 * size.1` samples.
-#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi")]
+#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
 pub(super) unsafe fn bicubic_window16<T: SimdSample>(
     pos: &Buffered<'_>,
     i: usize,
@@ -613,7 +727,7 @@ mod tests {
     #[test]
     fn rows_stay_inside_the_image() {
         if !crate::cpu::avx512_vbmi() {
-            eprintln!("SKIP: no AVX-512 VBMI on this CPU");
+            eprintln!("SKIP: no AVX-512 VBMI and VNNI on this CPU");
             return;
         }
         let size = (40, 10);
@@ -659,7 +773,7 @@ mod tests {
     #[test]
     fn cubic_windows_stay_inside_the_image() {
         if !crate::cpu::avx512_vbmi() {
-            eprintln!("SKIP: no AVX-512 VBMI on this CPU");
+            eprintln!("SKIP: no AVX-512 VBMI and VNNI on this CPU");
             return;
         }
         let size = (40, 10);
