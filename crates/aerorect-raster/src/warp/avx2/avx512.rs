@@ -176,7 +176,8 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
     whole: usize,
 ) -> usize {
     // One band takes two rows (runs across more read sample by sample: measured faster for
-    // gray8), several bands the type's wide layout.
+    // gray8), several bands the type's wide layout where a step's pixels span more than two
+    // rows (on two, the two-row permute: u8 rgb8 0.786 -> 0.725 ms, rgba8 0.854 -> 0.820).
     // SAFETY: the contract.
     unsafe {
         match planes.len() {
@@ -186,7 +187,8 @@ pub(super) unsafe fn nearest_inside16<T: SimdSample>(
     }
 }
 
-/// `nearest_inside16` with the rows of `nearest_rows16` or, if `WIDE`, `nearest_rows16_wide`.
+/// `nearest_inside16` with the rows of `nearest_rows16` or, if `WIDE`, `nearest_rows16_wide`
+/// for steps on more than two rows.
 ///
 /// # Safety
 /// As `nearest_inside16`.
@@ -215,7 +217,7 @@ unsafe fn nearest_steps16<T: SimdSample, const WIDE: bool>(
                 // SAFETY: `Rows16::of` checked the rows; i + 16 <= whole <= the output's length.
                 unsafe {
                     let at = out.as_mut_ptr().add(i);
-                    if WIDE {
+                    if WIDE && rows.last > 1 {
                         T::nearest_rows16_wide(&rows, plane, at)
                     } else {
                         T::nearest_rows16(&rows, plane, at)
