@@ -133,6 +133,8 @@ struct Order {
     power: Vec<f32>,
     /// The threshold's sample; in stage 4, two filtered columns.
     sample: Vec<f32>,
+    /// The sample as `ordered_key`s, for the median.
+    keys: Vec<u32>,
     /// The plane around the first cross term: rows dy in -h/2..h/2 (index dy + h/2), joint
     /// columns w..3w + 2 (index x - w).
     window: Vec<f32>,
@@ -205,6 +207,7 @@ impl Order {
             rows: vec![Complex32::default(); j.h * hw],
             power: vec![0.0; hw * hh],
             sample: Vec::with_capacity(hw * hh / 8 + hw),
+            keys: Vec::with_capacity(hw * hh / 8 + hw),
             window: vec![0.0; j.h * (2 * j.w + 2)],
         }
     }
@@ -214,10 +217,7 @@ impl Order {
     fn forward(&mut self, j: Joint, opts: JtcOptions, a: &[f32], b: &[f32]) -> Option<f32> {
         self.joint_rows(j, a, b);
         self.power_spectrum(j, opts.binarize);
-        opts.binarize.then(|| {
-            let n = self.sample.len();
-            *self.sample.select_nth_unstable_by(n / 2, f32::total_cmp).1
-        })
+        opts.binarize.then(|| median(&self.sample, &mut self.keys))
     }
 
     /// Stages 4 and 5: the correlation plane around the first cross term.
@@ -373,6 +373,27 @@ impl Order {
     }
 }
 
+/// The element of rank n / 2 of `sample` in `f32::total_cmp`'s order (its upper median), selected
+/// on `ordered_key`s in `keys` (integer comparisons instead of `total_cmp`'s).
+fn median(sample: &[f32], keys: &mut Vec<u32>) -> f32 {
+    keys.clear();
+    keys.extend(sample.iter().map(|&v| ordered_key(v)));
+    let n = keys.len();
+    from_ordered_key(*keys.select_nth_unstable(n / 2).1)
+}
+
+/// An f32's bits as a u32 whose order is `f32::total_cmp`'s: negatives' bits flipped, the sign
+/// bit set on the others.
+fn ordered_key(v: f32) -> u32 {
+    let b = v.to_bits();
+    if b >> 31 == 1 { !b } else { b | 1 << 31 }
+}
+
+/// The f32 of an `ordered_key`.
+fn from_ordered_key(k: u32) -> f32 {
+    f32::from_bits(if k >> 31 == 1 { k & !(1 << 31) } else { !k })
+}
+
 /// `cols[k * stride + y] = rows[y * hw + u0 + k]` for k in 0..n (n <= 8) and every row y. A
 /// whole batch goes by 8 x 8 tiles of fixed size, so that each column receives runs of eight
 /// values.
@@ -414,6 +435,39 @@ mod tests {
     use super::super::jtc::SubPixel;
     use super::super::jtc_oracle::{joint_image_f64, pairs};
     use super::*;
+
+    /// `median` against sorting with `total_cmp`, on samples with ties, signed zeros,
+    /// infinities and odd and even lengths; the keys keep `total_cmp`'s order.
+    #[test]
+    fn the_median_is_total_cmp_s() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+        let special = [
+            0.0,
+            -0.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MIN_POSITIVE,
+            -1e-40,
+        ];
+        let mut keys = Vec::new();
+        for n in 1..300 {
+            let sample: Vec<f32> = (0..n)
+                .map(|i| match i % 5 {
+                    0 => special[rng.random_range(0..special.len())],
+                    1 => rng.random_range(-3..3) as f32,
+                    _ => rng.random_range(-1e6f32..1e6),
+                })
+                .collect();
+            let mut sorted = sample.clone();
+            sorted.sort_by(f32::total_cmp);
+            let m = median(&sample, &mut keys);
+            assert_eq!(m.to_bits(), sorted[n / 2].to_bits(), "n {n}");
+            for w in sorted.windows(2) {
+                assert!(ordered_key(w[0]) <= ordered_key(w[1]), "{} {}", w[0], w[1]);
+            }
+        }
+    }
 
     /// The smallest frames and odd sizes (odd half-spectrum widths, a last unpaired column, an
     /// odd number of plane rows): a frame against itself has moved by exactly 0 and a pair's
