@@ -442,8 +442,8 @@ pub(crate) trait SimdSample: Sample {
     /// an AVX-512 two-table permute, into `out[..16]`.
     ///
     /// # Safety
-    /// AVX-512 F, BW, VL, VBMI and VNNI; `rows` from `Rows16::of` with `ROW_SPAN` and one tap on an image the size
-    /// of `plane`; sixteen samples writable at `out`.
+    /// AVX-512 F, BW, VL, VBMI and VNNI; `rows` from `Rows16::of` with `ROW_SPAN` and one tap
+    /// on an image the size of `plane`; sixteen samples writable at `out`.
     unsafe fn nearest_rows16(rows: &avx512::Rows16, plane: &[Self], out: *mut Self);
 
     /// `nearest_rows16` for `rows` of `NEAREST_ROWS_WIDE` rows.
@@ -462,8 +462,8 @@ pub(crate) trait SimdSample: Sample {
     /// `SHARED` where several bands share the step (u8 then makes its weights' digits once).
     ///
     /// # Safety
-    /// AVX-512 F, BW, VL, VBMI and VNNI; `rows` from `Rows16::of` with `ROW_SPAN` and two taps on an image the
-    /// size of `plane`; sixteen samples writable at `out`.
+    /// AVX-512 F, BW, VL, VBMI and VNNI; `rows` from `Rows16::of` with `ROW_SPAN` and two taps
+    /// on an image the size of `plane`; sixteen samples writable at `out`.
     unsafe fn bilinear_rows16<const SHARED: bool>(
         rows: &avx512::Rows16,
         f: (__m512, __m512),
@@ -697,8 +697,7 @@ impl SimdSample for u8 {
                 }
             }
         };
-        // Words (p00, p10) and (p01, p11) per lane: the upper pair's byte 0 or 1, the lower's
-        // byte 2 or 3.
+        // The upper pair is bytes 0 and 1 of `top`, the lower pair bytes 2 and 3 of `low`.
         let byte = _mm256_set1_epi32(0xFF);
         let p = [
             _mm256_and_si256(top, byte),
@@ -1745,7 +1744,8 @@ unsafe fn nearest_inside<T: SimdSample, P: Positions, const WINDOWS: bool>(
     whole: usize,
 ) {
     let i = match (g.avx512, pos.relative()) {
-        // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI, VNNI; as this function's contract.
+        // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI, VNNI; as this function's
+        // contract.
         (true, Some(rel)) => unsafe { avx512::nearest_inside16(rel, k.size, planes, outs, whole) },
         _ => 0,
     };
@@ -2230,8 +2230,8 @@ unsafe fn bicubic_steps<T: SimdSample, Q: CubicPositions>(
     let mut i = 0;
     while i + 8 <= n {
         if let Some(b) = wide.filter(|_| i + 16 <= n) {
-            // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI, VNNI; i + 16 <= n, within the
-            // buffers (whole steps of eight) and every output; the planes as this contract.
+            // SAFETY: `g.avx512`: the CPU has AVX-512 F, BW, VL, VBMI, VNNI; i + 16 <= n, within
+            // the buffers (whole steps of eight) and every output; the planes as this contract.
             if unsafe { avx512::bicubic_window16(b, i, k.size, planes, outs) } {
                 state[i..i + 16].fill(1);
                 i += 16;

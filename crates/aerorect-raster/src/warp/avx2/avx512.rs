@@ -1,5 +1,5 @@
-//! AVX-512 (F, BW, VL, VBMI, VNNI) steps over blocks whose pixels are all inside, sixteen pixels per
-//! 512-bit vector, each the arithmetic of its AVX2 counterpart in the same order:
+//! AVX-512 (F, BW, VL, VBMI, VNNI) steps over blocks whose pixels are all inside, sixteen pixels
+//! per 512-bit vector, each the arithmetic of its AVX2 counterpart in the same order:
 //! - nearest: the positions of `Relative::offsets8` (`Relative16`), and per band the sixteen
 //!   samples as a two-table permute of two source rows (u8 with several bands: four) where
 //!   they lie within them (`Rows16`, `SimdSample::nearest_rows16`), else one scalar load each;
@@ -165,8 +165,8 @@ impl Rows16 {
 /// it stopped (fewer than sixteen left).
 ///
 /// # Safety
-/// AVX-512 F, BW, VL, VBMI and VNNI; `whole` at most every output's length; every pixel inside; every
-/// plane `size.0 * size.1` samples.
+/// AVX-512 F, BW, VL, VBMI and VNNI; `whole` at most every output's length; every pixel
+/// inside; every plane `size.0 * size.1` samples.
 #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
 pub(super) unsafe fn nearest_inside16<T: SimdSample>(
     rel: &Relative,
@@ -259,8 +259,8 @@ unsafe fn nearest_steps16<T: SimdSample, const WIDE: bool>(
 /// lie within `Rows16` go as two AVX2 steps.
 ///
 /// # Safety
-/// AVX-512 F, BW, VL, VBMI and VNNI; the source at least 2 x 2; `whole` at most every output's length
-/// and the buffers'; every pixel inside; every plane `k.size.0 * k.size.1` samples.
+/// AVX-512 F, BW, VL, VBMI and VNNI; the source at least 2 x 2; `whole` at most every output's
+/// length and the buffers'; every pixel inside; every plane `k.size.0 * k.size.1` samples.
 #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,avx512vbmi,avx512vnni")]
 pub(super) unsafe fn bilinear_inside16<T: SimdSample>(
     k: &Consts,
@@ -433,9 +433,10 @@ pub(crate) fn blend16(f: (__m512, __m512), p: [__m512; 4]) -> __m512 {
     _mm512_add_ps(top, _mm512_mul_ps(f.1, _mm512_sub_ps(bottom, top)))
 }
 
-/// `weights_u8_16`, each weight w = d2 2^16 + d1 2^8 + d0 as three signed-byte digits: d0 is w's low byte, d1 that of
-/// (w + 2^7) >> 8, d2 = (w + 2^15 + 2^7) >> 16 (at most 64). Digit k of the four weights is
-/// `Digits16`'s vector k, weight j in byte j of each lane, as `vpdpbusd` takes them.
+/// `weights_u8_16`, each weight w = d2 2^16 + d1 2^8 + d0 as three signed-byte digits: d0 is
+/// w's low byte, d1 that of (w + 2^7) >> 8, d2 = (w + 2^15 + 2^7) >> 16 (at most 64). Digit k
+/// of the four weights is `Digits16`'s vector k, weight j in byte j of each lane, as `vpdpbusd`
+/// takes them.
 struct Digits16([__m512i; 3]);
 
 impl Digits16 {
@@ -721,6 +722,57 @@ mod tests {
         let v: [i32; 16] = std::array::from_fn(|j| f(j as i32));
         // SAFETY: sixteen i32 are one 512-bit vector.
         unsafe { std::mem::transmute::<[i32; 16], __m512i>(v) }
+    }
+
+    /// The sixteen-lane u8 weights are `bilinear_weights_u8`'s, and their byte digits add back
+    /// up to them (d2 2^16 + d1 2^8 + d0, d0 and d1 signed), at fractions including 0, 1/2 and
+    /// 1; the blend of taps (0, 1, 255, 128) by digits and by products is `bilinear_u8`'s.
+    #[test]
+    fn u8_weights_and_their_digits_are_the_scalar_ones() {
+        if !crate::cpu::avx512_vbmi() {
+            eprintln!("SKIP: no AVX-512 VBMI and VNNI on this CPU");
+            return;
+        }
+        let fracs = |s: u32| -> [f32; 16] {
+            std::array::from_fn(|j| match (j as u32 + s) % 7 {
+                0 => 0.0,
+                1 => 1.0,
+                2 => 0.5,
+                k => {
+                    let h = (j as u32).wrapping_mul(2_654_435_761) ^ (s * 97 + k);
+                    (h % 1_000_003) as f32 / 1_000_003.0
+                }
+            })
+        };
+        let bytes = |v: __m512i| unsafe { std::mem::transmute::<__m512i, [u8; 64]>(v) };
+        let words = |v: __m512i| unsafe { std::mem::transmute::<__m512i, [i32; 16]>(v) };
+        let taps = [0u8, 1, 255, 128];
+        for s in 0..50 {
+            let (fx, fy) = (fracs(s), fracs(s + 3));
+            // SAFETY: the CPU has AVX-512 F, BW, VBMI and VNNI (checked above).
+            let (w, d, by_digits, by_products) = unsafe {
+                let f = (_mm512_loadu_ps(fx.as_ptr()), _mm512_loadu_ps(fy.as_ptr()));
+                let v = _mm512_set1_epi32(i32::from_le_bytes(taps));
+                (
+                    weights_u8_16(f).map(words),
+                    Digits16::new(f).0.map(bytes),
+                    words(bilinear_u8_16::<true>(v, f)),
+                    words(bilinear_u8_16::<false>(v, f)),
+                )
+            };
+            for l in 0..16 {
+                let scalar = crate::raster::bilinear_weights_u8((fx[l], fy[l]));
+                for (j, &want) in scalar.iter().enumerate() {
+                    assert_eq!(w[j][l], want, "lane {l} weight {j}");
+                    let digit = |k: usize| i32::from(d[k][4 * l + j] as i8);
+                    let back = (digit(2) << 16) + (digit(1) << 8) + digit(0);
+                    assert_eq!(back, want, "lane {l} weight {j}: digits");
+                    assert!((0..=64).contains(&digit(2)), "lane {l} weight {j}");
+                }
+                let want = i32::from(crate::raster::bilinear_u8(taps, (fx[l], fy[l])));
+                assert_eq!((by_digits[l], by_products[l]), (want, want), "lane {l}");
+            }
+        }
     }
 
     /// The window stays inside its rows and the image: it starts early where 32 columns from
