@@ -10,7 +10,7 @@ pub(crate) fn avx2() -> bool {
 
 /// Whether the CPU has AVX-512 with byte permutes and byte dot products (F, BW, VL, VBMI and
 /// VNNI: Ice Lake, Zen 4 and later; false off x86-64).
-pub(crate) fn avx512_vbmi() -> bool {
+pub(crate) fn avx512_vbmi_vnni() -> bool {
     #[cfg(target_arch = "x86_64")]
     return std::arch::is_x86_feature_detected!("avx512f")
         && std::arch::is_x86_feature_detected!("avx512bw")

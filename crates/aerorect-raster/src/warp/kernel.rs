@@ -15,12 +15,14 @@ pub(crate) struct SourceGeometry {
     step_y: usize,
     /// Use the AVX2 build of the row loop.
     simd: bool,
-    /// The AVX2 build may also use AVX-512 F, BW, VL, VBMI and VNNI (`Build::Best` on a CPU with them).
+    /// The AVX2 build may also use AVX-512 F, BW, VL, VBMI and VNNI (`Build::Best` on a CPU
+    /// with them).
     pub(crate) avx512: bool,
 }
 
 /// Which build of the kernels a warp runs: the portable one, AVX2 alone, or the best this CPU
-/// has (AVX2, with AVX-512 steps where it has F, BW, VL, VBMI and VNNI). Tests compare all three.
+/// has (AVX2, with AVX-512 steps where it has F, BW, VL, VBMI and VNNI). Tests compare all
+/// three.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Build {
     Portable,
@@ -47,7 +49,7 @@ impl SourceGeometry {
             step_x: usize::from(width > 1),
             step_y: if height > 1 { width } else { 0 },
             simd,
-            avx512: simd && build == Build::Best && crate::cpu::avx512_vbmi(),
+            avx512: simd && build == Build::Best && crate::cpu::avx512_vbmi_vnni(),
         }
     }
 

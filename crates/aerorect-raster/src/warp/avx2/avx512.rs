@@ -729,7 +729,7 @@ mod tests {
     /// 1; the blend of taps (0, 1, 255, 128) by digits and by products is `bilinear_u8`'s.
     #[test]
     fn u8_weights_and_their_digits_are_the_scalar_ones() {
-        if !crate::cpu::avx512_vbmi() {
+        if !crate::cpu::avx512_vbmi_vnni() {
             eprintln!("SKIP: no AVX-512 VBMI and VNNI on this CPU");
             return;
         }
@@ -780,7 +780,7 @@ mod tests {
     /// span of 32 columns or more.
     #[test]
     fn rows_stay_inside_the_image() {
-        if !crate::cpu::avx512_vbmi() {
+        if !crate::cpu::avx512_vbmi_vnni() {
             eprintln!("SKIP: no AVX-512 VBMI and VNNI on this CPU");
             return;
         }
@@ -826,7 +826,7 @@ mod tests {
     /// it refuses pixels off the interior, four pixel rows or more than 29 columns.
     #[test]
     fn cubic_windows_stay_inside_the_image() {
-        if !crate::cpu::avx512_vbmi() {
+        if !crate::cpu::avx512_vbmi_vnni() {
             eprintln!("SKIP: no AVX-512 VBMI and VNNI on this CPU");
             return;
         }
