@@ -16,11 +16,20 @@ pub trait Sample: Copy + Default + Send + Sync + PartialEq + std::fmt::Debug + '
     /// `Some` when `v` is exactly representable (used to validate nodata values).
     fn from_f64_exact(v: f64) -> Option<Self>;
 
-    /// The bilinear blend of taps `[p00, p01, p10, p11]` (upper left, upper right, lower left,
-    /// lower right) at fractions `(fx, fy)` in [0, 1]: along x, then y, in f32, then
-    /// `from_f32`.
+    /// The integer weights `bilinear` blends with at fractions `f`, made once per pixel for
+    /// all its bands (u8: `bilinear_weights_u8`); types that blend in f32 have none.
+    #[doc(hidden)]
     #[inline(always)]
-    fn bilinear(p: [Self; 4], (fx, fy): (f32, f32)) -> Self {
+    fn bilinear_weights(_f: (f32, f32)) -> [i32; 4] {
+        [0; 4]
+    }
+
+    /// The bilinear blend of taps `[p00, p01, p10, p11]` (upper left, upper right, lower left,
+    /// lower right) at fractions `(fx, fy)` in [0, 1], `w` being `bilinear_weights((fx, fy))`:
+    /// along x, then y, in f32, then `from_f32`.
+    #[doc(hidden)]
+    #[inline(always)]
+    fn bilinear(p: [Self; 4], (fx, fy): (f32, f32), _w: [i32; 4]) -> Self {
         let [p00, p01, p10, p11] = p.map(Self::to_f32);
         let top = p00 + fx * (p01 - p00);
         let bottom = p10 + fx * (p11 - p10);
@@ -40,19 +49,27 @@ pub(crate) fn bilinear_weights_u8((fx, fy): (f32, f32)) -> [i32; 4] {
     let scale = (1u32 << U8_WEIGHT_BITS) as f32;
     let (bx, by) = (1.0 - fx, 1.0 - fy);
     let (sbx, sfx) = (bx * scale, fx * scale);
-    // Half to even by the f32 addition itself (products in [0, 2^22], so w + 2^23 has unit
-    // spacing): a plain SSE2 loop, no `roundeven` call.
+    // Half to even by the f32 addition itself: the products are in [0, 2^22], so w + 2^23 lies
+    // in [2^23, 2^24), where f32 spacing is 1 and the mantissa bits are the integer w. Integer
+    // operations only (no `roundeven` call, no saturating conversion), so loops vectorise.
     let magic = (1u32 << 23) as f32;
-    [sbx * by, sfx * by, sbx * fy, sfx * fy].map(|w| ((w + magic) - magic) as i32)
+    [sbx * by, sfx * by, sbx * fy, sfx * fy]
+        .map(|w| ((w + magic).to_bits() - magic.to_bits()) as i32)
 }
 
-/// u8's bilinear blend in integers: the taps times `bilinear_weights_u8`, summed exactly (at
-/// most 255 * (2^22 + 3) < 2^31) and rounded half up. Every build computes these integers.
+/// u8's bilinear blend in integers: the taps times the weights (`bilinear_weights_u8`), summed
+/// exactly (at most 255 * (2^22 + 3) < 2^31) and rounded half up. Every build computes these
+/// integers; the weights are made once per pixel for all its bands.
 #[inline(always)]
-pub(crate) fn bilinear_u8(p: [u8; 4], f: (f32, f32)) -> u8 {
-    let w = bilinear_weights_u8(f);
+pub(crate) fn blend_u8(p: [u8; 4], w: [i32; 4]) -> u8 {
     let sum: i32 = p.iter().zip(w).map(|(&p, w)| i32::from(p) * w).sum();
     ((sum + (1 << (U8_WEIGHT_BITS - 1))) >> U8_WEIGHT_BITS) as u8
+}
+
+/// u8's bilinear value at fractions `f`: `blend_u8` of `bilinear_weights_u8(f)`.
+#[cfg(test)]
+pub(crate) fn bilinear_u8(p: [u8; 4], f: (f32, f32)) -> u8 {
+    blend_u8(p, bilinear_weights_u8(f))
 }
 
 impl Sample for u8 {
@@ -70,8 +87,12 @@ impl Sample for u8 {
         (v.fract() == 0.0 && (0.0..=255.0).contains(&v)).then_some(v as u8)
     }
     #[inline(always)]
-    fn bilinear(p: [Self; 4], f: (f32, f32)) -> Self {
-        bilinear_u8(p, f)
+    fn bilinear_weights(f: (f32, f32)) -> [i32; 4] {
+        bilinear_weights_u8(f)
+    }
+    #[inline(always)]
+    fn bilinear(p: [Self; 4], _f: (f32, f32), w: [i32; 4]) -> Self {
+        blend_u8(p, w)
     }
 }
 

@@ -1567,7 +1567,7 @@ impl Tail {
         for j in 0..self.n {
             let at = self.from + j;
             let mut tap = K::Tap::default();
-            valid[at] = K::prepare(g, self.xs[j], self.ys[j], &mut tap);
+            valid[at] = K::prepare::<T>(g, self.xs[j], self.ys[j], &mut tap);
             for (plane, out) in planes.iter().zip(outs.iter_mut()) {
                 out[at] = if valid[at] {
                     K::apply(plane, g, &tap)
@@ -2007,7 +2007,7 @@ fn tail_states<Q: CubicPositions>(g: &SourceGeometry, pos: &Q, from: usize, stat
     for (p, st) in state.iter_mut().enumerate().skip(from) {
         let mut tap = Default::default();
         let (x, y) = pos.at(p);
-        *st = if Bicubic::prepare(g, x, y, &mut tap) {
+        *st = if Bicubic::prepare::<f32>(g, x, y, &mut tap) {
             2
         } else {
             0
@@ -2383,7 +2383,7 @@ unsafe fn bicubic_one<T: SimdSample, Q: CubicPositions>(
         2 => {
             let mut tap = Default::default();
             let (x, y) = pos.at(k);
-            Bicubic::prepare(g, x, y, &mut tap);
+            Bicubic::prepare::<T>(g, x, y, &mut tap);
             Bicubic::apply(plane, g, &tap)
         }
         _ => nodata,

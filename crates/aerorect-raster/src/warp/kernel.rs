@@ -69,7 +69,7 @@ pub(crate) trait Kernel: 'static {
     /// offset (`RelativeBlock::new`): the kernel's own rounding then falls on the offset.
     const FAST_SHIFT: f64 = 0.0;
     /// Writes the taps of source position (x, y); false when (x, y) is outside the image.
-    fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut Self::Tap) -> bool;
+    fn prepare<T: Sample>(g: &SourceGeometry, x: f64, y: f64, tap: &mut Self::Tap) -> bool;
     fn apply<T: Sample>(plane: &[T], g: &SourceGeometry, tap: &Self::Tap) -> T;
 }
 
@@ -363,7 +363,7 @@ fn row_body<T: Sample, K: Kernel, M: PixelMap>(
             .zip(taps.iter_mut())
             .zip(valid.iter_mut())
         {
-            *ok = K::prepare(g, *x, *y, tap);
+            *ok = K::prepare::<T>(g, *x, *y, tap);
         }
         let range = out.start + c0..out.start + c0 + n;
         for b in 0..src.bands() {
@@ -387,7 +387,7 @@ impl Kernel for Nearest {
 
     /// Branch-free like the bilinear one: the index is always valid, the flag tells inside.
     #[inline(always)]
-    fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut u32) -> bool {
+    fn prepare<T: Sample>(g: &SourceGeometry, x: f64, y: f64, tap: &mut u32) -> bool {
         let nearest = |v: f64, n: usize| ((v + 0.5).max(0.0) as i32).min(n as i32 - 1) as u32;
         *tap = nearest(y, g.height) * g.width as u32 + nearest(x, g.width);
         g.inside(x, y)
@@ -407,6 +407,8 @@ pub(crate) struct BilinearTap {
     offset: u32,
     fx: f32,
     fy: f32,
+    /// The sample type's integer weights (`Sample::bilinear_weights`), made once for all bands.
+    w: [i32; 4],
 }
 
 impl Kernel for Bilinear {
@@ -415,13 +417,14 @@ impl Kernel for Bilinear {
     /// Branch-free so that the loop vectorises: the taps are always valid indices (NaN and
     /// outside positions are clamped), the returned flag says whether the pixel is inside.
     #[inline(always)]
-    fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut BilinearTap) -> bool {
+    fn prepare<T: Sample>(g: &SourceGeometry, x: f64, y: f64, tap: &mut BilinearTap) -> bool {
         let (x0, fx) = left_neighbour(x, g.width);
         let (y0, fy) = left_neighbour(y, g.height);
         *tap = BilinearTap {
             offset: y0 * g.width as u32 + x0,
             fx,
             fy,
+            w: T::bilinear_weights((fx, fy)),
         };
         g.inside(x, y)
     }
@@ -440,7 +443,7 @@ impl Kernel for Bilinear {
                 *plane.get_unchecked(last),
             ]
         };
-        T::bilinear(p, (t.fx, t.fy))
+        T::bilinear(p, (t.fx, t.fy), t.w)
     }
 }
 
@@ -512,7 +515,7 @@ impl Kernel for Bicubic {
 
     /// Branch-free: indices are clamped (NaN to the first pixel), the flag tells inside.
     #[inline(always)]
-    fn prepare(g: &SourceGeometry, x: f64, y: f64, tap: &mut BicubicTap) -> bool {
+    fn prepare<T: Sample>(g: &SourceGeometry, x: f64, y: f64, tap: &mut BicubicTap) -> bool {
         let inside = g.inside(x, y);
         // Positions are clamped to [-1, n] before flooring: taps are clamped anyway.
         let xc = x.max(-1.0).min(g.width as f64);
