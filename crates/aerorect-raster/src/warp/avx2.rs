@@ -526,7 +526,7 @@ impl SimdSample for u8 {
     #[target_feature(enable = "avx2,avx512f")]
     #[inline]
     unsafe fn store16(v: __m512, out: *mut u8) {
-        let q = _mm512_cvttps_epi32(_mm512_add_ps(v, _mm512_set1_ps(0.5)));
+        let q = avx512::rounded16(v);
         let bytes = _mm512_cvtusepi32_epi8(_mm512_max_epi32(q, _mm512_setzero_si512()));
         // SAFETY: sixteen samples writable at `out` (the contract).
         unsafe { _mm_storeu_si128(out as *mut __m128i, bytes) };
@@ -789,7 +789,7 @@ impl SimdSample for u16 {
     #[target_feature(enable = "avx2,avx512f")]
     #[inline]
     unsafe fn store16(v: __m512, out: *mut u16) {
-        let q = _mm512_cvttps_epi32(_mm512_add_ps(v, _mm512_set1_ps(0.5)));
+        let q = avx512::rounded16(v);
         let words = _mm512_cvtusepi32_epi16(_mm512_max_epi32(q, _mm512_setzero_si512()));
         // SAFETY: sixteen samples writable at `out` (the contract).
         unsafe { _mm256_storeu_si256(out as *mut __m256i, words) };

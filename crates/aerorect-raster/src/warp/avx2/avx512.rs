@@ -520,8 +520,8 @@ fn weights_u8_16((fx, fy): (__m512, __m512)) -> [__m512i; 4] {
     })
 }
 
-/// Sixteen blended values of an integer type rounded as `from_f32` rounds in range (v + 0.5,
-/// truncated).
+/// Sixteen values of an integer type rounded as `from_f32` rounds in range (v + 0.5,
+/// truncated); `store16` clamps and saturates them.
 #[target_feature(enable = "avx512f")]
 #[inline]
 pub(crate) fn rounded16(v: __m512) -> __m512i {
