@@ -122,7 +122,7 @@ pub fn gcp(a: GcpArgs) -> Result<()> {
     };
     let json = serde_json::to_string_pretty(&report)?;
     write_image_and_report(&a.output, &out, a.report.as_deref(), &json)?;
-    println!(
+    outln!(
         "{} -> {}: {} fit to {} GCPs, residual RMS {:.4} px, {} x {} px at reference ({}, {}), {:.1} ms",
         a.input.display(),
         a.output.display(),
@@ -260,7 +260,7 @@ pub fn register_cmd(a: RegisterArgs) -> Result<()> {
     let seconds = t.elapsed().as_secs_f64();
     let json = register_report(&a, &reg, seconds)?;
     write_image_and_report(&a.output, &out, a.report.as_deref(), &json)?;
-    println!(
+    outln!(
         "{} -> {}: {} tie points, {} inliers, inlier RMS {:.3} px, coarse rotation {:.0} deg scale {:.2}, {:.2} s",
         a.input.display(),
         a.output.display(),
@@ -352,7 +352,7 @@ pub fn compare(a: CompareArgs) -> Result<()> {
 }
 
 fn print_table(r: &CompareResult, a: &CompareArgs) {
-    println!(
+    outln!(
         "{} x {} frame simulated from {} ({} x {}); {} GCPs, {} check points, point noise {} px, attitude N(0, {}'), {} tie points ({} inliers)",
         r.frame_size[0],
         r.frame_size[1],
@@ -366,13 +366,13 @@ fn print_table(r: &CompareResult, a: &CompareArgs) {
         r.tie_points,
         r.tie_inliers
     );
-    println!(
+    outln!(
         "{:<13} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} | paper: {:>7} {:>7} {:>7}",
         "method", "du_max", "dv_max", "URMS", "VRMS", "RMSE", "time s", "RMSE", "time s", ""
     );
     for row in &r.rows {
         let s = &row.stats;
-        println!(
+        outln!(
             "{:<13} {:>8.4} {:>8.4} {:>8.4} {:>8.4} {:>8.4} {:>9.3} | paper: {:>7.4} {:>7.2}",
             row.method,
             s.du_max,

@@ -40,18 +40,18 @@ pub(crate) fn board_observations(
             fixed_half_window,
         },
     )?;
-    println!(
+    outln!(
         "chessboard {cols} x {rows} inner corners, squares {square_m} m, photos {} x {}:",
         found.size.width, found.size.height
     );
     for v in &found.views {
         match &v.outcome {
-            Ok(n) => println!(
+            Ok(n) => outln!(
                 "  {:<14} {n} corners ({:.1} ms)",
                 v.image,
                 v.detect_seconds * 1e3
             ),
-            Err(why) => println!("  {:<14} skipped: {why}", v.image),
+            Err(why) => outln!("  {:<14} skipped: {why}", v.image),
         }
     }
     let n = found.found();

@@ -190,7 +190,7 @@ pub fn calibrate_cmd(a: CalibrateArgs) -> Result<()> {
 }
 
 fn print_report(r: &CalibrationReport, n: usize) {
-    println!(
+    outln!(
         "{} points in {} images, model {}; {} iterations, stopped: {:?}",
         n,
         r.views.len(),
@@ -200,25 +200,25 @@ fn print_report(r: &CalibrationReport, n: usize) {
     );
     for p in &r.parameters {
         match p.std {
-            Some(s) => println!("  {:<6} {:>14.6} +- {:.6}", p.name, p.value, s),
-            None => println!("  {:<6} {:>14.6}   (fixed)", p.name, p.value),
+            Some(s) => outln!("  {:<6} {:>14.6} +- {:.6}", p.name, p.value, s),
+            None => outln!("  {:<6} {:>14.6}   (fixed)", p.name, p.value),
         }
     }
-    println!(
+    outln!(
         "RMS {:.5} px, mean error {:.5} px, distortion {:.4} %",
         r.rms_px, r.mean_error_px, r.distortion_percent
     );
     for v in &r.views {
-        println!(
+        outln!(
             "  image {:<14} {:>4} points  RMS {:.4} px",
             v.image, v.points, v.rms_px
         );
     }
     for h in &r.held_fixed {
-        println!("note: {h}");
+        outln!("note: {h}");
     }
     for w in r.warnings.iter().chain(&r.correlation_warnings) {
-        println!("warning: {w}");
+        outln!("warning: {w}");
     }
 }
 
@@ -293,7 +293,7 @@ pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
     let secs = t.elapsed().as_secs_f64();
     write_image(&a.output, &out)?;
     let (o, size) = (plan.output.intrinsics, plan.output.size);
-    println!(
+    outln!(
         "{} -> {}: {} x {}, principal point ({:.2}, {:.2}), {} in {:.1} ms",
         a.input.display(),
         a.output.display(),
@@ -324,19 +324,19 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     }
     let rows = aerorect::lens_compare::compare(a.noise_px, a.seed)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        outln!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());
     }
-    println!(
+    outln!(
         "one image of a 3-D test field, 800 x 800, f = 1000 px; lens: k1 -0.15, k2 0.05, p1 3e-3, p2 -2e-3; noise {} px",
         a.noise_px
     );
-    println!(
+    outln!(
         "{:<10} {:>6} {:>16} {:>14} {:>18} {:>10}",
         "model", "params", "mean error px", "distortion %", "check mean err px", "iters"
     );
     for r in &rows {
-        println!(
+        outln!(
             "{:<10} {:>6} {:>16.4} {:>14.4} {:>18.4} {:>10}",
             r.model,
             r.parameters,

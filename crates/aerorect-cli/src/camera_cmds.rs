@@ -81,7 +81,7 @@ fn convert(a: ConvertArgs) -> Result<()> {
     staged.text(&a.output, &text)?;
     staged.commit()?;
     let k = &camera.intrinsics;
-    println!(
+    outln!(
         "{} ({}) -> {} ({}): {} x {}, fx {:.4}, fy {:.4}, cx {:.4}, cy {:.4}, lens {}",
         a.input.display(),
         from.name(),

@@ -182,7 +182,7 @@ pub fn rectify(a: RectifyArgs) -> Result<()> {
     let json = serde_json::to_string_pretty(&report)?;
     write_image_and_report(&a.output, &out, a.report.as_deref(), &json)?;
     let g = &plan.geometry;
-    println!(
+    outln!(
         "{} -> {}: {} x {} px, standard origin ({}, {}){}, {} warp {:.1} ms",
         a.input.display(),
         a.output.display(),
@@ -271,7 +271,7 @@ pub fn simulate(a: SimulateArgs) -> Result<()> {
         staged.csv(p, &points)?;
     }
     staged.commit()?;
-    println!(
+    outln!(
         "{} -> {}: {} x {} frame, {} check points",
         a.ortho.display(),
         a.output.display(),
@@ -303,10 +303,10 @@ pub fn evaluate(a: EvaluateArgs) -> Result<()> {
     let s = aerorect::evaluate::evaluate(&camera, &attitude, &points)
         .with_context(|| a.checkpoints.display().to_string())?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&s)?);
+        outln!("{}", serde_json::to_string_pretty(&s)?);
     } else {
-        println!("check points  du_max    dv_max    URMS      VRMS      RMSE   (pixels)");
-        println!(
+        outln!("check points  du_max    dv_max    URMS      VRMS      RMSE   (pixels)");
+        outln!(
             "{:>12}  {:<9.4} {:<9.4} {:<9.4} {:<9.4} {:<9.4}",
             s.n, s.du_max, s.dv_max, s.urms, s.vrms, s.rmse
         );
@@ -359,7 +359,7 @@ pub fn sensitivity(a: SensitivityArgs) -> Result<()> {
     };
     let row = aerorect::sensitivity::run(&cfg)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&row)?);
+        outln!("{}", serde_json::to_string_pretty(&row)?);
     } else {
         print_sensitivity(&row, &attitude.to_degrees(), frame.width, frame.height);
     }
@@ -367,13 +367,13 @@ pub fn sensitivity(a: SensitivityArgs) -> Result<()> {
 }
 
 pub fn print_sensitivity(r: &SensitivityRow, att: &SixAngleDegrees, w: usize, h: usize) {
-    println!(
+    outln!(
         "{w} x {h} frame, field of view {:.1} x {:.1} deg, {} check points, every angle N(0, {}') over {} draws",
         r.fov_deg[0], r.fov_deg[1], r.checkpoints, r.sigma_arcmin, r.draws
     );
     // Rounded to 1e-9 degree: the degrees -> radians -> degrees round trip leaves float noise.
     let rd = |v: f64| (v * 1e9).round() / 1e9;
-    println!(
+    outln!(
         "attitude (deg): azimuth {} elevation {} image_rotation {} pitch {} roll {} yaw {}",
         rd(att.azimuth),
         rd(att.elevation),
@@ -382,15 +382,15 @@ pub fn print_sensitivity(r: &SensitivityRow, att: &SixAngleDegrees, w: usize, h:
         rd(att.roll),
         rd(att.yaw),
     );
-    println!(
+    outln!(
         "method                          du_max   dv_max   URMS     VRMS     RMSE   (pixels, means over draws)"
     );
-    println!("paper, six-angle model (Tab. 1) 1.6785   2.2546   0.7157   0.9315   1.1747");
-    println!(
+    outln!("paper, six-angle model (Tab. 1) 1.6785   2.2546   0.7157   0.9315   1.1747");
+    outln!(
         "aerorect, six-angle model       {:<8.4} {:<8.4} {:<8.4} {:<8.4} {:<8.4}",
         r.du_max, r.dv_max, r.urms, r.vrms, r.rmse
     );
-    println!(
+    outln!(
         "sqrt(mean RMSE^2) {:.4} px; first-order prediction {:.4} px",
         r.rms_of_rmse, r.predicted_rms_of_rmse
     );
@@ -406,40 +406,40 @@ pub struct DemoArgs {
 pub fn demo(a: DemoArgs) -> Result<()> {
     let s = aerorect::demo::run(&a.out_dir)?;
     let d = a.out_dir.display();
-    println!("aerorect demo: OpenCV's aero1.jpg (a real aerial photo) as the nadir scene");
-    println!(
+    outln!("aerorect demo: OpenCV's aero1.jpg (a real aerial photo) as the nadir scene");
+    outln!(
         "camera: 6 mm lens, 15 um pixels, 320 x 240; attitude (deg): azimuth 20, elevation 20, image_rotation 2, pitch 3, roll -2, yaw 15"
     );
-    println!(
+    outln!(
         "1. simulated the oblique frame        -> {d}/oblique.png, 25 check points -> {d}/checkpoints.csv"
     );
-    println!(
+    outln!(
         "2. rectified it ({} x {} px{})         -> {d}/rectified_bilinear.png, {d}/rectified_bicubic.png",
         s.output_size[0],
         s.output_size[1],
         if s.clipped { ", clipped" } else { "" }
     );
-    println!(
+    outln!(
         "   PSNR against the scene: bilinear {:.2} dB, bicubic {:.2} dB over {} pixel samples",
         s.psnr_bilinear_db.0, s.psnr_bicubic_db.0, s.psnr_bicubic_db.1
     );
-    println!(
+    outln!(
         "3. check points (eq. 19-20), exact attitude:      RMSE {:.2e} px (du_max {:.2e}, dv_max {:.2e})",
         s.exact.rmse, s.exact.du_max, s.exact.dv_max
     );
-    println!(
+    outln!(
         "   every angle off by +3 arc-minutes:             RMSE {:.4} px (URMS {:.4}, VRMS {:.4})",
         s.off_by_3_arcmin.rmse, s.off_by_3_arcmin.urms, s.off_by_3_arcmin.vrms
     );
-    println!(
+    outln!(
         "4. random 3' errors on all six angles, {} draws: mean RMSE {:.4} px for this {:.1} deg camera (`aerorect sensitivity` runs the paper's 512 x 512 case)",
         s.sensitivity.draws, s.sensitivity.rmse, s.sensitivity.fov_deg[0]
     );
-    println!(
+    outln!(
         "warp time {:.2} ms; everything, with reports, in {d}/ (summary.json)",
         s.warp_seconds * 1e3
     );
-    println!(
+    outln!(
         "try: aerorect rectify {d}/oblique.png {d}/mine.tif --camera {d}/camera.toml --attitude {d}/attitude.toml --report {d}/mine.json"
     );
     Ok(())

@@ -1,6 +1,9 @@
 //! The `aerorect` command-line program: argument parsing and reports only; the work is in the
 //! `aerorect` library.
 
+#[macro_use]
+mod stdout;
+
 mod baseline_cmds;
 mod board_cmds;
 mod calib_cmds;
@@ -11,6 +14,7 @@ mod mosaic_cmds;
 mod motion_cmds;
 mod outputs;
 mod plot;
+mod signals;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -73,28 +77,9 @@ enum Command {
     Mosaic(mosaic_cmds::MosaicArgs),
 }
 
-/// On SIGINT or SIGTERM (Ctrl-C on Windows): remove the outputs still being written (their
-/// temporary files) and exit; outputs already in place stay whole.
-fn remove_partial_outputs_on_signal() {
-    let installed = ctrlc::set_handler(|| {
-        let abandoned = aerorect::io::remove_pending();
-        eprintln!(
-            "interrupted: {} unfinished output file(s) removed; finished outputs are kept",
-            abandoned.removed
-        );
-        // Exits with the register held, so no further output can land.
-        std::process::exit(130);
-    });
-    if let Err(e) = installed {
-        eprintln!(
-            "warning: no signal handler ({e}): an interrupted run may leave .aerorect-*.tmp files"
-        );
-    }
-}
-
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    remove_partial_outputs_on_signal();
+    signals::remove_partial_outputs_on_signal();
     if let Some(n) = cli.threads
         && let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
@@ -124,11 +109,8 @@ fn main() -> ExitCode {
         Command::Camera(a) => camera_cmds::camera_cmd(a),
         Command::DistortionCompare(a) => calib_cmds::compare_cmd(a),
     };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
+    if let Err(e) = &result {
+        eprintln!("error: {e:#}");
     }
+    stdout::finish(result.is_ok())
 }

@@ -93,7 +93,7 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
     } else {
         mosaic(frames, crs, &a.out, &mopts)?
     };
-    println!(
+    outln!(
         "{} frames -> {}: {} x {} px at {:.3} m/px, {} tiles{}, {:.2} s",
         r.frames.len(),
         display(&a.out),
