@@ -368,7 +368,16 @@ fn print_table(r: &CompareResult, a: &CompareArgs) {
     );
     outln!(
         "{:<13} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} | paper: {:>7} {:>7} {:>7}",
-        "method", "du_max", "dv_max", "URMS", "VRMS", "RMSE", "time s", "RMSE", "time s", ""
+        "method",
+        "du_max",
+        "dv_max",
+        "URMS",
+        "VRMS",
+        "RMSE",
+        "time s",
+        "RMSE",
+        "time s",
+        ""
     );
     for row in &r.rows {
         let s = &row.stats;

@@ -42,7 +42,8 @@ pub(crate) fn board_observations(
     )?;
     outln!(
         "chessboard {cols} x {rows} inner corners, squares {square_m} m, photos {} x {}:",
-        found.size.width, found.size.height
+        found.size.width,
+        found.size.height
     );
     for v in &found.views {
         match &v.outcome {

@@ -206,12 +206,16 @@ fn print_report(r: &CalibrationReport, n: usize) {
     }
     outln!(
         "RMS {:.5} px, mean error {:.5} px, distortion {:.4} %",
-        r.rms_px, r.mean_error_px, r.distortion_percent
+        r.rms_px,
+        r.mean_error_px,
+        r.distortion_percent
     );
     for v in &r.views {
         outln!(
             "  image {:<14} {:>4} points  RMS {:.4} px",
-            v.image, v.points, v.rms_px
+            v.image,
+            v.points,
+            v.rms_px
         );
     }
     for h in &r.held_fixed {
@@ -333,7 +337,12 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     );
     outln!(
         "{:<10} {:>6} {:>16} {:>14} {:>18} {:>10}",
-        "model", "params", "mean error px", "distortion %", "check mean err px", "iters"
+        "model",
+        "params",
+        "mean error px",
+        "distortion %",
+        "check mean err px",
+        "iters"
     );
     for r in &rows {
         outln!(

@@ -308,7 +308,12 @@ pub fn evaluate(a: EvaluateArgs) -> Result<()> {
         outln!("check points  du_max    dv_max    URMS      VRMS      RMSE   (pixels)");
         outln!(
             "{:>12}  {:<9.4} {:<9.4} {:<9.4} {:<9.4} {:<9.4}",
-            s.n, s.du_max, s.dv_max, s.urms, s.vrms, s.rmse
+            s.n,
+            s.du_max,
+            s.dv_max,
+            s.urms,
+            s.vrms,
+            s.rmse
         );
     }
     Ok(())
@@ -369,7 +374,11 @@ pub fn sensitivity(a: SensitivityArgs) -> Result<()> {
 pub fn print_sensitivity(r: &SensitivityRow, att: &SixAngleDegrees, w: usize, h: usize) {
     outln!(
         "{w} x {h} frame, field of view {:.1} x {:.1} deg, {} check points, every angle N(0, {}') over {} draws",
-        r.fov_deg[0], r.fov_deg[1], r.checkpoints, r.sigma_arcmin, r.draws
+        r.fov_deg[0],
+        r.fov_deg[1],
+        r.checkpoints,
+        r.sigma_arcmin,
+        r.draws
     );
     // Rounded to 1e-9 degree: the degrees -> radians -> degrees round trip leaves float noise.
     let rd = |v: f64| (v * 1e9).round() / 1e9;
@@ -388,11 +397,16 @@ pub fn print_sensitivity(r: &SensitivityRow, att: &SixAngleDegrees, w: usize, h:
     outln!("paper, six-angle model (Tab. 1) 1.6785   2.2546   0.7157   0.9315   1.1747");
     outln!(
         "aerorect, six-angle model       {:<8.4} {:<8.4} {:<8.4} {:<8.4} {:<8.4}",
-        r.du_max, r.dv_max, r.urms, r.vrms, r.rmse
+        r.du_max,
+        r.dv_max,
+        r.urms,
+        r.vrms,
+        r.rmse
     );
     outln!(
         "sqrt(mean RMSE^2) {:.4} px; first-order prediction {:.4} px",
-        r.rms_of_rmse, r.predicted_rms_of_rmse
+        r.rms_of_rmse,
+        r.predicted_rms_of_rmse
     );
 }
 
@@ -421,19 +435,27 @@ pub fn demo(a: DemoArgs) -> Result<()> {
     );
     outln!(
         "   PSNR against the scene: bilinear {:.2} dB, bicubic {:.2} dB over {} pixel samples",
-        s.psnr_bilinear_db.0, s.psnr_bicubic_db.0, s.psnr_bicubic_db.1
+        s.psnr_bilinear_db.0,
+        s.psnr_bicubic_db.0,
+        s.psnr_bicubic_db.1
     );
     outln!(
         "3. check points (eq. 19-20), exact attitude:      RMSE {:.2e} px (du_max {:.2e}, dv_max {:.2e})",
-        s.exact.rmse, s.exact.du_max, s.exact.dv_max
+        s.exact.rmse,
+        s.exact.du_max,
+        s.exact.dv_max
     );
     outln!(
         "   every angle off by +3 arc-minutes:             RMSE {:.4} px (URMS {:.4}, VRMS {:.4})",
-        s.off_by_3_arcmin.rmse, s.off_by_3_arcmin.urms, s.off_by_3_arcmin.vrms
+        s.off_by_3_arcmin.rmse,
+        s.off_by_3_arcmin.urms,
+        s.off_by_3_arcmin.vrms
     );
     outln!(
         "4. random 3' errors on all six angles, {} draws: mean RMSE {:.4} px for this {:.1} deg camera (`aerorect sensitivity` runs the paper's 512 x 512 case)",
-        s.sensitivity.draws, s.sensitivity.rmse, s.sensitivity.fov_deg[0]
+        s.sensitivity.draws,
+        s.sensitivity.rmse,
+        s.sensitivity.fov_deg[0]
     );
     outln!(
         "warp time {:.2} ms; everything, with reports, in {d}/ (summary.json)",
