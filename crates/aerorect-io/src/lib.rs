@@ -19,6 +19,7 @@ pub mod metadata;
 pub mod sensors;
 pub mod staged;
 mod strip_tiff;
+mod temp_names;
 mod tiff_file;
 pub mod tiled_tiff;
 

@@ -3,8 +3,14 @@
 //! uncommitted removes its temporary files. Every temporary file is also listed in one
 //! process-wide register, so a signal handler can remove them with [`remove_pending`] before
 //! the process exits.
+//!
+//! A target that exists and is not a regular file is never replaced: a FIFO or a character
+//! device (`/dev/null`, `/dev/stdout` through its link) is staged in the system's temporary
+//! folder and copied into the target, opened for writing without a rename, at commit (after the
+//! regular files were renamed; opening a FIFO waits for its reader). A directory, a block device
+//! or a socket is refused before anything is written.
 
-use crate::IoError;
+use crate::{IoError, temp_names};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -44,27 +50,93 @@ pub fn remove_pending() -> Abandoned {
 struct StagedFile {
     tmp: Option<NamedTempFile>,
     path: PathBuf,
+    /// The target is a FIFO or a character device: copied into, never renamed over.
+    in_place: bool,
 }
 
 impl Drop for StagedFile {
     fn drop(&mut self) {
         if let Some(tmp) = self.tmp.take() {
-            let mut register = pending();
-            register.retain(|p| p != tmp.path());
-            // Removed while the register is held, so a signal cannot leave it behind.
-            let _ = tmp.close();
+            discard(tmp);
         }
     }
 }
 
-/// A temporary file beside `path`, made and registered under the register's lock.
-fn temp_beside(path: &Path) -> Result<NamedTempFile, IoError> {
+/// Unregisters and removes a temporary file, while the register is held so that a signal
+/// cannot leave it behind.
+fn discard(tmp: NamedTempFile) {
+    let mut register = pending();
+    register.retain(|p| p != tmp.path());
+    let _ = tmp.close();
+}
+
+/// How an output reaches its target.
+enum Landing {
+    /// A regular file, or none yet: renamed over.
+    Rename,
+    /// A FIFO or a character device: written in place.
+    InPlace,
+}
+
+/// How `path` is written, or an error when it exists and is neither a regular file, a FIFO nor
+/// a character device.
+fn landing(path: &Path) -> Result<Landing, IoError> {
+    let Ok(meta) = std::fs::metadata(path) else {
+        return Ok(Landing::Rename);
+    };
+    let kind = meta.file_type();
+    if kind.is_file() {
+        return Ok(Landing::Rename);
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_fifo() || kind.is_char_device() {
+            return Ok(Landing::InPlace);
+        }
+    }
+    let what = if kind.is_dir() {
+        "a directory"
+    } else {
+        special_kind(&kind)
+    };
+    Err(IoError::field(
+        path.display(),
+        format!(
+            "is {what}: an output is written to a regular file, a FIFO or a character device, never over anything else; nothing written"
+        ),
+    ))
+}
+
+#[cfg(unix)]
+fn special_kind(kind: &std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if kind.is_block_device() {
+        "a block device"
+    } else if kind.is_socket() {
+        "a socket"
+    } else {
+        "not a regular file"
+    }
+}
+
+#[cfg(not(unix))]
+fn special_kind(_: &std::fs::FileType) -> &'static str {
+    "not a regular file"
+}
+
+/// A temporary file beside `path` (in the system's temporary folder when `path` is written in
+/// place), made and registered under the register's lock.
+fn temp_beside(path: &Path, in_place: bool) -> Result<NamedTempFile, IoError> {
+    let system = std::env::temp_dir();
     let dir = match path.parent() {
+        _ if in_place => system.as_path(),
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
+    let prefix = temp_names::temp_prefix(path);
     let mut builder = tempfile::Builder::new();
-    builder.prefix(".aerorect-").suffix(".tmp");
+    builder.prefix(&prefix).suffix(".tmp");
     // Outputs are ordinary files (rw-r--r-- before the umask), not tempfile's private 0600.
     #[cfg(unix)]
     {
@@ -72,6 +144,9 @@ fn temp_beside(path: &Path) -> Result<NamedTempFile, IoError> {
         builder.permissions(std::fs::Permissions::from_mode(0o644));
     }
     let mut register = pending();
+    if !in_place {
+        temp_names::remove_stale(dir, path, &register);
+    }
     let tmp = builder.tempfile_in(dir).map_err(|e| IoError::io(path, e))?;
     register.push(tmp.path().to_path_buf());
     Ok(tmp)
@@ -95,9 +170,11 @@ impl StagedOutputs {
         path: &Path,
         write: impl FnOnce(&mut BufWriter<&mut File>) -> Result<(), IoError>,
     ) -> Result<(), IoError> {
+        let in_place = matches!(landing(path)?, Landing::InPlace);
         let mut staged = StagedFile {
-            tmp: Some(temp_beside(path)?),
+            tmp: Some(temp_beside(path, in_place)?),
             path: path.to_path_buf(),
+            in_place,
         };
         if let Some(tmp) = staged.tmp.as_mut() {
             let mut w = BufWriter::new(tmp.as_file_mut());
@@ -121,12 +198,28 @@ impl StagedOutputs {
         self.files.iter().map(|f| f.path.as_path())
     }
 
-    /// Renames every staged file into place. When a rename fails, the files already renamed
-    /// are removed (a file they replaced is not brought back) and the rest are discarded.
+    /// Renames every staged file into place, then copies those written in place (FIFOs,
+    /// character devices) into their targets. When a rename or a copy fails, the files already
+    /// renamed are removed (a file they replaced is not brought back) and the rest are
+    /// discarded; a device already written to stays written.
     pub fn commit(mut self) -> Result<(), IoError> {
-        let mut register = pending();
         let mut landed: Vec<PathBuf> = Vec::new();
-        for f in &mut self.files {
+        let result = self
+            .rename_regular(&mut landed)
+            .and_then(|()| self.copy_in_place());
+        if result.is_err() {
+            for p in &landed {
+                let _ = std::fs::remove_file(p);
+            }
+        }
+        // The remaining files unregister themselves on drop.
+        result
+    }
+
+    /// Renames the regular outputs, under the register's lock (a signal handler waits).
+    fn rename_regular(&mut self, landed: &mut Vec<PathBuf>) -> Result<(), IoError> {
+        let mut register = pending();
+        for f in self.files.iter_mut().filter(|f| !f.in_place) {
             let Some(tmp) = f.tmp.take() else { continue };
             let tmp_path = tmp.path().to_path_buf();
             match tmp.persist(&f.path) {
@@ -136,13 +229,31 @@ impl StagedOutputs {
                 }
                 Err(e) => {
                     f.tmp = Some(e.file);
-                    for p in &landed {
-                        let _ = std::fs::remove_file(p);
-                    }
-                    // The remaining files unregister themselves on drop.
-                    drop(register);
                     return Err(IoError::io(&f.path, e.error));
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// Copies each in-place output into its target, without the register's lock: opening a
+    /// FIFO waits for a reader, and a signal meanwhile must still remove the temporary files.
+    fn copy_in_place(&mut self) -> Result<(), IoError> {
+        use std::io::{Seek, SeekFrom};
+        for f in self.files.iter_mut().filter(|f| f.in_place) {
+            let Some(tmp) = f.tmp.as_mut() else { continue };
+            let path = f.path.as_path();
+            let mut target = std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(|e| IoError::io(path, e))?;
+            let staged = tmp.as_file_mut();
+            staged
+                .seek(SeekFrom::Start(0))
+                .and_then(|_| std::io::copy(staged, &mut target))
+                .map_err(|e| IoError::io(path, e))?;
+            if let Some(t) = f.tmp.take() {
+                discard(t);
             }
         }
         Ok(())
@@ -174,6 +285,27 @@ mod tests {
         s.commit().expect("commit");
         assert_eq!(names(dir.path()), ["a.txt", "b.txt"]);
         assert_eq!(std::fs::read_to_string(&b).expect("b"), "B");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_device_is_written_in_place_and_a_directory_is_refused() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = tempfile::tempdir().expect("tempdir");
+        let null = Path::new("/dev/null");
+        if std::fs::metadata(null).is_ok_and(|m| m.file_type().is_char_device()) {
+            let mut s = StagedOutputs::new();
+            s.text(&dir.path().join("a.txt"), "A").expect("a");
+            s.text(null, "to the device").expect("null");
+            s.commit().expect("commit");
+            assert!(std::fs::metadata(null).expect("null").file_type().is_char_device());
+            assert_eq!(names(dir.path()), ["a.txt"]);
+        }
+        let sub = dir.path().join("sub");
+        std::fs::create_dir(&sub).expect("mkdir");
+        let e = StagedOutputs::new().text(&sub, "B").expect_err("a directory");
+        assert!(e.to_string().contains("is a directory"), "{e}");
+        assert_eq!(names(dir.path()), ["a.txt", "sub"]);
     }
 
     #[test]
