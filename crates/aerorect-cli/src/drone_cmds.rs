@@ -229,7 +229,7 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
         staged.text(p, &serde_json::to_string_pretty(&r)?)?;
     }
     staged.commit()?;
-    println!("{}", result_line(&r));
+    outln!("{}", result_line(&r));
     for w in &r.info.warnings {
         eprintln!("warning: {}: {w}", a.input.display());
     }
@@ -456,7 +456,7 @@ pub fn batch(a: BatchArgs) -> Result<()> {
     );
     let say = |line: String| {
         if pb.is_hidden() {
-            println!("{line}");
+            outln!("{line}");
         } else {
             pb.println(line);
         }
@@ -548,15 +548,29 @@ fn process(a: &BatchArgs, input: &Path, opts: &DroneOptions) -> Outcome {
         Ok(o) => o,
         Err(e) => return failure(input, e),
     };
+    // An existing output counts as done only when it is a whole image; else it is redone.
+    let mut broken = None;
     if output.exists() && !a.force {
-        return Outcome::Skipped(format!(
-            "{} exists (use --force to rewrite)",
-            output.display()
-        ));
+        match aerorect::io::check_image_whole(&output) {
+            Ok(()) => {
+                return Outcome::Skipped(format!(
+                    "{} exists (use --force to rewrite)",
+                    output.display()
+                ));
+            }
+            Err(e) => broken = Some(e),
+        }
     }
     let thumbs = a.report_html.as_ref().map(|_| 320);
     match rectify_photo(input, &output, opts, thumbs) {
-        Ok(r) => Outcome::Done(Box::new(r)),
+        Ok(mut r) => {
+            if let Some(e) = broken {
+                let redone =
+                    format!("the existing output was not a whole image ({e}): rectified again");
+                r.info.warnings.insert(0, redone);
+            }
+            Outcome::Done(Box::new(r))
+        }
         Err(e) => failure(input, format!("{e:#}")),
     }
 }
@@ -600,7 +614,7 @@ fn summarise(a: &BatchArgs, outcomes: &[(usize, Outcome)], seconds: f64) -> Resu
     if let Some(p) = &a.report_html {
         write_report(p, (&done, &skipped, &failed), seconds)?;
     }
-    println!(
+    outln!(
         "{} frames: {} rectified, {} skipped, {} failed, {:.2} s",
         outcomes.len(),
         done.len(),
@@ -632,7 +646,7 @@ fn write_report(
     seconds: f64,
 ) -> Result<()> {
     if done.is_empty() && path.exists() {
-        println!(
+        outln!(
             "report: {} kept as it was (no frame was rectified in this run)",
             path.display()
         );
@@ -640,7 +654,7 @@ fn write_report(
     }
     let html = aerorect::report_html::render(done, skipped, failed, seconds, None);
     write_text(path, &html)?;
-    println!("report: {}", path.display());
+    outln!("report: {}", path.display());
     Ok(())
 }
 
@@ -663,9 +677,9 @@ pub fn overlap(a: OverlapArgs) -> Result<()> {
     }
     let r = aerorect::drone::overlap_shift(&a.a, &a.b, a.patch)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
+        outln!("{}", serde_json::to_string_pretty(&r)?);
     } else {
-        println!(
+        outln!(
             "{} vs {}: {} tiles of {} px over a {} x {} px overlap: B is offset by ({:.2}, {:.2}) px = ({:.3} m east, {:.3} m north) (median), RMS {:.2} px",
             a.a.display(),
             a.b.display(),
@@ -687,7 +701,7 @@ pub fn overlap(a: OverlapArgs) -> Result<()> {
 /// adjusted orientation and `adjustment.json`; a failed adjustment writes nothing.
 pub(crate) fn print_adjustment(r: &aerorect::flight::FlightReport) {
     for p in &r.pairs {
-        println!(
+        outln!(
             "pair {} / {}: {} tie points of {} patches{}, misalignment {:.3} m -> {}",
             p.a,
             p.b,
@@ -707,7 +721,7 @@ pub(crate) fn print_adjustment(r: &aerorect::flight::FlightReport) {
         eprintln!("warning: {u}: overlaps no other frame reliably; left as recorded");
     }
     let adj = &r.adjustment;
-    println!(
+    outln!(
         "adjustment: {} frames, {} tie points, rms {:.2} -> {:.2} px in {} iterations, {:.2} s",
         r.frames.len(),
         adj.tie_points,
@@ -734,7 +748,7 @@ fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
             .and_then(|out| Ok(flight.write_frame_staged(k, &out, opts, &mut staged)?));
         match res {
             Ok(p) => {
-                println!("{}", result_line(&p));
+                outln!("{}", result_line(&p));
                 done.push(p);
             }
             Err(e) => {
@@ -769,7 +783,7 @@ fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
         staged.text(p, &html)?;
     }
     staged.commit()?;
-    println!(
+    outln!(
         "adjustment report: {}; adjusted poses: {}",
         adjustment_json(a).display(),
         poses.display()

@@ -109,6 +109,17 @@ fn read_with_image_crate(path: &Path) -> Result<AnyRaster, IoError> {
     raster_from_dynamic(img).map_err(|e| IoError::decode(path, e))
 }
 
+/// Decodes the header of a PNG or JPEG file (its size and layout), not its pixels.
+pub(crate) fn check_header(path: &Path) -> Result<(), IoError> {
+    let reader = ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| IoError::io(path, e))?;
+    reader
+        .into_decoder()
+        .map(|_| ())
+        .map_err(|e| IoError::decode(path, e))
+}
+
 fn raster_from_dynamic(img: DynamicImage) -> Result<AnyRaster, String> {
     let size = ImageSize::new(img.width() as usize, img.height() as usize);
     let bands = img.color().channel_count() as usize;

@@ -22,6 +22,7 @@ mod strip_tiff;
 mod temp_names;
 mod tiff_file;
 pub mod tiled_tiff;
+pub mod whole;
 
 pub use attitude::read_attitude;
 pub use camera::{CameraFile, camera_toml};
@@ -43,3 +44,4 @@ pub use metadata::{PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};
 pub use staged::{Abandoned, StagedOutputs, remove_pending};
 pub use tiled_tiff::write_tiled_tiff;
+pub use whole::check_image_whole;
