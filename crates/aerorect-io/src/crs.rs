@@ -48,6 +48,40 @@ impl Crs {
         Ok(crs)
     }
 
+    /// Whether `other` is this CRS: the same text, or the same PROJ parameters (an EPSG code
+    /// and the WKT of a `.prj` written for it).
+    pub fn same_as(&self, other: &Crs) -> bool {
+        if self == other {
+            return true;
+        }
+        if let (Some(a), Some(b)) = (self.epsg_equivalent(), other.epsg_equivalent()) {
+            return a == b;
+        }
+        match (self.to_proj_string(), other.to_proj_string()) {
+            (Ok(a), Ok(b)) => proj_params(&a) == proj_params(&b),
+            _ => false,
+        }
+    }
+
+    /// The EPSG code, or the one a WKT names for itself (its last, outermost
+    /// `AUTHORITY["EPSG","N"]` or `ID["EPSG",N]`).
+    fn epsg_equivalent(&self) -> Option<u16> {
+        match self {
+            Crs::Epsg(c) => Some(*c),
+            Crs::Wkt(w) => {
+                let w = w.trim().strip_suffix(']')?.trim_end();
+                let (head, code) = w.strip_suffix(']')?.rsplit_once(',')?;
+                let authority = head.trim_end().strip_suffix("\"EPSG\"")?;
+                let authority = authority.trim_end();
+                if !(authority.ends_with("AUTHORITY[") || authority.ends_with("ID[")) {
+                    return None;
+                }
+                code.trim().trim_matches('"').parse().ok()
+            }
+            Crs::Proj(_) => None,
+        }
+    }
+
     /// The EPSG code, when the CRS is given by one.
     pub fn epsg(&self) -> Option<u16> {
         match self {
@@ -303,6 +337,24 @@ fn wkt_of_proj(p: &str) -> Result<String, IoError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_epsg_code_is_the_same_crs_as_its_prj_and_not_another_zones() {
+        let utm35 = Crs::Epsg(32635);
+        let prj = Crs::parse(&utm35.to_wkt().expect("wkt")).expect("prj");
+        assert!(matches!(prj, Crs::Wkt(_)));
+        assert!(utm35.same_as(&prj) && prj.same_as(&utm35));
+        let utm36 = Crs::parse(&Crs::Epsg(32636).to_wkt().expect("wkt")).expect("prj");
+        assert!(!utm35.same_as(&utm36) && !prj.same_as(&utm36));
+        let wkt2 = Crs::Wkt("PROJCRS[\"x\",BASEGEOGCRS[\"y\"],ID[\"EPSG\",32635]]".into());
+        assert_eq!(wkt2.epsg_equivalent(), Some(32635));
+        let inner = Crs::Wkt("PROJCS[\"x\",GEOGCS[\"y\",AUTHORITY[\"EPSG\",\"4326\"]]]".into());
+        assert_eq!(
+            inner.epsg_equivalent(),
+            None,
+            "only the outermost authority"
+        );
+    }
 
     #[test]
     fn parse_accepts_the_three_forms_and_names_bad_text() {

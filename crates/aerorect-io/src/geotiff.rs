@@ -167,11 +167,13 @@ pub fn write_world_file(image: &Path, geo: &GeoReference) -> Result<PathBuf, IoE
     Ok(path)
 }
 
+/// The world file's text; the centre to 1e-10 (GDAL's `%.10f`), so that a frame read back
+/// lands on its grid to far better than the 1e-6 pixel `overlap` requires.
 pub(crate) fn world_file_text(geo: &GeoReference) -> String {
     let g = geo.geotransform();
     let c = geo.ground_of_pixel(0.0, 0.0);
     format!(
-        "{:.12}\n{:.12}\n{:.12}\n{:.12}\n{:.6}\n{:.6}\n",
+        "{:.12}\n{:.12}\n{:.12}\n{:.12}\n{:.10}\n{:.10}\n",
         g[1], g[4], g[2], g[5], c[0], c[1]
     )
 }
@@ -179,9 +181,16 @@ pub(crate) fn world_file_text(geo: &GeoReference) -> String {
 /// The georeferencing of a GeoTIFF: CRS from its GeoKeys (EPSG code, GDAL's user-defined
 /// projection keys, or a WKT citation), geotransform from ModelTransformation or
 /// ModelTiepoint + ModelPixelScale (PixelIsPoint shifted by half a pixel, as GDAL does), and
-/// GDAL_NODATA. `None` for a TIFF without a GeoKeyDirectory.
+/// GDAL_NODATA. `None` for a TIFF without a GeoKeyDirectory. Any other image (a PNG of
+/// `batch --format png`) is read through its sidecars: [`read_world_georeference`].
 pub fn read_georeference(path: &Path) -> Result<Option<GeoReference>, IoError> {
-    let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    let mut magic = [0u8; 4];
+    let mut file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    let n = std::io::Read::read(&mut file, &mut magic).map_err(|e| IoError::io(path, e))?;
+    if n < 4 || !(magic[..2] == *b"II" || magic[..2] == *b"MM") {
+        return read_world_georeference(path);
+    }
+    std::io::Seek::rewind(&mut file).map_err(|e| IoError::io(path, e))?;
     let mut dec = tiff::decoder::Decoder::new(std::io::BufReader::new(file))
         .map_err(|e| IoError::decode(path, e))?;
     let Some(dir) = tag_u16s(&mut dec, path, GEO_KEY_DIRECTORY)? else {
@@ -213,6 +222,59 @@ pub fn read_georeference(path: &Path) -> Result<Option<GeoReference>, IoError> {
         }
     };
     Ok(Some(GeoReference::from_geotransform(crs, gt, nodata)))
+}
+
+/// The georeferencing of an image from its world file (`.pgw`, `.tfw`, `.jgw` or `.wld`: the
+/// six lines gt[1], gt[4], gt[2], gt[5] and the centre of pixel (0, 0)) and its CRS from the
+/// `.prj` beside it, else the `<SRS>` of its `.aux.xml` (GDAL's). `None` without a world file;
+/// a world file without a CRS is an error naming both sidecars.
+pub fn read_world_georeference(path: &Path) -> Result<Option<GeoReference>, IoError> {
+    let world = world_file_path(path);
+    let Ok(text) = std::fs::read_to_string(&world) else {
+        return Ok(None);
+    };
+    let values: Vec<f64> = text
+        .split_whitespace()
+        .map(|v| v.parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| IoError::field(world.display(), format!("not six numbers: {e}")))?;
+    let &[a, d, b, e, c, f] = values.as_slice() else {
+        return Err(IoError::field(
+            world.display(),
+            format!("{} values, a world file has six", values.len()),
+        ));
+    };
+    let prj = path.with_extension("prj");
+    let mut aux = path.as_os_str().to_owned();
+    aux.push(".aux.xml");
+    let aux = std::path::PathBuf::from(aux);
+    let crs = match std::fs::read_to_string(&prj) {
+        Ok(wkt) => Crs::parse(&wkt).map_err(|e| IoError::field(prj.display(), e))?,
+        Err(_) => {
+            let srs = std::fs::read_to_string(&aux).ok().and_then(|x| aux_srs(&x));
+            let srs = srs.ok_or_else(|| {
+                IoError::field(
+                    world.display(),
+                    format!(
+                        "a world file without a CRS: neither {} nor an <SRS> in {}",
+                        prj.display(),
+                        aux.display()
+                    ),
+                )
+            })?;
+            Crs::parse(&srs).map_err(|e| IoError::field(aux.display(), e))?
+        }
+    };
+    // The world file names the centre of pixel (0, 0); the geotransform its outer corner.
+    let gt = [c - 0.5 * (a + b), a, b, f - 0.5 * (d + e), d, e];
+    Ok(Some(GeoReference::from_geotransform(crs, gt, None)))
+}
+
+/// The text of the `<SRS>` element of a GDAL `.aux.xml`, unescaped.
+fn aux_srs(xml: &str) -> Option<String> {
+    let doc = roxmltree::Document::parse(xml).ok()?;
+    let srs = doc.descendants().find(|n| n.has_tag_name("SRS"))?;
+    srs.text().map(str::to_string)
 }
 
 type Dec = tiff::decoder::Decoder<std::io::BufReader<std::fs::File>>;

@@ -64,11 +64,17 @@ pub fn overlap_shift(
 ) -> Result<OverlapShift, Error> {
     use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
     let geo = |p: &std::path::Path| -> Result<GeoReference, Error> {
-        aerorect_io::read_georeference(p)?
-            .ok_or_else(|| Error::Invalid(format!("{}: not a GeoTIFF", p.display())))
+        aerorect_io::read_georeference(p)?.ok_or_else(|| {
+            Error::Invalid(format!(
+                "{}: not georeferenced (no GeoTIFF keys, no world file)",
+                p.display()
+            ))
+        })
     };
     let (ga, gb) = (geo(a)?, geo(b)?);
-    if ga.crs != gb.crs || (ga.pixel_size[0] - gb.pixel_size[0]).abs() > 1e-9 * ga.pixel_size[0] {
+    if !ga.crs.same_as(&gb.crs)
+        || (ga.pixel_size[0] - gb.pixel_size[0]).abs() > 1e-9 * ga.pixel_size[0]
+    {
         return Err(Error::Invalid(format!(
             "{} and {} are not on one grid (CRS {} / {}, GSD {} / {})",
             a.display(),
