@@ -51,14 +51,16 @@ pub fn shift(a: ShiftArgs) -> Result<()> {
         .estimate(r.plane(0), c.plane(0))
         .with_context(|| format!("{} -> {}", a.reference.display(), a.current.display()))?;
     if a.json {
-        println!(
+        outln!(
             "{}",
             serde_json::json!({"dx": e.dx, "dy": e.dy, "confidence": e.confidence})
         );
     } else {
-        println!(
+        outln!(
             "dx {:.4} dy {:.4} confidence {:.3}",
-            e.dx, e.dy, e.confidence
+            e.dx,
+            e.dy,
+            e.confidence
         );
     }
     Ok(())
@@ -192,7 +194,7 @@ pub fn motion_sim_cmd(a: MotionSimArgs) -> Result<()> {
         dump_dir: a.dump_dir.clone(),
     };
     let rows = motion_sim(&scenes, &cfg)?;
-    println!(
+    outln!(
         "{} x {} frames, {} trials per cell, shifts uniform in [-{m}, {m}] px by {}, SNR = 10 log10(var s / var n)",
         cfg.size,
         cfg.size,
@@ -204,12 +206,18 @@ pub fn motion_sim_cmd(a: MotionSimArgs) -> Result<()> {
         },
         m = a.max_shift
     );
-    println!(
+    outln!(
         "{:<14} {:>7} {:<14} {:>10} {:>10} {:>8} {:>9}",
-        "scene", "SNR dB", "method", "RMS px", "CRLB px", "RMS/CRLB", "ms/pair"
+        "scene",
+        "SNR dB",
+        "method",
+        "RMS px",
+        "CRLB px",
+        "RMS/CRLB",
+        "ms/pair"
     );
     for r in &rows {
-        println!(
+        outln!(
             "{:<14} {:>7} {:<14} {:>10.4} {:>10.4} {:>8.1} {:>9.2}",
             r.scene,
             r.snr_db,
@@ -226,7 +234,7 @@ pub fn motion_sim_cmd(a: MotionSimArgs) -> Result<()> {
         staged.text(j, &serde_json::to_string_pretty(&rows)?)?;
     }
     staged.commit()?;
-    println!("plot: {}", a.plot.display());
+    outln!("plot: {}", a.plot.display());
     Ok(())
 }
 
@@ -350,23 +358,30 @@ pub fn velocity(a: VelocityArgs) -> Result<()> {
             "forward_budget": fb,
             "swing_budget": sb,
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        outln!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
-    println!(
+    outln!(
         "V_F (forward)  {:>12.4} mm/s   +- {:.4} (RSS), {:.4} (worst case)",
-        m.v_forward_mm_s, fb.rss_mm_s, fb.worst_case_mm_s
+        m.v_forward_mm_s,
+        fb.rss_mm_s,
+        fb.worst_case_mm_s
     );
-    println!(
+    outln!(
         "V_P (swing)    {:>12.4} mm/s   +- {:.4} (RSS), {:.4} (worst case)",
-        m.v_swing_mm_s, sb.rss_mm_s, sb.worst_case_mm_s
+        m.v_swing_mm_s,
+        sb.rss_mm_s,
+        sb.worst_case_mm_s
     );
-    println!("mirror rate    {:>12.4} deg/s", m.mirror_rate_dps);
+    outln!("mirror rate    {:>12.4} deg/s", m.mirror_rate_dps);
     for (label, b) in [("dV_F", &fb), ("dV_P", &sb)] {
         for t in &b.terms {
-            println!(
+            outln!(
                 "  {label} from {:<16} {:>12.6} mm/s  (partial {:.6} x sigma {})",
-                t.input, t.contribution_mm_s, t.partial, t.sigma
+                t.input,
+                t.contribution_mm_s,
+                t.partial,
+                t.sigma
             );
         }
     }
@@ -446,26 +461,53 @@ fn track_flight(a: &TrackArgs) -> Result<Option<(FlightState, f64, f64)>> {
     Ok(Some((s, t, p)))
 }
 
-pub fn track(a: TrackArgs) -> Result<()> {
-    let method = Method::parse(&a.method)?;
-    let flight = track_flight(&a)?;
-    let axes = CcdAxes {
-        angle_deg: a.ccd_angle_deg,
-        mirrored: a.ccd_mirrored,
-    };
-    let mut header = "frame,dx,dy,confidence,ms".to_string();
-    if flight.is_some() {
-        header += ",v_swing_mm_s,v_forward_mm_s";
-    }
-    println!("{header}");
+/// A decoded frame with its path, or why it could not be read.
+type Decoded<'a> = (&'a Path, Result<aerorect::raster::Raster<f32>>);
+
+/// Runs `consume` on `paths`' frames decoded in order on a thread of their own, at most two
+/// frames ahead: decoding the next frame overlaps the estimate of the last pair. When
+/// `consume` returns early, decoding stops.
+fn with_frames_decoded_ahead<R>(
+    paths: &[PathBuf],
+    consume: impl FnOnce(&mut dyn Iterator<Item = Decoded<'_>>) -> R,
+) -> R {
+    let (tx, rx) = std::sync::mpsc::sync_channel(2);
+    std::thread::scope(|s| {
+        s.spawn(move || {
+            for p in paths {
+                // An error means the consumer has stopped.
+                if tx.send((p.as_path(), read_gray(p))).is_err() {
+                    break;
+                }
+            }
+        });
+        let mut frames = rx.into_iter();
+        consume(&mut frames)
+    })
+}
+
+/// The corrected velocities' parameters, when given.
+type Flight = Option<(FlightState, f64, f64)>;
+
+/// One CSV line per pair of `frames`; the frames that could not be used are returned.
+fn track_frames(
+    frames: &mut dyn Iterator<Item = Decoded<'_>>,
+    method: Method,
+    flight: &Flight,
+    axes: &CcdAxes,
+) -> Result<Vec<PathBuf>> {
     let mut tracker: Option<(Tracker, ImageSize)> = None;
     let mut skipped = vec![];
-    for path in &a.frames {
-        let frame = match read_gray(path) {
+    for (path, frame) in frames {
+        if crate::stdout::closed() {
+            // Nobody reads the lines any more (`track ... | head`): stop like a Unix filter.
+            break;
+        }
+        let frame = match frame {
             Ok(f) => f,
             Err(e) => {
                 eprintln!("skipped {}: {e:#}", path.display());
-                skipped.push(path.clone());
+                skipped.push(path.to_path_buf());
                 continue;
             }
         };
@@ -482,7 +524,7 @@ pub fn track(a: TrackArgs) -> Result<()> {
                 size.width,
                 size.height
             );
-            skipped.push(path.clone());
+            skipped.push(path.to_path_buf());
             continue;
         }
         let Some(step) = t
@@ -491,21 +533,48 @@ pub fn track(a: TrackArgs) -> Result<()> {
         else {
             continue;
         };
-        let e = step.estimate;
-        let mut line = format!(
-            "{},{:.4},{:.4},{:.3},{:.3}",
-            path.display(),
-            e.dx,
-            e.dy,
-            e.confidence,
-            step.seconds * 1e3
-        );
-        if let Some((s, period, pitch)) = &flight {
-            let (vp, vf) = corrected(&predict(s), (e.dx, e.dy), *pitch, *period, &axes);
-            line += &format!(",{vp:.4},{vf:.4}");
-        }
-        println!("{line}");
+        outln!("{}", track_line(path, &step, flight, axes));
     }
+    Ok(skipped)
+}
+
+fn track_line(
+    path: &Path,
+    step: &aerorect::motion::TrackStep,
+    flight: &Flight,
+    axes: &CcdAxes,
+) -> String {
+    let e = step.estimate;
+    let mut line = format!(
+        "{},{:.4},{:.4},{:.3},{:.3}",
+        path.display(),
+        e.dx,
+        e.dy,
+        e.confidence,
+        step.seconds * 1e3
+    );
+    if let Some((s, period, pitch)) = flight {
+        let (vp, vf) = corrected(&predict(s), (e.dx, e.dy), *pitch, *period, axes);
+        line += &format!(",{vp:.4},{vf:.4}");
+    }
+    line
+}
+
+pub fn track(a: TrackArgs) -> Result<()> {
+    let method = Method::parse(&a.method)?;
+    let flight = track_flight(&a)?;
+    let axes = CcdAxes {
+        angle_deg: a.ccd_angle_deg,
+        mirrored: a.ccd_mirrored,
+    };
+    let mut header = "frame,dx,dy,confidence,ms".to_string();
+    if flight.is_some() {
+        header += ",v_swing_mm_s,v_forward_mm_s";
+    }
+    outln!("{header}");
+    let skipped = with_frames_decoded_ahead(&a.frames, |frames| {
+        track_frames(frames, method, &flight, &axes)
+    })?;
     if !skipped.is_empty() {
         bail!(
             "{} frame(s) skipped: {}",
