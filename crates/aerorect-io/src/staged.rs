@@ -298,12 +298,19 @@ mod tests {
             s.text(&dir.path().join("a.txt"), "A").expect("a");
             s.text(null, "to the device").expect("null");
             s.commit().expect("commit");
-            assert!(std::fs::metadata(null).expect("null").file_type().is_char_device());
+            assert!(
+                std::fs::metadata(null)
+                    .expect("null")
+                    .file_type()
+                    .is_char_device()
+            );
             assert_eq!(names(dir.path()), ["a.txt"]);
         }
         let sub = dir.path().join("sub");
         std::fs::create_dir(&sub).expect("mkdir");
-        let e = StagedOutputs::new().text(&sub, "B").expect_err("a directory");
+        let e = StagedOutputs::new()
+            .text(&sub, "B")
+            .expect_err("a directory");
         assert!(e.to_string().contains("is a directory"), "{e}");
         assert_eq!(names(dir.path()), ["a.txt", "sub"]);
     }
