@@ -137,9 +137,9 @@ fn read_with_image_crate(path: &Path) -> Result<AnyRaster, IoError> {
         .into_decoder()
         .map_err(|e| IoError::decode(path, e))?;
     let (w, h) = image::ImageDecoder::dimensions(&decoder);
-    check_image_pixels(path, u64::from(w), u64::from(h))?;
     let claimed = image::ImageDecoder::total_bytes(&decoder);
     check_claimed_bytes(path, &format!("{w} x {h} pixels"), claimed)?;
+    check_image_pixels(path, u64::from(w), u64::from(h))?;
     let img = DynamicImage::from_decoder(decoder).map_err(|e| IoError::decode(path, e))?;
     raster_from_dynamic(img).map_err(|e| IoError::decode(path, e))
 }
