@@ -254,7 +254,7 @@ fn report_json(r: &CalibrationReport) -> Result<serde_json::Value> {
 pub struct UndistortArgs {
     input: PathBuf,
     output: PathBuf,
-    /// Camera file with a `[distortion]` table.
+    /// Camera file with lens terms (any format `camera convert` reads).
     #[arg(long)]
     camera: PathBuf,
     /// Resampling: nearest, bilinear, bicubic, or average (the area-weighted mean of the source
@@ -281,7 +281,7 @@ pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
         .output("OUTPUT", Some(&a.output))
         .check()?;
     let cam = CameraFile::read(&a.camera)?;
-    if cam.distortion.is_none() {
+    if cam.distortion.is_none() && cam.dewarp_text.is_none() {
         bail!(
             "{}: no [distortion] table: nothing to undistort",
             a.camera.display()
@@ -289,6 +289,12 @@ pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
     }
     let img = read_image(&a.input)?;
     let camera = cam.camera(Some(img.size()))?;
+    if camera.distortion.is_none() {
+        bail!(
+            "{}: no lens terms: nothing to undistort",
+            a.camera.display()
+        );
+    }
     let warp = crate::commands::warp_options(a.interp, !a.no_prefilter, a.nodata, a.alpha, &img)?;
     let plan =
         UndistortPlan::new(&camera, a.fit).with_context(|| a.camera.display().to_string())?;

@@ -97,7 +97,7 @@ pub(crate) fn ortho_options(
         (Some(c), _) => Some(c.clone()),
         (None, Some(p)) => {
             let prj = p.with_extension("prj");
-            match std::fs::read_to_string(&prj) {
+            match aerorect::io::read_text(&prj) {
                 Ok(t) => Some(t.trim().to_string()),
                 Err(_) => None,
             }
@@ -512,6 +512,7 @@ fn refuse_collisions(a: &BatchArgs) -> Result<()> {
 /// Everything batch reads and writes (every frame's output with its sidecars), after the
 /// name collisions between frames are refused.
 fn batch_files(a: &BatchArgs) -> Result<Files> {
+    aerorect::io::refuse_duplicate_photos(&a.inputs)?;
     refuse_collisions(a)?;
     let mut files = a.flight.inputs(Files::new());
     for input in &a.inputs {

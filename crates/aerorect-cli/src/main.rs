@@ -30,6 +30,10 @@ struct Cli {
     /// cores).
     #[arg(long, global = true)]
     threads: Option<usize>,
+    /// The most pixels of one decoded input image (frames, references, DEMs): larger headers
+    /// are refused before anything is allocated.
+    #[arg(long, global = true, default_value_t = aerorect::io::DEFAULT_MAX_IMAGE_PIXELS)]
+    max_image_px: u64,
     #[command(subcommand)]
     command: Command,
 }
@@ -77,10 +81,26 @@ enum Command {
     Mosaic(mosaic_cmds::MosaicArgs),
 }
 
+/// `--threads n`, at most four times the cores (more only adds start-up time: 100 000 threads
+/// took minutes to start), with a warning when cut.
+fn capped_threads(n: usize) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let most = 4 * cores;
+    if n > most {
+        eprintln!(
+            "warning: --threads {n} is more than 4 x the {cores} cores available: using {most}"
+        );
+        most
+    } else {
+        n
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     signals::remove_partial_outputs_on_signal();
-    if let Some(n) = cli.threads
+    aerorect::io::set_max_image_pixels(cli.max_image_px);
+    if let Some(n) = cli.threads.map(capped_threads)
         && let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()

@@ -56,10 +56,12 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
     let mopts = MosaicOptions {
         blend,
         feather_px: a.feather_px,
+        max_output_px: a.max_output_px,
         ..MosaicOptions::default()
     };
     mopts.validate()?;
     mosaic_files(&a).check()?;
+    aerorect::io::refuse_duplicate_photos(&a.inputs)?;
     let ext = a.out.extension().and_then(|e| e.to_str());
     if !ext.is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff")) {
         bail!(

@@ -10,7 +10,7 @@ use std::path::Path;
 pub fn read_attitude(arg: &str) -> Result<SixAngleAttitude, IoError> {
     let path = Path::new(arg);
     let (degrees, source) = if path.is_file() {
-        let text = std::fs::read_to_string(path).map_err(|e| IoError::io(path, e))?;
+        let text = crate::bounded::read_text(path)?;
         let d: SixAngleDegrees =
             toml::from_str(&text).map_err(|e| IoError::field(arg, e.message()))?;
         (d, arg.to_string())

@@ -9,6 +9,7 @@
 //! (tsai, brown, improved, opencv, opencv-rational, opencv-thin-prism,
 //! opencv-rational-thin-prism) and the coefficients by name (missing ones are zero). Unknown keys are an error.
 
+use crate::camera_formats::{CameraFormat, camera_from_text};
 use crate::error::IoError;
 use aerorect_core::{Camera, GeometryError, ImageSize, Intrinsics};
 use serde::Deserialize;
@@ -31,12 +32,45 @@ pub struct CameraFile {
     /// Where the file came from, for messages.
     #[serde(skip)]
     pub source_name: String,
+    /// A DJI DewarpData text, read once the image size is known (it states none).
+    #[serde(skip)]
+    pub dewarp_text: Option<String>,
 }
 
 impl CameraFile {
+    /// Reads a camera file of any format [`CameraFormat::detect`] tells (as `camera convert`
+    /// does); a file it cannot tell is read as TOML.
     pub fn read(path: &Path) -> Result<Self, IoError> {
-        let text = std::fs::read_to_string(path).map_err(|e| IoError::io(path, e))?;
-        Self::parse(&text, &path.display().to_string())
+        let text = crate::bounded::read_text(path)?;
+        let name = path.display().to_string();
+        match CameraFormat::detect(path, Some(&text)) {
+            None | Some(CameraFormat::Toml) => Self::parse(&text, &name),
+            Some(CameraFormat::DjiDewarp) => Ok(CameraFile {
+                source_name: name,
+                dewarp_text: Some(text),
+                ..CameraFile::default()
+            }),
+            Some(format) => Ok(Self::from_camera(
+                &camera_from_text(&text, format, None, &name)?,
+                &name,
+            )),
+        }
+    }
+
+    /// The file holding `camera` in pixels, with its size (reads back to the same camera).
+    pub fn from_camera(camera: &Camera, source_name: &str) -> Self {
+        let k = &camera.intrinsics;
+        CameraFile {
+            image_size_px: Some([camera.size.width as u64, camera.size.height as u64]),
+            fx_px: Some(k.fx),
+            fy_px: Some(k.fy),
+            cx_px: Some(k.cx),
+            cy_px: Some(k.cy),
+            skew_px: Some(k.skew),
+            distortion: camera.distortion.clone(),
+            source_name: source_name.to_string(),
+            ..CameraFile::default()
+        }
     }
 
     pub fn parse(text: &str, source_name: &str) -> Result<Self, IoError> {
@@ -75,6 +109,9 @@ impl CameraFile {
     /// `image_size_px`). A file that states `image_size_px` is carried to an image of another
     /// size with the same aspect ratio by [`Camera::resized`]; another aspect ratio is refused.
     pub fn camera(&self, image: Option<ImageSize>) -> Result<Camera, IoError> {
+        if let Some(text) = &self.dewarp_text {
+            return camera_from_text(text, CameraFormat::DjiDewarp, image, &self.source_name);
+        }
         let stated = self.image_size()?;
         let size = stated
             .or(image)

@@ -33,8 +33,7 @@ fn read_table<T: serde::de::DeserializeOwned>(
     let name = path.display().to_string();
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
-        .from_path(path)
-        .map_err(|e| IoError::field(&name, e))?;
+        .from_reader(crate::bounded::capped_reader(path)?);
     let got: Vec<String> = rdr
         .headers()
         .map_err(|e| IoError::field(&name, e))?

@@ -9,6 +9,7 @@ use aerorect_raster::{AnyRaster, Raster};
 use image::{DynamicImage, ImageReader};
 use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The largest image we decode, in bytes of samples (guards against memory bombs): 4 GiB.
 pub const MAX_DECODED_BYTES: u64 = 4 << 30;
@@ -26,6 +27,39 @@ pub(crate) fn most_decoded_bytes(file_len: u64) -> u64 {
     file_len
         .saturating_mul(MAX_EXPANSION)
         .clamp(256 << 20, MAX_DECODED_BYTES)
+}
+
+/// The default of [`max_image_pixels`]: 500 million pixels (a 150 MP aerial frame three times
+/// over; a 30000 x 30000 image is refused). The commands then hold the image and a float copy
+/// or two of it (gray f32, pyramids), which for 900 Mpx aborted the process for want of memory.
+pub const DEFAULT_MAX_IMAGE_PIXELS: u64 = 500_000_000;
+
+static MAX_IMAGE_PIXELS: AtomicU64 = AtomicU64::new(DEFAULT_MAX_IMAGE_PIXELS);
+
+/// The most pixels every image reader (images, DEMs, every command's frames) decodes, checked
+/// against the header before anything is allocated.
+pub fn max_image_pixels() -> u64 {
+    MAX_IMAGE_PIXELS.load(Ordering::Relaxed)
+}
+
+/// Sets [`max_image_pixels`] for the whole process (at least one pixel).
+pub fn set_max_image_pixels(pixels: u64) {
+    MAX_IMAGE_PIXELS.store(pixels.max(1), Ordering::Relaxed);
+}
+
+/// The error for an image of `w` x `h` pixels over [`max_image_pixels`], naming the file.
+pub(crate) fn check_image_pixels(path: &Path, w: u64, h: u64) -> Result<(), IoError> {
+    let most = max_image_pixels();
+    let pixels = w.saturating_mul(h);
+    if pixels > most {
+        return Err(IoError::decode(
+            path,
+            format!(
+                "the image is {w} x {h} = {pixels} pixels, over the limit of {most} pixels for one decoded image"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The error for a header claiming `claimed` decoded bytes, more than the file can hold.
@@ -105,6 +139,7 @@ fn read_with_image_crate(path: &Path) -> Result<AnyRaster, IoError> {
     let (w, h) = image::ImageDecoder::dimensions(&decoder);
     let claimed = image::ImageDecoder::total_bytes(&decoder);
     check_claimed_bytes(path, &format!("{w} x {h} pixels"), claimed)?;
+    check_image_pixels(path, u64::from(w), u64::from(h))?;
     let img = DynamicImage::from_decoder(decoder).map_err(|e| IoError::decode(path, e))?;
     raster_from_dynamic(img).map_err(|e| IoError::decode(path, e))
 }

@@ -5,12 +5,14 @@
 //! failed write leaves nothing half-written.
 
 pub mod attitude;
+pub mod bounded;
 pub mod camera;
 pub mod camera_formats;
 pub mod checkpoints;
 pub mod cog;
 pub mod crs;
 pub mod dem;
+pub mod duplicates;
 pub mod error;
 mod geokeys;
 pub mod geotiff;
@@ -25,6 +27,7 @@ pub mod tiled_tiff;
 pub mod whole;
 
 pub use attitude::read_attitude;
+pub use bounded::{MAX_TEXT_BYTES, read_text};
 pub use camera::{CameraFile, camera_toml};
 pub use camera_formats::{CameraFormat, camera_from_text, read_camera_file, text_from_camera};
 pub use checkpoints::{
@@ -34,11 +37,13 @@ pub use checkpoints::{
 pub use cog::{CogCompression, CogMask, CogOptions, write_cog, write_image_cog};
 pub use crs::Crs;
 pub use dem::{Dem, read_dem};
+pub use duplicates::{first_duplicate, refuse_duplicate_photos};
 pub use error::IoError;
 pub use geotiff::{GeoReference, read_georeference, write_world_file};
 pub use image_file::{
-    decode_image_bytes, image_files, read_image, resolved_path, same_file, thumbnail_png,
-    write_atomically, write_image, write_image_geo,
+    DEFAULT_MAX_IMAGE_PIXELS, decode_image_bytes, image_files, max_image_pixels, read_image,
+    resolved_path, same_file, set_max_image_pixels, thumbnail_png, write_atomically, write_image,
+    write_image_geo,
 };
 pub use metadata::{PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};

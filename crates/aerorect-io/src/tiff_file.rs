@@ -115,7 +115,8 @@ fn check_claimed_size(
     };
     let claimed = u64::from(w) * u64::from(h) * bands as u64 * bits.div_ceil(8);
     let what = format!("{w} x {h} pixels of {bands} x {bits} bits");
-    check_claimed_bytes(path, &what, claimed)
+    check_claimed_bytes(path, &what, claimed)?;
+    crate::image_file::check_image_pixels(path, u64::from(w), u64::from(h))
 }
 
 /// JFIF's YCbCr -> RGB (ITU-R BT.601 full range, ReferenceBlackWhite at its default), in place.

@@ -93,6 +93,7 @@ pub fn observations_from_images(
             None => Ok(f),
         })
         .map_err(|e| Error::Invalid(e.to_string()))?;
+    aerorect_io::refuse_duplicate_photos(paths)?;
     let ids = image_ids(paths);
     let found: Vec<(ImageSize, View, Vec<[f64; 2]>)> = paths
         .par_iter()

@@ -74,6 +74,10 @@ pub struct MosaicOptions {
     pub alpha: bool,
     /// The value of cells no frame covers.
     pub nodata: f64,
+    /// The largest frame ortho (px, `--max-output-px`): the mosaic may be at most this many
+    /// pixels per frame (its frames' orthos laid side by side), checked before any frame is
+    /// rendered.
+    pub max_output_px: u64,
 }
 
 impl Default for MosaicOptions {
@@ -85,6 +89,7 @@ impl Default for MosaicOptions {
             cache_frames: 4,
             alpha: true,
             nodata: 0.0,
+            max_output_px: aerorect_core::rectify::DEFAULT_MAX_OUTPUT_PX,
         }
     }
 }
@@ -167,6 +172,40 @@ fn grid_index(grid: &OrthoGrid, gsd: f64, file: &Path) -> Result<[i64; 2], Error
     Ok([i.round() as i64, j.round() as i64])
 }
 
+/// Refuses a mosaic of `size` px at `gsd` m over `frames` x `max_output_px` pixels (two frames
+/// 900 km apart made a 24 Gpx grid), naming its footprint and a GSD that would fit.
+fn check_mosaic_size(
+    size: ImageSize,
+    gsd: f64,
+    frames: usize,
+    max_output_px: u64,
+) -> Result<(), Error> {
+    let pixels = size.width as f64 * size.height as f64;
+    let limit = (max_output_px as f64 * frames as f64).max(1.0);
+    if pixels <= limit {
+        return Ok(());
+    }
+    // Coarser by sqrt(pixels / limit), to the millimetre, then by millimetres until the
+    // footprint fits with two pixels a side to spare (each frame's grid is snapped to the
+    // global grid).
+    let (w_m, h_m) = (size.width as f64 * gsd, size.height as f64 * gsd);
+    let mut mm = (gsd * (pixels / limit).sqrt() * 1000.0).ceil().max(1.0);
+    for _ in 0..10_000 {
+        let g = mm / 1000.0;
+        if ((w_m / g).ceil() + 2.0) * ((h_m / g).ceil() + 2.0) <= limit {
+            break;
+        }
+        mm += 1.0;
+    }
+    let fits = mm / 1000.0;
+    Err(Error::Invalid(format!(
+        "the mosaic would be {} x {} px ({:.0} m x {:.0} m at {gsd} m/px), over the limit of \
+         {limit:.0} px ({frames} frame(s) x --max-output-px {max_output_px}): are the frames' \
+         positions right? A GSD of {fits} m (--gsd-m) would fit",
+        size.width, size.height, w_m, h_m,
+    )))
+}
+
 impl MosaicPlan {
     /// The union grid of `frames` (all planned at `gsd` on the global grid) and its tiles.
     pub fn new(frames: Vec<MosaicFrame>, gsd: f64, opts: MosaicOptions) -> Result<Self, Error> {
@@ -188,12 +227,7 @@ impl MosaicPlan {
             ];
         }
         let size = ImageSize::new((hi[0] - lo[0]) as usize, (hi[1] - lo[1]) as usize);
-        if size.pixels() as u128 > 1 << 40 {
-            return Err(Error::Invalid(format!(
-                "the mosaic would be {} x {} px: are the frames' positions right?",
-                size.width, size.height
-            )));
-        }
+        check_mosaic_size(size, gsd, frames.len(), opts.max_output_px)?;
         let grid = OrthoGrid {
             top_left: [lo[0] as f64 * gsd, -(lo[1] as f64) * gsd],
             gsd,

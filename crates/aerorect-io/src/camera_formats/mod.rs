@@ -12,6 +12,7 @@ mod metashape;
 mod opencv_storage;
 mod opensfm;
 mod orthority;
+mod yaml_guard;
 
 use crate::IoError;
 use crate::camera::{CameraFile, camera_toml};
@@ -116,7 +117,7 @@ pub fn read_camera_file(
     format: Option<CameraFormat>,
     size: Option<ImageSize>,
 ) -> Result<(Camera, CameraFormat), IoError> {
-    let text = std::fs::read_to_string(path).map_err(|e| IoError::io(path, e))?;
+    let text = crate::bounded::read_text(path)?;
     let name = path.display().to_string();
     let format = match format.or_else(|| CameraFormat::detect(path, Some(&text))) {
         Some(f) => f,

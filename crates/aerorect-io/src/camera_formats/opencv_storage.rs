@@ -11,7 +11,7 @@ use super::{Src, yaml_float};
 use crate::IoError;
 use aerorect_core::distortion::{OpenCv, OpenCvTerms};
 use aerorect_core::{Camera, ImageSize};
-use yaml_rust2::{Yaml, YamlLoader};
+use yaml_rust2::Yaml;
 
 const MATRIX_KEYS: [&str; 3] = ["camera_matrix", "cameraMatrix", "K"];
 const DIST_KEYS: [&str; 4] = ["distortion_coefficients", "distCoeffs", "dist_coeffs", "D"];
@@ -33,7 +33,7 @@ pub(crate) fn read_yaml(text: &str, src: &Src) -> Result<Camera, IoError> {
         .map(|l| l.replace("!!opencv-matrix", ""))
         .collect::<Vec<_>>()
         .join("\n");
-    let docs = YamlLoader::load_from_str(&cleaned).map_err(|e| src.err(e))?;
+    let docs = super::yaml_guard::load_yaml(&cleaned, src)?;
     let doc = docs
         .first()
         .ok_or_else(|| src.err("the file holds no YAML document"))?;

@@ -11,14 +11,14 @@ use super::{Src, yaml_float};
 use crate::IoError;
 use aerorect_core::distortion::{OpenCv, OpenCvTerms};
 use aerorect_core::{Camera, ImageSize};
-use yaml_rust2::{Yaml, YamlLoader};
+use yaml_rust2::Yaml;
 
 const COEFFICIENTS: [&str; 12] = [
     "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6", "s1", "s2", "s3", "s4",
 ];
 
 pub(crate) fn read(text: &str, src: &Src) -> Result<Camera, IoError> {
-    let docs = YamlLoader::load_from_str(text).map_err(|e| src.err(e))?;
+    let docs = super::yaml_guard::load_yaml(text, src)?;
     let Some(Yaml::Hash(cameras)) = docs.first() else {
         return Err(src.err("not a mapping of cameras by name"));
     };

@@ -20,6 +20,9 @@ pub enum Kind {
     CameraToml,
     /// Other tools' camera files (OpenCV, COLMAP, OpenSfM, Metashape, DJI, Orthority).
     CameraFormat,
+    /// Hostile camera files (YAML alias bombs, deep nesting, a text over the size cap): every
+    /// camera reader must refuse them, within bounded memory and time.
+    HostileCamera,
     AttitudeToml,
     AttitudeInline,
     Checkpoints,
@@ -547,10 +550,51 @@ fn text_seeds() -> Vec<Seed> {
             Kind::CameraFormat,
             "2018-09-04;3678.9,3671.5,10.5,-17.2,-0.26,0.11,0.001,-0.0003,-0.23",
         ),
+        t("bomb.yaml", Kind::HostileCamera, &alias_bomb("")),
+        t(
+            "bomb.yml",
+            Kind::HostileCamera,
+            &alias_bomb("%YAML:1.0\n---\n"),
+        ),
+        t("deep.yaml", Kind::HostileCamera, &deep_yaml(200)),
+        t("deep.json", Kind::HostileCamera, &"[".repeat(100_000)),
+        t(
+            "deep.xml",
+            Kind::HostileCamera,
+            &"<opencv_storage>".repeat(100_000),
+        ),
+        t("huge.toml", Kind::HostileCamera, &over_the_text_cap()),
         t(
             "orthority.yaml",
             Kind::CameraFormat,
             "cam:\n  type: opencv\n  im_size: [640, 1152]\n  focal_len: [120.0, 120.5]\n  sensor_size: [92.16, 165.888]\n  cx: 0.001\n  cy: -0.002\n  k1: -0.1\n  s1: 0.001\n",
         ),
     ]
+}
+
+/// A YAML "billion laughs": nine anchors, each a list of ten aliases of the one before (10^9
+/// scalars expanded, 300 bytes written), after `prefix` (OpenCV's directive, or nothing).
+fn alias_bomb(prefix: &str) -> String {
+    let mut s = format!("{prefix}a0: &a0 [lol]\n");
+    for i in 1..=9 {
+        let refs = vec![format!("*a{}", i - 1); 10].join(",");
+        s += &format!("a{i}: &a{i} [{refs}]\n");
+    }
+    s
+}
+
+/// Block mappings `depth` deep, under an Orthority-looking camera name.
+fn deep_yaml(depth: usize) -> String {
+    (0..depth)
+        .map(|i| format!("{}cam{i}:\n", " ".repeat(i)))
+        .collect::<String>()
+        + &" ".repeat(depth)
+        + "k1\n"
+}
+
+/// A valid camera TOML padded by a comment to one byte over the 16 MiB text cap.
+fn over_the_text_cap() -> String {
+    let head = "fx_px = 500.0\nfy_px = 500.0\nimage_size_px = [640, 480]\n#";
+    let cap = aerorect_io::MAX_TEXT_BYTES as usize;
+    head.to_string() + &"x".repeat(cap + 1 - head.len())
 }

@@ -115,6 +115,17 @@ fn call<T>(
     value
 }
 
+/// The file names camera files are read under (the format is detected from name and content).
+const CAMERA_NAMES: [&str; 7] = [
+    "camera.toml",
+    "camera.yml",
+    "camera.yaml",
+    "camera.xml",
+    "cameras.json",
+    "cameras.txt",
+    "camera.txt",
+];
+
 /// Every reader that takes this kind of input; `dir` is this worker's scratch folder.
 pub fn run(kind: Kind, bytes: &[u8], dir: &Path) -> Vec<Call> {
     let mut out = Vec::new();
@@ -189,8 +200,21 @@ pub fn run(kind: Kind, bytes: &[u8], dir: &Path) -> Vec<Call> {
                 || CameraFile::read(&p),
             );
         }
-        Kind::CameraFormat => {
-            // Every format's reader on every camera-file input (most see a foreign layout).
+        Kind::CameraFormat | Kind::HostileCamera => {
+            // The file readers, under each name the formats are detected by (as `--camera`
+            // and `camera convert` read them), then every format's reader on the text.
+            // A text over the cap is refused before its name matters: one name is enough.
+            let over = bytes.len() as u64 > aerorect_io::MAX_TEXT_BYTES;
+            for &name in &CAMERA_NAMES[..if over { 1 } else { CAMERA_NAMES.len() }] {
+                let p = file(name);
+                call(&mut out, name, Some(name), || CameraFile::read(&p));
+                call(&mut out, "read_camera_file", Some(name), || {
+                    aerorect_io::read_camera_file(&p, None, Some(ImageSize::new(640, 480)))
+                });
+            }
+            if over {
+                return out;
+            }
             for f in aerorect_io::CameraFormat::ALL {
                 call(&mut out, f.name(), Some("camera.fmt"), || {
                     // Only DewarpData needs the size (another would resize the camera).
