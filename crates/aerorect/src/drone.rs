@@ -461,6 +461,12 @@ fn finish_plan(
         (Ground::Dem { dem, .. }, None) => dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1)),
     };
     let height_above = frame.heights.camera_z_m - ground_z;
+    opts.validate()
+        .map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+    if opts.gsd_m.is_none() && !(height_above > 0.0) {
+        let (z, src) = (frame.heights.camera_z_m, &frame.heights.source);
+        return Err(crate::sane::camera_below_ground(file, z, src, ground_z));
+    }
     let gsd = opts.gsd_m.unwrap_or(height_above / k.fx);
     let req = OrthoRequest {
         camera: &frame.camera.camera,

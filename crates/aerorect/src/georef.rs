@@ -226,7 +226,7 @@ pub fn plan_ortho(req: &OrthoRequest<'_>, warp: WarpOptions) -> Result<OrthoPlan
     let g = req.gsd_m;
     if !(g.is_finite() && g > 0.0) {
         return Err(Error::Invalid(format!(
-            "--gsd-m {} must be a positive number of metres",
+            "GSD {} m must be a positive number of metres",
             Num(g)
         )));
     }
