@@ -217,4 +217,33 @@ mod tests {
             .output("--report", None);
         assert!(fine.check().is_ok());
     }
+
+    #[test]
+    fn an_output_that_cannot_be_written_is_refused_naming_it() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let d = dir.path();
+        let file = d.join("plain.txt");
+        std::fs::write(&file, "x").expect("write");
+        let refused = |f: Files| f.check().expect_err("refused").to_string();
+        let e = refused(Files::new().output("--report", Some(d)));
+        assert!(e.contains("--report") && e.contains("is a folder"), "{e}");
+        let missing = d.join("no/r.json");
+        let e = refused(Files::new().output("--json", Some(&missing)));
+        assert!(e.contains("--json") && e.contains("does not exist"), "{e}");
+        let e = refused(Files::new().output("OUTPUT", Some(&file.join("o.tif"))));
+        assert!(e.contains("plain.txt is not a folder"), "{e}");
+        let e = refused(Files::new().folder("--out-dir", Some(&file)));
+        assert!(e.contains("--out-dir") && e.contains("not a folder"), "{e}");
+        let e = refused(Files::new().folder("--out-dir", Some(&file.join("sub"))));
+        assert!(e.contains("cannot be made"), "{e}");
+        // Outputs inside a folder the command makes are fine; nothing is left behind.
+        let made = d.join("out/deeper");
+        let fine = Files::new()
+            .folder("--out-dir", Some(&made))
+            .output("--out-dir", Some(&made.join("a.tif")))
+            .output("--report", Some(&d.join("r.json")));
+        assert!(fine.check().is_ok());
+        let left: Vec<_> = std::fs::read_dir(d).expect("read_dir").collect();
+        assert_eq!(left.len(), 1, "{left:?}");
+    }
 }

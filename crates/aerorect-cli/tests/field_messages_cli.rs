@@ -196,6 +196,10 @@ fn a_camera_below_the_ground_is_said_so_not_a_gsd_nobody_gave() {
         &["abs.jpg", "not above the ground", "310", "high.tif", "500"],
     );
     assert!(!stderr(&out).contains("--gsd-m"), "{}", stderr(&out));
+    // With RelativeAltitude the take-off ground (230 m) gives the GSD; the DEM is still above.
+    let out = rectify(&["a.jpg", "--dem", "high.tif"]);
+    fails(&out, &["a.jpg", "high.tif"]);
+    assert!(!stderr(&out).contains("--gsd-m"), "{}", stderr(&out));
     // A DEM of 1e30 (an undeclared nodata value): named with the height.
     dem(&d, "huge.tif", 1e30);
     let out = rectify(&["abs.jpg", "--dem", "huge.tif"]);
