@@ -28,18 +28,16 @@ pub(crate) fn board_observations(
 ) -> Result<BoardObservations> {
     let (cols, rows) = parse_board(board.as_deref().context("--board COLSxROWS is required")?)?;
     let square_m = square_m.context("--square-m is required with --images")?;
-    if !(square_m.is_finite() && square_m > 0.0) {
-        bail!("--square-m {square_m}: must be a finite number > 0");
-    }
-    let found = observations_from_images(
-        images,
-        Board {
-            cols,
-            rows,
-            square_m,
-            fixed_half_window,
-        },
-    )?;
+    let board = Board {
+        cols,
+        rows,
+        square_m,
+        fixed_half_window,
+    };
+    board
+        .validate()
+        .with_context(|| format!("--square-m {}", aerorect::core::error::Num(square_m)))?;
+    let found = observations_from_images(images, board)?;
     outln!(
         "chessboard {cols} x {rows} inner corners, squares {square_m} m, photos {} x {}:",
         found.size.width,

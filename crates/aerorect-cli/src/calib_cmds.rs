@@ -89,15 +89,15 @@ fn parse_corner_window(s: &str) -> Result<CornerWindow, String> {
 }
 
 pub(crate) fn parse_size(s: &str) -> Result<ImageSize> {
-    let parse = || -> Option<ImageSize> {
+    let parse = || -> Option<(u64, u64)> {
         let (w, h) = s.split_once(['x', 'X'])?;
-        Some(ImageSize::new(
-            w.trim().parse().ok()?,
-            h.trim().parse().ok()?,
-        ))
+        Some((w.trim().parse().ok()?, h.trim().parse().ok()?))
     };
     match parse() {
-        Some(sz) if sz.width > 0 && sz.height > 0 => Ok(sz),
+        Some((w, h)) if w > 0 && h > 0 => {
+            ImageSize::validate_sides(w, h).with_context(|| format!("--image-size '{s}'"))?;
+            Ok(ImageSize::new(w as usize, h as usize))
+        }
         _ => bail!("--image-size '{s}': expected WxH with positive integers, e.g. 640x480"),
     }
 }

@@ -418,6 +418,7 @@ pub struct DemoArgs {
 }
 
 pub fn demo(a: DemoArgs) -> Result<()> {
+    Files::new().folder("--out-dir", Some(&a.out_dir)).check()?;
     let s = aerorect::demo::run(&a.out_dir)?;
     let d = a.out_dir.display();
     outln!("aerorect demo: OpenCV's aero1.jpg (a real aerial photo) as the nadir scene");

@@ -3,6 +3,7 @@
 use crate::commands::RectifyArgs;
 use crate::outputs::Files;
 use aerorect::core::RectifyLimits;
+use aerorect::core::error::Num;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
 use aerorect::demo::write_text;
 use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo, rectify_photo_staged};
@@ -10,6 +11,7 @@ use aerorect::geo::{Mounting, Projection};
 use aerorect::georef::load_dem;
 use aerorect::io::{CameraFile, CogMask, CogOptions, Crs, PoseRecord, StagedOutputs, image_files};
 use aerorect::raster::{AnyRaster, Interp, WarpOptions};
+use aerorect::sane;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -75,12 +77,7 @@ pub(crate) fn ortho_options(
     poses: Option<&Path>,
 ) -> Result<DroneOptions> {
     let (gsd_m, ground_height_m, camera) = common;
-    if !geo.vertical_offset_m.is_finite() {
-        bail!(
-            "--vertical-offset-m {}: not a finite number",
-            geo.vertical_offset_m
-        );
-    }
+    check_ranges(geo, gsd_m, ground_height_m)?;
     let mounting = Mounting::from_angles(
         geo.boresight_deg
             .as_deref()
@@ -89,32 +86,14 @@ pub(crate) fn ortho_options(
             .unwrap_or([0.0; 3]),
         geo.lever_arm_m
             .as_deref()
-            .map(|t| triple("lever-arm-m", t))
+            .map(|t| -> Result<_> {
+                let arm = triple("lever-arm-m", t)?;
+                Ok(sane::check_lever_arm_m(arm).with_context(|| format!("--lever-arm-m '{t}'"))?)
+            })
             .transpose()?
             .unwrap_or([0.0; 3]),
     );
-    let crs_text = match (&geo.crs, poses) {
-        (Some(c), _) => Some(c.clone()),
-        (None, Some(p)) => {
-            let prj = p.with_extension("prj");
-            match aerorect::io::read_text(&prj) {
-                Ok(t) => Some(t.trim().to_string()),
-                Err(_) => None,
-            }
-        }
-        (None, None) => None,
-    };
-    let crs = crs_text
-        .map(|t| -> Result<_> {
-            let c = Crs::parse(&t).with_context(|| format!("--crs '{t}'"))?;
-            let def = c.to_proj_string().with_context(|| format!("--crs '{t}'"))?;
-            let p = Projection::new(&def).with_context(|| format!("--crs '{t}'"))?;
-            if p.is_geographic() {
-                bail!("--crs '{t}' is geographic: orthos need a projected CRS in metres");
-            }
-            Ok((c, p))
-        })
-        .transpose()?;
+    let crs = output_crs(geo, poses)?;
     let poses = poses
         .map(|p| -> Result<_> {
             let rows = aerorect::io::read_poses(p)?;
@@ -138,6 +117,54 @@ pub(crate) fn ortho_options(
         warp,
         cog: None,
     })
+}
+
+/// The flags with a sane range (the library's), refused naming the flag and its value.
+fn check_ranges(geo: &GeoArgs, gsd_m: Option<f64>, ground_height_m: Option<f64>) -> Result<()> {
+    if let Some(g) = gsd_m {
+        sane::check_gsd_m(g).with_context(|| format!("--gsd-m {}", Num(g)))?;
+    }
+    if let Some(z) = ground_height_m {
+        sane::check_height_m("ground height", z)
+            .with_context(|| format!("--ground-height-m {}", Num(z)))?;
+    }
+    let v = geo.vertical_offset_m;
+    sane::check_height_m("vertical offset", v)
+        .with_context(|| format!("--vertical-offset-m {}", Num(v)))?;
+    Ok(())
+}
+
+/// The output CRS: `--crs`, else the pose table's `.prj` (an error names the one it came from).
+fn output_crs(geo: &GeoArgs, poses: Option<&Path>) -> Result<Option<(Crs, Projection)>> {
+    let (text, origin) = match (&geo.crs, poses) {
+        (Some(c), _) => (c.clone(), "--crs".to_string()),
+        (None, Some(p)) => {
+            let prj = p.with_extension("prj");
+            match aerorect::io::read_text(&prj) {
+                Ok(t) => (
+                    t.trim().to_string(),
+                    format!("{} (the poses' CRS)", prj.display()),
+                ),
+                Err(_) => return Ok(None),
+            }
+        }
+        (None, None) => return Ok(None),
+    };
+    let mut short: String = text.chars().take(80).collect();
+    if short.len() < text.len() {
+        short.push_str("...");
+    }
+    let named = || format!("{origin} '{short}'");
+    let c = Crs::parse(&text).with_context(named)?;
+    let def = c.to_proj_string().with_context(named)?;
+    let p = Projection::new(&def).with_context(named)?;
+    if p.is_geographic() {
+        bail!(
+            "{} is geographic: orthos need a projected CRS in metres",
+            named()
+        );
+    }
+    Ok(Some((c, p)))
 }
 
 /// The cloud-optimised GeoTIFF options of `--cog`: Deflate, overviews, the nodata value, and
@@ -329,12 +356,23 @@ impl FlightArgs {
 
     pub(crate) fn flight_options(&self) -> Result<aerorect::flight::FlightOptions> {
         use aerorect::flight::PositionPrior;
-        for (flag, v) in [
-            ("--adjust-positions-m", self.adjust_positions_m),
-            ("--attitude-sigma-deg", Some(self.attitude_sigma_deg)),
+        for (flag, v, max) in [
+            (
+                "--adjust-positions-m",
+                self.adjust_positions_m,
+                sane::MAX_HEIGHT_M,
+            ),
+            (
+                "--attitude-sigma-deg",
+                Some(self.attitude_sigma_deg),
+                aerorect::flight::MAX_ATTITUDE_SIGMA_DEG,
+            ),
         ] {
-            if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
-                bail!("{flag} {v}: must be a finite number > 0");
+            if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0 && *v <= max)) {
+                bail!(
+                    "{flag} {}: must be a finite number > 0 and at most {max}",
+                    Num(v)
+                );
             }
         }
         if self.adjust_passes == 0 {
@@ -424,9 +462,11 @@ pub fn batch(a: BatchArgs) -> Result<()> {
         );
     }
     batch_files(&a)?.check()?;
-    std::fs::create_dir_all(&a.out_dir)
-        .with_context(|| format!("{}: cannot create", a.out_dir.display()))?;
-    // One camera file and one set of options for every frame.
+    if a.flight.adjust {
+        a.flight.flight_options()?;
+    }
+    // One camera file and one set of options for every frame, read before the out folder
+    // is made.
     let mut opts = a.flight.options(
         RectifyLimits {
             max_output_px: a.max_output_px,
@@ -442,6 +482,8 @@ pub fn batch(a: BatchArgs) -> Result<()> {
     if a.cog {
         opts.cog = Some(cog_options(false));
     }
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("{}: cannot create", a.out_dir.display()))?;
     if a.flight.adjust {
         return batch_adjusted(&a, &opts);
     }
@@ -514,7 +556,10 @@ fn refuse_collisions(a: &BatchArgs) -> Result<()> {
 fn batch_files(a: &BatchArgs) -> Result<Files> {
     aerorect::io::refuse_duplicate_photos(&a.inputs)?;
     refuse_collisions(a)?;
-    let mut files = a.flight.inputs(Files::new());
+    let mut files = a
+        .flight
+        .inputs(Files::new())
+        .folder("--out-dir", Some(&a.out_dir));
     for input in &a.inputs {
         files = files.input("PHOTOS", Some(input));
     }

@@ -147,6 +147,7 @@ pub fn motion_sim_cmd(a: MotionSimArgs) -> Result<()> {
         .output("--plot", Some(&a.plot))
         .output("--json", a.json.as_deref())
         .output("--dump-dir", manifest.as_deref())
+        .folder("--dump-dir", a.dump_dir.as_deref())
         .check()?;
     let scenes = a
         .images

@@ -148,18 +148,18 @@ fn a_gsd_as_large_as_the_footprint_is_refused() {
             d,
         )
     };
-    // Before the fix: a 2 x 2 px ortho, exit 0.
+    // Before the fix: a 2 x 2 px ortho, exit 0. Now beyond the sane range (issue 28).
+    fails(&run("1e6"), &["--gsd-m 1000000", "at most 10000 m"]);
+    assert!(!d.join("o.tif").exists());
     fails(
-        &run("1e6"),
+        &run("10"),
         &[
-            "--gsd-m 1000000 gives a 2 x 2 px ortho",
+            "GSD 10 m gives a 12 x 9 px ortho",
             "103 x 77 m",
             "16 px",
-            "--gsd-m 4.8",
+            "a GSD of 4.8",
         ],
     );
-    assert!(!d.join("o.tif").exists());
-    fails(&run("10"), &["--gsd-m 10 gives a 12 x 9 px ortho"]);
     ok(&run("4"));
 }
 

@@ -5,9 +5,18 @@
 //! at integer coordinates. In focal units a ray is (x/f, y/f, -1) and
 //! `u = fx x/f - skew y/f + cx`, `v = -fy y/f + cy` (eq. 1 with fx = f/dx, fy = f/dy).
 
-use crate::error::{GeometryError, require_finite, require_positive};
+use crate::error::{GeometryError, require_finite, require_magnitude, require_positive};
 use crate::{Mat3, Vec3};
 use serde::{Deserialize, Serialize};
+
+/// The longest side an image may have, pixels (a camera file's `image_size_px`, `--image-size`).
+pub const MAX_IMAGE_SIDE_PX: u64 = 1_000_000;
+/// The most pixels an image may have, W x H (ten times the largest aerial sensors').
+pub const MAX_IMAGE_PX: u64 = 4_000_000_000;
+/// The range of a focal length in pixels, and the largest |principal point| and |skew|.
+pub const FOCAL_RANGE_PX: (f64, f64) = (1e-3, 1e7);
+const FOCAL_REASON: &str = "outside the sane range 0.001 ..= 1e7 px";
+const OFFSET_REASON: &str = "outside the sane range |value| <= 1e7 px";
 
 /// Width and height of an image in pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -19,6 +28,30 @@ pub struct ImageSize {
 impl ImageSize {
     pub fn new(width: usize, height: usize) -> Self {
         Self { width, height }
+    }
+
+    /// Refuses a size of zero, a side over [`MAX_IMAGE_SIDE_PX`] or more than [`MAX_IMAGE_PX`]
+    /// pixels in all.
+    pub fn validate(&self) -> Result<(), GeometryError> {
+        Self::validate_sides(self.width as u64, self.height as u64)
+    }
+
+    /// [`ImageSize::validate`] for sides not yet known to fit a `usize`.
+    pub fn validate_sides(width: u64, height: u64) -> Result<(), GeometryError> {
+        let reason = if width == 0 || height == 0 {
+            "both sides must be at least 1 px".to_string()
+        } else if width.max(height) > MAX_IMAGE_SIDE_PX {
+            format!("a side over {MAX_IMAGE_SIDE_PX} px")
+        } else if width.saturating_mul(height) > MAX_IMAGE_PX {
+            format!("over {MAX_IMAGE_PX} px in all")
+        } else {
+            return Ok(());
+        };
+        Err(GeometryError::InvalidImageSize {
+            width,
+            height,
+            reason,
+        })
     }
 
     /// Number of pixels, width x height.
@@ -61,6 +94,18 @@ impl Intrinsics {
             cy: require_finite("cy_px", cy)?,
             skew: 0.0,
         })
+    }
+
+    /// Refuses intrinsics outside the sane ranges: focal lengths within [`FOCAL_RANGE_PX`],
+    /// |principal point| and |skew| at most its upper end.
+    pub fn validate(&self) -> Result<(), GeometryError> {
+        require_magnitude("fx_px", self.fx, FOCAL_RANGE_PX, FOCAL_REASON)?;
+        require_magnitude("fy_px", self.fy, FOCAL_RANGE_PX, FOCAL_REASON)?;
+        let offsets = (0.0, FOCAL_RANGE_PX.1);
+        require_magnitude("cx_px", self.cx, offsets, OFFSET_REASON)?;
+        require_magnitude("cy_px", self.cy, offsets, OFFSET_REASON)?;
+        require_magnitude("skew_px", self.skew, offsets, OFFSET_REASON)?;
+        Ok(())
     }
 
     /// The paper's parameters: focal length f (mm), pixel pitch dx, dy (um), principal point

@@ -30,6 +30,14 @@ pub enum GeometryError {
         from[0], from[1], to[0], to[1]
     )]
     AspectMismatch { from: [usize; 2], to: [usize; 2] },
+    /// An image size outside the sane range (each side 1 ..= `MAX_IMAGE_SIDE_PX`, at most
+    /// `MAX_IMAGE_PX` in all).
+    #[error("image size {width} x {height} px is invalid: {reason}")]
+    InvalidImageSize {
+        width: u64,
+        height: u64,
+        reason: String,
+    },
     /// A homography matrix is singular.
     #[error("the homography is singular")]
     Singular,
@@ -52,6 +60,26 @@ pub fn require_positive(field: &'static str, value: f64) -> Result<f64, Geometry
         });
     }
     Ok(value)
+}
+
+/// Checks that `value` is finite with `min <= |value| <= max` (`min` 0 allows zero);
+/// `reason` says the range.
+pub fn require_magnitude(
+    field: &'static str,
+    value: f64,
+    (min, max): (f64, f64),
+    reason: &'static str,
+) -> Result<f64, GeometryError> {
+    let v = require_finite(field, value)?;
+    if (min..=max).contains(&v.abs()) || (min == 0.0 && v == 0.0) {
+        Ok(v)
+    } else {
+        Err(GeometryError::InvalidParameter {
+            field,
+            value,
+            reason,
+        })
+    }
 }
 
 /// Checks that `value` is finite.

@@ -8,8 +8,11 @@
 use crate::Vec3;
 use crate::camera::{ImageSize, Intrinsics};
 use crate::distortion::Distortion;
-use crate::error::GeometryError;
+use crate::error::{GeometryError, require_magnitude};
 use serde::Serialize;
+
+/// The largest |coefficient| a lens model may have.
+pub const MAX_LENS_COEFFICIENT: f64 = 1e4;
 
 /// A frame camera.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -28,6 +31,27 @@ impl Camera {
             distortion,
             size,
         }
+    }
+
+    /// Refuses a camera outside the sane ranges: its size ([`ImageSize::validate`]), its
+    /// intrinsics ([`Intrinsics::validate`]) and every lens coefficient within
+    /// +-[`MAX_LENS_COEFFICIENT`] (in normalised coordinates, where 1 is a focal length from
+    /// the centre).
+    pub fn validate(&self) -> Result<(), GeometryError> {
+        self.size.validate()?;
+        self.intrinsics.validate()?;
+        if let Some(d) = &self.distortion {
+            let model = d.model();
+            for (name, v) in model.names().iter().zip(model.params()) {
+                require_magnitude(
+                    name,
+                    v,
+                    (0.0, MAX_LENS_COEFFICIENT),
+                    "outside the sane range |value| <= 1e4",
+                )?;
+            }
+        }
+        Ok(())
     }
 
     /// The same camera for the image resampled to `size`. Pixel centres sit at integer
@@ -183,6 +207,33 @@ mod tests {
             big.resized(ImageSize::new(1000, 1000)),
             Err(GeometryError::AspectMismatch { .. })
         ));
+    }
+
+    #[test]
+    fn a_camera_outside_the_sane_ranges_is_refused() {
+        assert!(camera(lens()).validate().is_ok());
+        let refused = |c: Camera| c.validate().unwrap_err().to_string();
+        let mut c = camera(None);
+        c.intrinsics.fx = 1e308;
+        assert!(refused(c).contains("fx_px = 1e308"));
+        let mut c = camera(None);
+        c.intrinsics.fy = 1e-4;
+        assert!(refused(c).contains("fy_px = 0.0001"));
+        let mut c = camera(None);
+        c.intrinsics.cy = -2e7;
+        assert!(refused(c).contains("cy_px = -20000000"));
+        let mut c = camera(lens());
+        if let Some(Distortion::OpenCv(m)) = c.distortion.as_mut() {
+            m.k1 = 1e308;
+        }
+        assert!(refused(c).contains("k1 = 1e308"));
+        // Sides up to 1e6 px, at most 4e9 px in all.
+        let sized = |w, h| Camera::new(camera(None).intrinsics, None, ImageSize::new(w, h));
+        assert!(sized(1_000_000, 4_000).validate().is_ok());
+        assert!(refused(sized(1_000_001, 1)).contains("1000001 x 1 px"));
+        assert!(refused(sized(100_000, 50_000)).contains("in all"));
+        assert!(refused(sized(0, 10)).contains("at least 1 px"));
+        assert!(ImageSize::validate_sides(4_000_000_000, 3_000_000_000).is_err());
     }
 
     #[test]

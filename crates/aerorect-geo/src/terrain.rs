@@ -3,6 +3,10 @@
 
 use crate::{GeoError, Projection};
 
+/// The largest |height| a DEM may hold, metres (heights beyond it are a nodata value nobody
+/// declared, such as 1e30 or -3.4e38).
+pub const MAX_DEM_HEIGHT_M: f64 = 1e5;
+
 /// A north-up raster of heights in any CRS; NaN is no data. `top_left` is the outer corner of
 /// cell (0, 0), so the centre of cell (c, r) is (x0 + (c + 0.5) sx, y0 - (r + 0.5) sy).
 #[derive(Debug, Clone)]
@@ -51,6 +55,16 @@ impl Dem {
         }
         if !self.values.iter().any(|v| v.is_finite()) {
             return bad("has no valid height (all nodata)".into());
+        }
+        if let Some(h) = self
+            .values
+            .iter()
+            .find(|v| v.is_finite() && v.abs() > MAX_DEM_HEIGHT_M as f32)
+        {
+            return bad(format!(
+                "a height of {h:e} m is outside the sane range |h| <= {MAX_DEM_HEIGHT_M} m \
+                 (an undeclared nodata value? give the file a GDAL_NODATA tag)"
+            ));
         }
         Ok(())
     }

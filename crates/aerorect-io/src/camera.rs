@@ -8,9 +8,16 @@
 //! defaults to the image centre ((W-1)/2, (H-1)/2). Optional `[distortion]` table: `model`
 //! (tsai, brown, improved, opencv, opencv-rational, opencv-thin-prism,
 //! opencv-rational-thin-prism) and the coefficients by name (missing ones are zero). Unknown keys are an error.
+//!
+//! Sane ranges (an absurd value is refused naming its key): each side of `image_size_px`
+//! 1 ..= 1,000,000 px and at most 4e9 px in all; focal lengths 0.001 ..= 1e7 px; |principal
+//! point| and |skew| <= 1e7 px; every lens coefficient |k| <= 1e4 (normalised coordinates).
 
 use crate::camera_formats::{CameraFormat, camera_from_text};
 use crate::error::IoError;
+use aerorect_core::camera::FOCAL_RANGE_PX;
+use aerorect_core::error::require_magnitude;
+use aerorect_core::frame_camera::MAX_LENS_COEFFICIENT;
 use aerorect_core::{Camera, GeometryError, ImageSize, Intrinsics};
 use serde::Deserialize;
 use std::path::Path;
@@ -78,27 +85,56 @@ impl CameraFile {
             toml::from_str(text).map_err(|e| IoError::field(source_name, e.message()))?;
         cam.source_name = source_name.to_string();
         cam.check_distortion()?;
+        cam.check_ranges()?;
         Ok(cam)
     }
 
     /// Every `[distortion]` coefficient must be finite (a NaN or infinite one maps every pixel
-    /// to nowhere).
+    /// to nowhere) and within +-`MAX_LENS_COEFFICIENT`.
     fn check_distortion(&self) -> Result<(), IoError> {
         let Some(d) = &self.distortion else {
             return Ok(());
         };
         let model = d.model();
-        let bad = model
-            .names()
-            .iter()
-            .zip(model.params())
-            .find(|(_, v)| !v.is_finite());
-        match bad {
-            Some((name, v)) => Err(self.err(format!(
-                "[distortion] {name} = {v} is invalid: not a finite number"
-            ))),
-            None => Ok(()),
+        for (name, v) in model.names().iter().zip(model.params()) {
+            require_magnitude(
+                name,
+                v,
+                (0.0, MAX_LENS_COEFFICIENT),
+                "outside the sane range |value| <= 1e4",
+            )
+            .map_err(|e| self.err(format!("[distortion] {e}")))?;
         }
+        Ok(())
+    }
+
+    /// The values the file gives, each within its sane range (`Camera::validate`'s), named by
+    /// its key: absurd values are refused where they are read, not where they break the work.
+    fn check_ranges(&self) -> Result<(), IoError> {
+        self.image_size()?;
+        let geo = |e: GeometryError| self.err(e);
+        let focal = "outside the sane range 0.001 ..= 1e7 px";
+        for (field, v) in [("fx_px", self.fx_px), ("fy_px", self.fy_px)] {
+            if let Some(v) = v {
+                require_magnitude(field, v, FOCAL_RANGE_PX, focal).map_err(geo)?;
+            }
+        }
+        let pp = self.principal_point_px.unwrap_or([0.0; 2]);
+        let offsets = [
+            ("cx_px", self.cx_px),
+            ("cy_px", self.cy_px),
+            ("skew_px", self.skew_px),
+            ("principal_point_px[0]", Some(pp[0])),
+            ("principal_point_px[1]", Some(pp[1])),
+        ];
+        for (field, v) in offsets {
+            if let Some(v) = v {
+                let range = (0.0, FOCAL_RANGE_PX.1);
+                require_magnitude(field, v, range, "outside the sane range |value| <= 1e7 px")
+                    .map_err(geo)?;
+            }
+        }
+        Ok(())
     }
 
     fn err(&self, message: impl ToString) -> IoError {
@@ -117,6 +153,7 @@ impl CameraFile {
             .or(image)
             .ok_or_else(|| self.err("missing key image_size_px (needed to know the frame size)"))?;
         let camera = Camera::new(self.intrinsics(size)?, self.distortion.clone(), size);
+        camera.validate().map_err(|e| self.err(e))?;
         match image {
             Some(image) if image != size => camera.resized(image).map_err(|e| match e {
                 GeometryError::AspectMismatch { .. } => self.err(format!(
@@ -129,12 +166,14 @@ impl CameraFile {
         }
     }
 
-    /// `image_size_px`, if given (both values must be positive).
+    /// `image_size_px`, if given (within [`ImageSize::validate_sides`]'s range).
     fn image_size(&self) -> Result<Option<ImageSize>, IoError> {
         match self.image_size_px {
             None => Ok(None),
-            Some([w, h]) if w > 0 && h > 0 => Ok(Some(ImageSize::new(w as usize, h as usize))),
-            Some([w, h]) => Err(self.err(format!("image_size_px = [{w}, {h}] must be positive"))),
+            Some([w, h]) => match ImageSize::validate_sides(w, h) {
+                Ok(()) => Ok(Some(ImageSize::new(w as usize, h as usize))),
+                Err(e) => Err(self.err(format!("image_size_px = [{w}, {h}]: {e}"))),
+            },
         }
     }
 

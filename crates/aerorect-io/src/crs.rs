@@ -30,10 +30,18 @@ impl Crs {
     pub fn parse(text: &str) -> Result<Crs, IoError> {
         let t = text.trim();
         let crs = if let Some(code) = strip_prefix_ci(t, "EPSG:") {
-            let code = code.trim().parse::<u16>().map_err(|_| {
-                IoError::field(SOURCE, format!("'{t}': the EPSG code is not a number"))
-            })?;
-            Crs::Epsg(code)
+            let code = code.trim();
+            if code.is_empty() || !code.bytes().all(|b| b.is_ascii_digit()) {
+                return Err(IoError::field(
+                    SOURCE,
+                    format!("'{t}': the EPSG code '{code}' is not a whole number"),
+                ));
+            }
+            // Every EPSG code of the table fits 16 bits: a longer one is unknown.
+            match code.parse::<u16>() {
+                Ok(c) => Crs::Epsg(c),
+                Err(_) => return Err(unknown_epsg(code)),
+            }
         } else if t.starts_with('+') {
             Crs::Proj(t.to_string())
         } else if looks_like_wkt(t) {
@@ -219,8 +227,14 @@ fn short(s: &str) -> String {
 }
 
 fn epsg_definition(code: u16) -> Result<crs_definitions::Def, IoError> {
-    crs_definitions::from_code(code)
-        .ok_or_else(|| IoError::field(SOURCE, format!("EPSG:{code} is not a known EPSG code")))
+    crs_definitions::from_code(code).ok_or_else(|| unknown_epsg(&code.to_string()))
+}
+
+fn unknown_epsg(code: &str) -> IoError {
+    IoError::field(
+        SOURCE,
+        format!("EPSG:{code} is an unknown EPSG code (not in the EPSG table this build carries)"),
+    )
 }
 
 /// The `+key=value` (or bare `+flag`) parameters of a PROJ string.
@@ -368,6 +382,11 @@ mod tests {
         assert!(e.contains("+proj=nonsense"), "{e}");
         let e = Crs::parse("EPSG:1").unwrap_err().to_string();
         assert!(e.contains("EPSG:1 "), "{e}");
+        // A number that is no EPSG code is unknown, not "not a number".
+        let e = Crs::parse("EPSG:999999").unwrap_err().to_string();
+        assert!(e.contains("EPSG:999999 is an unknown EPSG code"), "{e}");
+        let e = Crs::parse("EPSG:32x").unwrap_err().to_string();
+        assert!(e.contains("'32x' is not a whole number"), "{e}");
         let e = Crs::parse("UTM 35").unwrap_err().to_string();
         assert!(e.contains("'UTM 35'"), "{e}");
     }

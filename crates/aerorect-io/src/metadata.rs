@@ -282,6 +282,16 @@ fn parse_dji(tags: &BTreeMap<String, String>) -> Result<DjiTags, String> {
         }
         Ok(None)
     };
+    // Heights beyond 100 km are no flight (1e308 used to reach the homography as "singular").
+    let height = |name: &str| -> Result<Option<f64>, String> {
+        match num(&[name])? {
+            Some(v) if v.abs() > 1e5 => Err(format!(
+                "XMP drone-dji:{name} = '{}' is outside the sane range |h| <= 100000 m",
+                tags.get(name).map_or("", |t| t.trim())
+            )),
+            v => Ok(v),
+        }
+    };
     Ok(DjiTags {
         gimbal_roll_deg: num(&["GimbalRollDegree"])?,
         gimbal_pitch_deg: num(&["GimbalPitchDegree"])?,
@@ -289,8 +299,8 @@ fn parse_dji(tags: &BTreeMap<String, String>) -> Result<DjiTags, String> {
         flight_roll_deg: num(&["FlightRollDegree"])?,
         flight_pitch_deg: num(&["FlightPitchDegree"])?,
         flight_yaw_deg: num(&["FlightYawDegree"])?,
-        relative_altitude_m: num(&["RelativeAltitude"])?,
-        absolute_altitude_m: num(&["AbsoluteAltitude"])?,
+        relative_altitude_m: height("RelativeAltitude")?,
+        absolute_altitude_m: height("AbsoluteAltitude")?,
         calibrated_focal_length_px: num(&["CalibratedFocalLength"])?,
         calibrated_optical_center_x_px: num(&["CalibratedOpticalCenterX"])?,
         calibrated_optical_center_y_px: num(&["CalibratedOpticalCenterY"])?,

@@ -32,6 +32,23 @@ pub struct Board {
     pub fixed_half_window: Option<usize>,
 }
 
+/// The widest chessboard square, metres.
+pub const MAX_SQUARE_M: f64 = 1e3;
+
+impl Board {
+    /// Refuses a square size that is not a finite number in 0 < s <= [`MAX_SQUARE_M`].
+    pub fn validate(&self) -> Result<(), Error> {
+        let s = self.square_m;
+        if s.is_finite() && s > 0.0 && s <= MAX_SQUARE_M {
+            return Ok(());
+        }
+        Err(Error::Invalid(format!(
+            "square size {} m: must be a finite number > 0 and at most {MAX_SQUARE_M} m",
+            aerorect_core::error::Num(s)
+        )))
+    }
+}
+
 /// What became of one calibration photo.
 #[derive(Debug, Clone, PartialEq)]
 pub struct View {
@@ -81,12 +98,7 @@ pub fn observations_from_images(
     paths: &[PathBuf],
     board: Board,
 ) -> Result<BoardObservations, Error> {
-    if !(board.square_m.is_finite() && board.square_m > 0.0) {
-        return Err(Error::Invalid(format!(
-            "square size {} m: must be a finite number > 0",
-            board.square_m
-        )));
-    }
+    board.validate()?;
     let finder = ChessboardFinder::new(board.cols, board.rows)
         .and_then(|f| match board.fixed_half_window {
             Some(h) => f.with_fixed_half_window(h),

@@ -461,6 +461,20 @@ fn finish_plan(
         (Ground::Dem { dem, .. }, None) => dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1)),
     };
     let height_above = frame.heights.camera_z_m - ground_z;
+    opts.validate()
+        .map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+    let (z, src) = (frame.heights.camera_z_m, &frame.heights.source);
+    if opts.gsd_m.is_none() && !(height_above.is_finite() && height_above > 0.0) {
+        return Err(crate::sane::camera_below_ground(file, z, src, ground_z));
+    }
+    // Over a DEM, the terrain under the camera (the take-off point may be far below it).
+    let [x, y, _] = frame.pose.centre;
+    if let Ground::Dem { dem, .. } = &frame.ground
+        && let Some(under) = dem.height_in(&frame.proj, x, y)
+        && z <= under
+    {
+        return Err(crate::sane::camera_below_ground(file, z, src, under));
+    }
     let gsd = opts.gsd_m.unwrap_or(height_above / k.fx);
     let req = OrthoRequest {
         camera: &frame.camera.camera,

@@ -45,6 +45,33 @@ pub struct FlightOptions {
     pub settled_deg: f64,
 }
 
+/// The largest standard deviation of a recorded attitude, degrees (half a turn).
+pub const MAX_ATTITUDE_SIGMA_DEG: f64 = 180.0;
+
+impl FlightOptions {
+    /// Refuses an attitude standard deviation outside 0 < s <= [`MAX_ATTITUDE_SIGMA_DEG`] and
+    /// a position one that is not a finite number in 0 < s <= 1e5 m.
+    pub fn validate(&self) -> Result<(), Error> {
+        let s = self.attitude_sigma_deg;
+        if !(s.is_finite() && s > 0.0 && s <= MAX_ATTITUDE_SIGMA_DEG) {
+            return Err(Error::Invalid(format!(
+                "attitude standard deviation {} deg: must be > 0 and at most {MAX_ATTITUDE_SIGMA_DEG} deg",
+                aerorect_core::error::Num(s)
+            )));
+        }
+        if let PositionPrior::Sigma(p) = self.positions
+            && !(p.is_finite() && p > 0.0 && p <= crate::sane::MAX_HEIGHT_M)
+        {
+            return Err(Error::Invalid(format!(
+                "position standard deviation {} m: must be > 0 and at most {} m",
+                aerorect_core::error::Num(p),
+                crate::sane::MAX_HEIGHT_M
+            )));
+        }
+        Ok(())
+    }
+}
+
 impl Default for FlightOptions {
     fn default() -> Self {
         Self {
@@ -486,6 +513,7 @@ pub fn adjust_flight(
     opts: &DroneOptions,
     fo: &FlightOptions,
 ) -> Result<AdjustedFlight, Error> {
+    fo.validate()?;
     let plan = FlightPlan::new(inputs, opts, fo)?;
     let mut progress = FlightProgress::default();
     loop {

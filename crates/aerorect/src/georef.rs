@@ -226,7 +226,7 @@ pub fn plan_ortho(req: &OrthoRequest<'_>, warp: WarpOptions) -> Result<OrthoPlan
     let g = req.gsd_m;
     if !(g.is_finite() && g > 0.0) {
         return Err(Error::Invalid(format!(
-            "--gsd-m {} must be a positive number of metres",
+            "GSD {} m must be a positive number of metres",
             Num(g)
         )));
     }
@@ -256,8 +256,8 @@ fn refuse_too_coarse(plan: &OrthoPlan) -> Result<(), Error> {
     let b = bounds_of(plan.footprint.iter().copied());
     let (w, h) = (b[2] - b[0], b[3] - b[1]);
     Err(Error::Invalid(format!(
-        "--gsd-m {} gives a {} x {} px ortho of a footprint about {w:.0} x {h:.0} m: \
-         a side needs at least {MIN_ORTHO_SIDE_PX} px, so give --gsd-m {:.3} or finer",
+        "GSD {} m gives a {} x {} px ortho of a footprint about {w:.0} x {h:.0} m: \
+         a side needs at least {MIN_ORTHO_SIDE_PX} px, so a GSD of {:.3} m or finer",
         Num(plan.grid.gsd),
         size.width,
         size.height,

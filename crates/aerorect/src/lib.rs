@@ -21,6 +21,7 @@ pub mod overlap;
 pub mod rectify;
 pub mod register;
 pub mod report_html;
+pub mod sane;
 pub mod sensitivity;
 pub mod simulate;
 pub mod undistort;

@@ -155,6 +155,7 @@ pub fn camera_from_text(
         }
         CameraFormat::Orthority => orthority::read(text, &src),
     }?;
+    camera.validate().map_err(|e| src.err(e))?;
     match size {
         Some(s) if s != camera.size => camera
             .resized(s)
