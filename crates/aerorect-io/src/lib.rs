@@ -11,6 +11,7 @@ pub mod checkpoints;
 pub mod cog;
 pub mod crs;
 pub mod dem;
+pub mod eo;
 pub mod error;
 mod geokeys;
 pub mod geotiff;
@@ -32,13 +33,14 @@ pub use checkpoints::{
 pub use cog::{CogCompression, CogMask, CogOptions, write_cog, write_image_cog};
 pub use crs::Crs;
 pub use dem::{Dem, read_dem};
+pub use eo::{EoFormat, EoRecord, EoTable, read_eo_file};
 pub use error::IoError;
 pub use geotiff::{GeoReference, read_georeference, write_world_file};
 pub use image_file::{
     decode_image_bytes, image_files, read_image, resolved_path, same_file, thumbnail_png,
     write_atomically, write_image, write_image_geo,
 };
-pub use metadata::{PhotoMetadata, read_photo_metadata};
+pub use metadata::{BodyAngles, BodySchema, PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};
 pub use staged::{Abandoned, StagedOutputs, remove_pending};
 pub use tiled_tiff::write_tiled_tiff;
