@@ -156,7 +156,10 @@ pub(crate) fn group(
 }
 
 /// Yaw, pitch, roll of a group.
-pub(crate) fn angles(v: Option<Vec<f64>>, schema: crate::metadata::BodySchema) -> Option<BodyAngles> {
+pub(crate) fn angles(
+    v: Option<Vec<f64>>,
+    schema: crate::metadata::BodySchema,
+) -> Option<BodyAngles> {
     v.map(|v| BodyAngles {
         yaw_deg: v[0],
         pitch_deg: v[1],

@@ -37,7 +37,10 @@ fn pix4d_csv_with_and_without_header() {
     assert_eq!(r.position, [139.04, 37.5]);
     assert_eq!(r.z_m, Some(260.5));
     let a = r.angles.unwrap();
-    assert_eq!((a.yaw_deg, a.pitch_deg, a.roll_deg, a.schema), (304.4, 3.4, 12.9, BodySchema::Pix4dCsv));
+    assert_eq!(
+        (a.yaw_deg, a.pitch_deg, a.roll_deg, a.schema),
+        (304.4, 3.4, 12.9, BodySchema::Pix4dCsv)
+    );
     assert_eq!(r.accuracy_m, Some([5.8, 5.6]));
     let without = eo_from_text("IMG_2.JPG, 37.5, 139.0, 250\n", "p.csv").unwrap();
     assert_eq!(without.records["IMG_2.JPG"].angles, None);
@@ -63,20 +66,34 @@ fn geoinfo_tab_separated_with_its_revision_line() {
 
 #[test]
 fn the_pose_csv_is_recognised() {
-    assert_eq!(detect_format("filename,x,y,z,omega,phi,kappa\n"), EoFormat::PoseCsv);
+    assert_eq!(
+        detect_format("filename,x,y,z,omega,phi,kappa\n"),
+        EoFormat::PoseCsv
+    );
 }
 
 #[test]
 fn bad_files_name_the_line_field_and_photo() {
     let twice = "EPSG:4326\na.jpg 1 2 3\nb.jpg 1 2 3\na.jpg 1 2 3\n";
     let e = eo_from_text(twice, "geo.txt").unwrap_err().to_string();
-    assert!(e.contains("geo.txt") && e.contains("'a.jpg' is listed twice (lines 2 and 4)"), "{e}");
-    let e = eo_from_text("EPSG:4326\na.jpg 1 x 3\n", "geo.txt").unwrap_err().to_string();
+    assert!(
+        e.contains("geo.txt") && e.contains("'a.jpg' is listed twice (lines 2 and 4)"),
+        "{e}"
+    );
+    let e = eo_from_text("EPSG:4326\na.jpg 1 x 3\n", "geo.txt")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("line 2: geo_y 'x' is not a number"), "{e}");
-    let e = eo_from_text("EPSG:4326\na.jpg 1 2 3 90 0\n", "geo.txt").unwrap_err().to_string();
+    let e = eo_from_text("EPSG:4326\na.jpg 1 2 3 90 0\n", "geo.txt")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("line 2: yaw, pitch without roll"), "{e}");
-    let e = eo_from_text("EPSG:4326\n", "geo.txt").unwrap_err().to_string();
+    let e = eo_from_text("EPSG:4326\n", "geo.txt")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("no photos"), "{e}");
-    let e = eo_from_text("#Rev: x\nfileName\tlatitude\n", "g.txt").unwrap_err().to_string();
+    let e = eo_from_text("#Rev: x\nfileName\tlatitude\n", "g.txt")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("no column 'longitude'"), "{e}");
 }

@@ -74,7 +74,10 @@ pub fn body_tags(all: &BTreeMap<(String, String), String>) -> Result<BodyTags, S
     if let Some((_, t)) = tags_in(all, &SENSEFLY_NS) {
         let n = |names: &[&str]| first_number("sensefly", &t, names);
         let (schema, angles) = match (n(&["Yaw"])?, n(&["Heading"])?) {
-            (Some(y), _) => (BodySchema::Sensefly, (Some(y), n(&["Pitch"])?, n(&["Roll"])?)),
+            (Some(y), _) => (
+                BodySchema::Sensefly,
+                (Some(y), n(&["Pitch"])?, n(&["Roll"])?),
+            ),
             (None, h) => (
                 BodySchema::SenseflyLegacy,
                 (h, n(&["PitchAngle"])?, n(&["RollAngle"])?),

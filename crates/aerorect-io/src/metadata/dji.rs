@@ -34,7 +34,9 @@ pub struct DjiTags {
 /// name.
 pub fn dji_tags(xmp: &str) -> Result<BTreeMap<String, String>, String> {
     let tags = xmp_tags(xmp)?;
-    Ok(tags_in(&tags, &[DJI_NS]).map(|(_, t)| t).unwrap_or_default())
+    Ok(tags_in(&tags, &[DJI_NS])
+        .map(|(_, t)| t)
+        .unwrap_or_default())
 }
 
 /// A DJI number: "+37.10", "-19.00", " 5 ".

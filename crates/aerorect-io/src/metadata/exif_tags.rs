@@ -104,7 +104,10 @@ fn gdal_numbers(item: &str, value: &str) -> Result<Vec<f64>, String> {
 }
 
 /// Fills what EXIF did not give from GDAL's `EXIF_*` metadata items.
-pub(super) fn fill_gdal_exif(m: &mut PhotoMetadata, items: &BTreeMap<String, String>) -> Result<(), String> {
+pub(super) fn fill_gdal_exif(
+    m: &mut PhotoMetadata,
+    items: &BTreeMap<String, String>,
+) -> Result<(), String> {
     let text = |k: &str| items.get(k).map(|v| v.trim().to_string());
     let first = |k: &str| -> Result<Option<f64>, String> {
         match items.get(k) {
@@ -148,4 +151,3 @@ pub(super) fn fill_gdal_exif(m: &mut PhotoMetadata, items: &BTreeMap<String, Str
     m.time = m.time.take().or(text("EXIF_DateTimeOriginal"));
     Ok(())
 }
-

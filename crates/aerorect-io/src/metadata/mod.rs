@@ -68,7 +68,9 @@ pub fn read_photo_metadata(path: &Path) -> Result<PhotoMetadata, IoError> {
                 format!("the XMP packet is not valid XML ({e}): its attitude and camera tags cannot be read; repair or remove the XMP"),
             )
         })?;
-        let dji = tags_in(&tags, &[DJI_NS]).map(|(_, t)| t).unwrap_or_default();
+        let dji = tags_in(&tags, &[DJI_NS])
+            .map(|(_, t)| t)
+            .unwrap_or_default();
         meta.dji = dji::parse_dji(&dji).map_err(|e| IoError::field(&name, e))?;
         meta.body = body_tags(&tags).map_err(|e| IoError::field(&name, e))?;
     }
@@ -78,4 +80,3 @@ pub fn read_photo_metadata(path: &Path) -> Result<PhotoMetadata, IoError> {
     }
     Ok(meta)
 }
-

@@ -25,7 +25,10 @@ pub fn xmp_tags(xmp: &str) -> Result<BTreeMap<(String, String), String>, String>
     for node in doc.descendants() {
         for a in node.attributes() {
             if let Some(ns) = a.namespace() {
-                out.insert((ns.to_string(), a.name().to_string()), a.value().to_string());
+                out.insert(
+                    (ns.to_string(), a.name().to_string()),
+                    a.value().to_string(),
+                );
             }
         }
         if node.is_element()
