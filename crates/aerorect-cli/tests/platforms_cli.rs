@@ -168,11 +168,10 @@ fn gps_only_photos_start_at_nadir_along_their_track() {
         ],
         &d,
     );
-    ok(&out);
-    let err = String::from_utf8_lossy(&out.stderr);
+    let said = ok(&out) + &String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("no attitude recorded: nadir, heading 90.0 deg"),
-        "{err}"
+        said.contains("no attitude recorded: nadir, heading 90.0 deg"),
+        "{said}"
     );
     ok(&aerorect(
         &[

@@ -89,5 +89,8 @@ fn sensefly_height_is_the_flat_default_and_without_it_the_ground_is_asked_for() 
         ..Default::default()
     };
     let (_, info) = plan_from_metadata(&m, size, &ground, "IMG_1.JPG").unwrap();
-    assert!((info.height_m - 101.0).abs() < 1e-9, "GPSAltitude 261 over ground 160");
+    assert!(
+        (info.height_m - 101.0).abs() < 1e-9,
+        "GPSAltitude 261 over ground 160"
+    );
 }
