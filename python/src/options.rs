@@ -154,6 +154,10 @@ impl PhotoArgs {
                 .transpose()?,
             poses,
             mounting,
+            // External-orientation files and GPS-track headings are the CLI's for now.
+            geo: None,
+            track_headings: None,
+            sensefly_roll: Default::default(),
             limits,
             warp: self.warp()?,
             cog: self.cog.then(|| cog_options(self.alpha)),

@@ -142,6 +142,7 @@ fn rectify_files(a: &RectifyArgs) -> Files {
         .input("INPUT", Some(&a.input))
         .input("--camera", a.camera.as_deref())
         .input_if_file("--attitude", a.attitude.as_deref())
+        .input("--geo", a.geo.geo_file.as_deref())
         .input("--dem", a.geo.dem.as_deref());
     for p in image_files(&a.output, a.attitude.is_none()) {
         files = files.output("OUTPUT", Some(&p));

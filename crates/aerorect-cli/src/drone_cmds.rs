@@ -10,6 +10,7 @@ use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo, rectify_photo_st
 use aerorect::geo::{Mounting, Projection};
 use aerorect::georef::load_dem;
 use aerorect::io::{CameraFile, CogMask, CogOptions, Crs, PoseRecord, StagedOutputs, image_files};
+use aerorect::photo_source::SenseflyRoll;
 use aerorect::raster::{AnyRaster, Interp, WarpOptions};
 use aerorect::sane;
 use anyhow::{Context, Result, bail};
@@ -53,6 +54,35 @@ pub struct GeoArgs {
     /// frame.
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub lever_arm_m: Option<String>,
+    /// External orientation of the photos, the format found from the content: ODM's geo.txt
+    /// (a CRS line, then `name x y [z] [yaw pitch roll [horz_acc vert_acc]]`), Pix4D's
+    /// geolocation CSV (image,latitude,longitude,altitude[,yaw,pitch,roll[,acc_h,acc_v]]),
+    /// senseFly's geoinfo.txt, or the pose CSV of --poses. Listed photos take their position,
+    /// height and angles from it; a photo it does not list is an error.
+    #[arg(long = "geo", value_name = "FILE")]
+    pub geo_file: Option<PathBuf>,
+    /// How senseFly's roll is read: as recorded (Pix4D's convention; OpenSfM, Orthority) or
+    /// flipped (ODM). The default is the reading the snowpeak eBee flight's own overlaps agree
+    /// with (CONVENTIONS.md, "senseFly roll").
+    #[arg(long, value_enum, default_value_t = RollReading::AsRecorded)]
+    pub sensefly_roll: RollReading,
+}
+
+/// `--sensefly-roll`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RollReading {
+    #[default]
+    AsRecorded,
+    Flipped,
+}
+
+impl From<RollReading> for SenseflyRoll {
+    fn from(r: RollReading) -> Self {
+        match r {
+            RollReading::AsRecorded => SenseflyRoll::AsRecorded,
+            RollReading::Flipped => SenseflyRoll::Flipped,
+        }
+    }
 }
 
 /// Three comma-separated finite numbers of a flag.
@@ -78,6 +108,30 @@ pub(crate) fn ortho_options(
 ) -> Result<DroneOptions> {
     let (gsd_m, ground_height_m, camera) = common;
     check_ranges(geo, gsd_m, ground_height_m)?;
+    let geo_format = geo
+        .geo_file
+        .as_deref()
+        .map(|p| -> Result<_> {
+            let text = aerorect::io::read_text(p)
+                .with_context(|| format!("--geo {}: cannot read", p.display()))?;
+            Ok(aerorect::io::eo::detect_format(&text))
+        })
+        .transpose()?;
+    let geo_is_poses = geo_format == Some(aerorect::io::EoFormat::PoseCsv);
+    if geo_is_poses && poses.is_some() {
+        bail!("--geo is a pose table and --poses gives another: give one of them");
+    }
+    let poses = if geo_is_poses {
+        geo.geo_file.as_deref()
+    } else {
+        poses
+    };
+    if !geo.vertical_offset_m.is_finite() {
+        bail!(
+            "--vertical-offset-m {}: not a finite number",
+            geo.vertical_offset_m
+        );
+    }
     let mounting = Mounting::from_angles(
         geo.boresight_deg
             .as_deref()
@@ -113,6 +167,12 @@ pub(crate) fn ortho_options(
         camera: camera.map(CameraFile::read).transpose()?,
         poses,
         mounting,
+        geo: match (&geo.geo_file, geo_is_poses) {
+            (Some(p), false) => Some(Arc::new(aerorect::photo_source::load_geo_file(p)?)),
+            _ => None,
+        },
+        track_headings: None,
+        sensefly_roll: geo.sensefly_roll.into(),
         limits,
         warp,
         cog: None,
@@ -340,18 +400,29 @@ impl FlightArgs {
             .input("--camera", self.camera.as_deref())
             .input("--poses", self.poses.as_deref())
             .input("--poses (its .prj)", prj.as_deref())
+            .input("--geo", self.geo.geo_file.as_deref())
             .input("--dem", self.geo.dem.as_deref())
     }
 
-    /// The options every frame shares.
-    pub(crate) fn options(&self, limits: RectifyLimits, warp: WarpOptions) -> Result<DroneOptions> {
-        ortho_options(
+    /// The options every frame of `inputs` shares, with the flight's checks: the photos an
+    /// external-orientation file misses, and the GPS-track headings of photos without attitude.
+    pub(crate) fn options(
+        &self,
+        inputs: &[PathBuf],
+        limits: RectifyLimits,
+        warp: WarpOptions,
+    ) -> Result<DroneOptions> {
+        let mut opts = ortho_options(
             &self.geo,
             (self.gsd_m, self.ground_height_m, self.camera.as_deref()),
             limits,
             warp,
             self.poses.as_deref(),
-        )
+        )?;
+        for w in aerorect::photo_source::prepare_flight(&mut opts, inputs)? {
+            eprintln!("warning: {w}");
+        }
+        Ok(opts)
     }
 
     pub(crate) fn flight_options(&self) -> Result<aerorect::flight::FlightOptions> {
@@ -468,6 +539,7 @@ pub fn batch(a: BatchArgs) -> Result<()> {
     // One camera file and one set of options for every frame, read before the out folder
     // is made.
     let mut opts = a.flight.options(
+        &a.inputs,
         RectifyLimits {
             max_output_px: a.max_output_px,
         },
@@ -540,6 +612,13 @@ fn refuse_collisions(a: &BatchArgs) -> Result<()> {
         let out = output_for(a, input)?;
         let key = aerorect::io::resolved_path(&out).unwrap_or_else(|| out.clone());
         if let Some(other) = first.insert(key, input) {
+            if aerorect::io::same_file(other, input) {
+                bail!(
+                    "{}: the same photo is given twice (also as {}); nothing written",
+                    input.display(),
+                    other.display()
+                );
+            }
             bail!(
                 "{} and {} would both be written to {}: rename one, or rectify them in separate runs; nothing written",
                 other.display(),

@@ -71,6 +71,7 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
     }
     let t0 = std::time::Instant::now();
     let opts = a.flight.options(
+        &a.inputs,
         RectifyLimits {
             max_output_px: a.max_output_px,
         },

@@ -13,6 +13,7 @@ pub mod cog;
 pub mod crs;
 pub mod dem;
 pub mod duplicates;
+pub mod eo;
 pub mod error;
 mod geokeys;
 pub mod geotiff;
@@ -38,6 +39,7 @@ pub use cog::{CogCompression, CogMask, CogOptions, write_cog, write_image_cog};
 pub use crs::Crs;
 pub use dem::{Dem, read_dem};
 pub use duplicates::{first_duplicate, refuse_duplicate_photos};
+pub use eo::{EoFormat, EoRecord, EoTable, read_eo_file};
 pub use error::IoError;
 pub use geotiff::{GeoReference, read_georeference, write_world_file};
 pub use image_file::{
@@ -45,7 +47,7 @@ pub use image_file::{
     resolved_path, same_file, set_max_image_pixels, thumbnail_png, write_atomically, write_image,
     write_image_geo,
 };
-pub use metadata::{PhotoMetadata, read_photo_metadata};
+pub use metadata::{BodyAngles, BodySchema, PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};
 pub use staged::{Abandoned, StagedOutputs, remove_pending};
 pub use tiled_tiff::write_tiled_tiff;

@@ -5,8 +5,9 @@
 
 use crate::Error;
 use crate::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
+use crate::photo_source::{self, PhotoAttitude, SenseflyRoll};
 use aerorect_core::distortion::{Distortion, OpenCv};
-use aerorect_core::{Camera, CameraRotation, ImageSize, Intrinsics, Mat3, RectifyLimits};
+use aerorect_core::{Camera, CameraRotation, ImageSize, Intrinsics, RectifyLimits};
 use aerorect_geo::{Mounting, Pose, Projection, convergence_deg, grid_from_enu};
 use aerorect_io::{CameraFile, Crs, GeoReference, PhotoMetadata, PoseRecord};
 use aerorect_raster::WarpOptions;
@@ -170,29 +171,11 @@ pub fn camera_from_metadata(
     })
 }
 
-/// The gimbal's rotation in local east-north-up. DJI's gimbal angles are world-frame and
+/// The camera's rotation in local east-north-up from the photo's own tags (the sources of
+/// [`crate::photo_source::attitude_from_metadata`]). DJI's gimbal angles are world-frame and
 /// already include the aircraft's attitude: the Flight angles are deliberately not used.
 pub fn rotation_from_metadata(meta: &PhotoMetadata, file: &str) -> Result<CameraRotation, Error> {
-    let d = &meta.dji;
-    let (Some(yaw), Some(pitch)) = (d.gimbal_yaw_deg, d.gimbal_pitch_deg) else {
-        return Err(Error::Invalid(format!(
-            "{file}: no XMP drone-dji:GimbalYawDegree / GimbalPitchDegree; give --attitude"
-        )));
-    };
-    CameraRotation::dji_gimbal(yaw, pitch, d.gimbal_roll_deg.unwrap_or(0.0))
-        .map_err(Error::geometry(format!("{file}: gimbal angles")))
-}
-
-/// The aircraft body (x forward, y right, z down) in local east-north-up, from the Flight angles
-/// (NED Z-Y-X); the lever arm is given in this frame. `None` without Flight angles.
-fn enu_from_body(meta: &PhotoMetadata) -> Option<Mat3> {
-    let d = &meta.dji;
-    let (y, p, r) = (d.flight_yaw_deg?, d.flight_pitch_deg?, d.flight_roll_deg?);
-    Some(aerorect_core::orientation::enu_from_body_zyx(
-        y.to_radians(),
-        p.to_radians(),
-        r.to_radians(),
-    ))
+    photo_source::attitude_from_metadata(meta, &DroneOptions::default(), file).map(|a| a.rotation)
 }
 
 /// The camera's height in the world frame and the ground under it.
@@ -210,6 +193,7 @@ fn heights(
     file: &str,
 ) -> Result<(Heights, Ground), Error> {
     let abs = meta.dji.absolute_altitude_m.or(meta.gps_altitude_m);
+    let relative = meta.dji.relative_altitude_m.or(meta.body.height_m);
     let need_abs = |why: &str| {
         abs.ok_or_else(|| {
             Error::Invalid(format!(
@@ -220,7 +204,7 @@ fn heights(
     let (h, ground) = if let Some(dem) = &opts.dem {
         let a = need_abs("--dem")?;
         let z = a + opts.vertical_offset_m;
-        let fallback = meta.dji.relative_altitude_m.map(|r| a - r);
+        let fallback = relative.map(|r| a - r);
         let src = format!(
             "AbsoluteAltitude/GPSAltitude {a} m + vertical offset {} m, against DEM {}",
             opts.vertical_offset_m, dem.name
@@ -250,9 +234,9 @@ fn heights(
             Ground::Flat(g),
         )
     } else {
-        let r = meta.dji.relative_altitude_m.ok_or_else(|| {
+        let r = relative.ok_or_else(|| {
             Error::Invalid(format!(
-                "{file}: no XMP drone-dji:RelativeAltitude; give --ground-height-m or --dem"
+                "{file}: no height above the take-off point (XMP drone-dji:RelativeAltitude or sensefly:Height); give --ground-height-m (the ground's height in the altitude's datum) or --dem"
             ))
         })?;
         let src = "RelativeAltitude (above the take-off point)".to_string();
@@ -281,7 +265,11 @@ fn heights(
 #[derive(Debug, Clone, Serialize)]
 pub struct DronePlanInfo {
     pub camera: PhotoCamera,
+    /// The attitude's angles as used (see `attitude.source`: gimbal or body yaw, pitch, roll,
+    /// or a pose's omega, phi, kappa).
     pub gimbal_yaw_pitch_roll_deg: [f64; 3],
+    /// Where the attitude came from and its prior.
+    pub attitude: PhotoAttitude,
     pub off_nadir_deg: f64,
     /// Height of the camera above the ground (flat) or its world height (DEM).
     pub height_m: f64,
@@ -319,6 +307,14 @@ pub struct DroneOptions {
     /// table instead of their metadata.
     pub poses: Option<Arc<BTreeMap<String, PoseRecord>>>,
     pub mounting: Mounting,
+    /// External orientations (`--geo`, positions in WGS84): a listed photo takes its position,
+    /// height and angles (where the file has them) from it; an unlisted photo is an error.
+    pub geo: Option<Arc<aerorect_io::EoTable>>,
+    /// GPS-track headings of the photos without attitude, by file name
+    /// ([`photo_source::track_headings`]).
+    pub track_headings: Option<Arc<BTreeMap<String, f64>>>,
+    /// How senseFly's roll is read.
+    pub sensefly_roll: SenseflyRoll,
     pub limits: RectifyLimits,
     pub warp: WarpOptions,
     /// Write each frame as a cloud-optimised GeoTIFF with these options instead of the strip
@@ -372,14 +368,18 @@ pub fn plan_from_metadata(
     opts: &DroneOptions,
     file: &str,
 ) -> Result<(OrthoPlan, DronePlanInfo), Error> {
+    let meta = &photo_source::with_geo_record(meta, opts, file)?;
     let camera = photo_camera(meta, size, opts, file)?;
-    let rotation = rotation_from_metadata(meta, file)?;
+    let attitude = photo_source::attitude_from_metadata(meta, opts, file)?;
+    let rotation = attitude.rotation;
     let (h, ground) = heights(meta, opts, file)?;
     let (crs, proj, en, [lon, lat]) = world_of(meta, opts, file)?;
     let geo = |e: aerorect_geo::GeoError| Error::Invalid(format!("{file}: {e}"));
     let grid_from_enu = grid_from_enu(&proj, lon, lat).map_err(geo)?;
     let recorded = Pose::from_enu([en[0], en[1], h.camera_z_m], &rotation, &grid_from_enu);
-    let lever = grid_from_enu * enu_from_body(meta).unwrap_or(*rotation.ground_from_camera());
+    let lever = grid_from_enu
+        * photo_source::enu_from_aircraft(meta, opts.sensefly_roll)
+            .unwrap_or(*rotation.ground_from_camera());
     let mut frame = Frame {
         camera,
         pose: opts.mounting.camera_pose(&recorded, &lever),
@@ -402,13 +402,14 @@ pub fn plan_from_metadata(
                 .into(),
         );
     }
-    let d = &meta.dji;
-    let angles = [
-        d.gimbal_yaw_deg.unwrap_or(f64::NAN),
-        d.gimbal_pitch_deg.unwrap_or(f64::NAN),
-        d.gimbal_roll_deg.unwrap_or(0.0),
-    ];
-    finish_plan(frame, angles, opts, file)
+    if attitude.source == photo_source::AttitudeSource::GpsTrack {
+        frame.warnings.push(format!(
+            "no attitude recorded: nadir, heading {:.1} deg along the GPS track, prior {} deg",
+            attitude.angles_deg[0],
+            photo_source::GPS_TRACK_PRIOR_SIGMA_DEG
+        ));
+    }
+    finish_plan(frame, attitude, opts, file)
 }
 
 /// The camera from `--camera` (sized to the image) or from the photo's tags.
@@ -450,7 +451,7 @@ struct Frame {
 
 fn finish_plan(
     frame: Frame,
-    angles: [f64; 3],
+    attitude: PhotoAttitude,
     opts: &DroneOptions,
     file: &str,
 ) -> Result<(OrthoPlan, DronePlanInfo), Error> {
@@ -492,7 +493,8 @@ fn finish_plan(
     let [lon, lat] = frame.lon_lat;
     let geo = |e: aerorect_geo::GeoError| Error::Invalid(format!("{file}: {e}"));
     let info = DronePlanInfo {
-        gimbal_yaw_pitch_roll_deg: angles,
+        gimbal_yaw_pitch_roll_deg: attitude.angles_deg,
+        attitude,
         off_nadir_deg: frame.rotation.off_nadir_deg(),
         height_m: height_above,
         height_source: frame.heights.source,
@@ -573,7 +575,13 @@ pub fn plan_from_pose(
         lon_lat,
         warnings: vec![],
     };
-    finish_plan(frame, [pose.omega, pose.phi, pose.kappa], opts, file)
+    let attitude = PhotoAttitude {
+        rotation: frame.rotation,
+        source: photo_source::AttitudeSource::Pose,
+        angles_deg: [pose.omega, pose.phi, pose.kappa],
+        prior_sigma_deg: None,
+    };
+    finish_plan(frame, attitude, opts, file)
 }
 
 /// The pose of `input` in the table, by file name or stem.

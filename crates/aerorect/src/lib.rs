@@ -18,6 +18,7 @@ pub mod lens_compare;
 pub mod mosaic;
 pub mod motion;
 pub mod overlap;
+pub mod photo_source;
 pub mod rectify;
 pub mod register;
 pub mod report_html;
