@@ -126,12 +126,6 @@ pub(crate) fn ortho_options(
     } else {
         poses
     };
-    if !geo.vertical_offset_m.is_finite() {
-        bail!(
-            "--vertical-offset-m {}: not a finite number",
-            geo.vertical_offset_m
-        );
-    }
     let mounting = Mounting::from_angles(
         geo.boresight_deg
             .as_deref()
