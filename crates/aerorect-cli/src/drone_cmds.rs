@@ -136,7 +136,7 @@ pub(crate) fn ortho_options(
             .as_deref()
             .map(|t| -> Result<_> {
                 let arm = triple("lever-arm-m", t)?;
-                Ok(sane::check_lever_arm_m(arm).with_context(|| format!("--lever-arm-m '{t}'"))?)
+                sane::check_lever_arm_m(arm).with_context(|| format!("--lever-arm-m '{t}'"))
             })
             .transpose()?
             .unwrap_or([0.0; 3]),
