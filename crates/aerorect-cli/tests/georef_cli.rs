@@ -230,7 +230,12 @@ fn tags_for_another_aspect_ratio_are_refused() {
 #[test]
 fn batch_takes_poses_from_a_table_and_its_prj() {
     let (_t, d) = setup();
-    photo(&d, "b.jpg", "");
+    let b = photo(&d, "b.jpg", "");
+    // Another photo than a.jpg, not a copy (a copy is refused as one photo given twice): a
+    // byte after the JPEG's end.
+    let mut bytes = std::fs::read(&b).unwrap();
+    bytes.push(0);
+    std::fs::write(&b, bytes).unwrap();
     std::fs::write(
         d.join("poses.csv"),
         "filename,x,y,z,omega,phi,kappa\na,536138.4,5972535.9,310,10,-5,30\n",

@@ -545,12 +545,22 @@ fn when_one_output_fails_none_is_written() {
     no_temporaries(&d);
 }
 
+/// Appends `k + 1` bytes after the JPEG's end, so copies of one photo are distinct files
+/// (batch refuses identical ones); decoders stop at the end-of-image marker.
+fn distinct(photo: &Path, k: usize) {
+    let mut bytes = std::fs::read(photo).unwrap();
+    bytes.extend(std::iter::repeat_n(0u8, k + 1));
+    std::fs::write(photo, bytes).unwrap();
+}
+
 #[test]
 fn batch_refuses_two_photos_with_one_output_name() {
     let (_t, d) = fixture();
-    for sub in ["a", "b"] {
+    for (k, sub) in ["a", "b"].into_iter().enumerate() {
         std::fs::create_dir(d.join(sub)).unwrap();
         drone_photo(&d.join(sub).join("X.JPG"));
+        // Two photos, not one copied (a copy is refused as the same photo given twice).
+        distinct(&d.join(sub).join("X.JPG"), k);
     }
     refused_and_untouched(
         &d,
@@ -675,7 +685,9 @@ fn sigint_during_batch_keeps_finished_frames_and_no_partial_ones() {
     std::fs::create_dir(d.join("in")).unwrap();
     let n = 40;
     for k in 0..n {
-        std::fs::copy(d.join("photo.jpg"), d.join(format!("in/p{k:02}.jpg"))).unwrap();
+        let p = d.join(format!("in/p{k:02}.jpg"));
+        std::fs::copy(d.join("photo.jpg"), &p).unwrap();
+        distinct(&p, k);
     }
     let mut args = vec![
         "batch".to_string(),
