@@ -144,7 +144,7 @@ mod tests {
         let a = t.angles.expect("angles");
         assert_eq!(
             (a.yaw_deg, a.pitch_deg, a.roll_deg),
-            (304.457611083984375, 3.402446031570435, 12.880300521850586)
+            (304.4576110839844, 3.402446031570435, 12.880300521850586)
         );
         assert_eq!(a.schema, BodySchema::Sensefly);
         assert_eq!(t.xy_accuracy_m, Some(5.789999961853027));
