@@ -248,3 +248,63 @@ fn a_distorting_camera_round_trips_through_simulate_rectify_evaluate() {
         dir.path(),
     ));
 }
+
+#[test]
+fn undistort_fit_of_a_folding_lens_stops_at_the_fold_without_ghosts() {
+    // OpenCV's x (1 + k1 r^2) with k1 = -0.4 folds at ideal r = 1/sqrt(1.2) = 0.9129 (182.6 px
+    // at fx = 200), where the observed radius peaks at 121.7 px: the 320 x 240 frame's corners
+    // (200 px out) lie beyond every ray, and rays beyond the fold fold back into the frame.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("cam.toml"),
+        "fx_px = 200.0\nfy_px = 200.0\ncx_px = 159.5\ncy_px = 119.5\nimage_size_px = [320, 240]\n\
+         [distortion]\nmodel = \"opencv\"\nk1 = -0.4\n",
+    )
+    .unwrap();
+    let size = aerorect::core::ImageSize::new(320, 240);
+    let white = aerorect::raster::Raster::filled(size, 1, 255u8).unwrap();
+    aerorect::io::write_image(
+        &dir.path().join("in.png"),
+        &aerorect::raster::AnyRaster::U8(white),
+    )
+    .unwrap();
+    let args = [
+        "undistort",
+        "in.png",
+        "fit.png",
+        "--camera",
+        "cam.toml",
+        "--fit",
+        "--interp",
+        "nearest",
+    ];
+    let out = ok(&aerorect(&args, dir.path()));
+    let fit = aerorect::io::read_image(&dir.path().join("fit.png")).unwrap();
+    let fold_px = 200.0 / 1.2f64.sqrt();
+    // The fitted width spans the fold's circle (the rim meets neither side of the frame).
+    let w = fit.size().width as f64;
+    assert!((w - 2.0 * fold_px).abs() < 4.0, "{w} {out}");
+    // Output pixels are ideal pixels of the same focal length; the principal point sits at the
+    // centre of the fitted grid. Nothing is drawn beyond the fold, most within it is.
+    let plane = fit.plane_f32(0);
+    let (fw, fh) = (fit.size().width, fit.size().height);
+    let (cx, cy) = ((fw as f64 - 1.0) / 2.0, (fh as f64 - 1.0) / 2.0);
+    let (mut beyond, mut inside, mut inside_drawn) = (0, 0, 0);
+    for r in 0..fh {
+        for c in 0..fw {
+            let radius = (c as f64 - cx).hypot(r as f64 - cy);
+            let drawn = plane[r * fw + c] > 0.0;
+            if radius > fold_px + 1.5 {
+                beyond += usize::from(drawn);
+            } else if radius < fold_px - 1.5 && (r as f64 - cy).abs() < 150.0 {
+                inside += 1;
+                inside_drawn += usize::from(drawn);
+            }
+        }
+    }
+    assert_eq!(beyond, 0, "pixels drawn beyond the lens's fold (ghosts)");
+    assert!(
+        inside_drawn as f64 > 0.95 * inside as f64,
+        "{inside_drawn} of {inside}"
+    );
+}

@@ -7,7 +7,7 @@
 
 use crate::Vec3;
 use crate::camera::{ImageSize, Intrinsics};
-use crate::distortion::Distortion;
+use crate::distortion::{Distortion, ValidDomain};
 use crate::error::{GeometryError, require_magnitude};
 use serde::Serialize;
 
@@ -15,19 +15,32 @@ use serde::Serialize;
 pub const MAX_LENS_COEFFICIENT: f64 = 1e4;
 
 /// A frame camera.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct Camera {
     pub intrinsics: Intrinsics,
     /// The lens model, `None` for an ideal pinhole.
     pub distortion: Option<Distortion>,
     /// The image size the intrinsics are in pixels of.
     pub size: ImageSize,
+    /// The lens's valid domain, with the model it was computed for (recomputed on the fly when
+    /// `distortion` has been changed since).
+    #[serde(skip)]
+    domain: (Option<Distortion>, Option<ValidDomain>),
+}
+
+impl PartialEq for Camera {
+    fn eq(&self, other: &Self) -> bool {
+        (self.intrinsics, &self.distortion, self.size)
+            == (other.intrinsics, &other.distortion, other.size)
+    }
 }
 
 impl Camera {
     pub fn new(intrinsics: Intrinsics, distortion: Option<Distortion>, size: ImageSize) -> Self {
+        let domain = distortion.as_ref().map(Distortion::valid_domain);
         Self {
             intrinsics,
+            domain: (distortion.clone(), domain),
             distortion,
             size,
         }
@@ -52,6 +65,17 @@ impl Camera {
             }
         }
         Ok(())
+    }
+
+    /// The lens model's valid domain (see [`ValidDomain`]), `None` for an ideal pinhole.
+    /// Cached: cheap while `distortion` is the model the camera was made with.
+    #[inline]
+    pub fn lens_domain(&self) -> Option<ValidDomain> {
+        if self.domain.0 == self.distortion {
+            self.domain.1
+        } else {
+            self.distortion.as_ref().map(Distortion::valid_domain)
+        }
     }
 
     /// The same camera for the image resampled to `size`. Pixel centres sit at integer
@@ -80,35 +104,31 @@ impl Camera {
             (k.cy + 0.5) * sy - 0.5,
         )?;
         intrinsics.skew = k.skew * sx;
-        Ok(Self {
-            intrinsics,
-            distortion: self.distortion.clone(),
-            size,
-        })
+        Ok(Self::new(intrinsics, self.distortion.clone(), size))
     }
 
-    /// The observed pixel of a point in the camera frame; `None` behind the camera or where the
-    /// lens model has no answer.
+    /// The observed pixel of a point in the camera frame; `None` behind the camera, outside the
+    /// lens's valid domain or where the lens model has no answer.
     #[inline]
     pub fn pixel_from_camera_point(&self, p: Vec3) -> Option<[f64; 2]> {
         if p.z >= 0.0 || p.z.is_nan() {
             return None;
         }
         let n = [p.x / -p.z, p.y / p.z];
-        let q = match &self.distortion {
-            None => n,
-            Some(d) => d.model().observed_from_ideal(n)?,
+        let q = match (&self.distortion, self.lens_domain()) {
+            (Some(d), Some(domain)) => d.model().observed_from_ideal_within(&domain, n)?,
+            _ => n,
         };
         Some(self.intrinsics.pixel_from_normalized(q[0], q[1]))
     }
 
     /// The ray (camera frame, z = -1) through observed pixel (u, v), the lens removed; `None`
-    /// where the lens model's inverse does not converge.
+    /// outside the lens's valid domain or where the lens model's inverse does not converge.
     pub fn ray_from_pixel(&self, u: f64, v: f64) -> Option<Vec3> {
         let n = self.intrinsics.normalized_from_pixel(u, v);
-        let q = match &self.distortion {
-            None => n,
-            Some(d) => d.model().ideal_from_observed(n)?,
+        let q = match (&self.distortion, self.lens_domain()) {
+            (Some(d), Some(domain)) => d.model().ideal_from_observed_within(&domain, n)?,
+            _ => n,
         };
         Some(Vec3::new(q[0], -q[1], -1.0))
     }
@@ -129,12 +149,25 @@ impl Camera {
         out
     }
 
-    /// The undistorted rays of [`Camera::border_pixels`] (those the lens model can invert).
+    /// The rays of the outline of what the camera sees: the undistorted rays of
+    /// [`Camera::border_pixels`] when the whole border is inside the lens's valid domain;
+    /// otherwise the border clipped to the domain's rim (the `footprint` module).
     pub fn border_rays(&self, per_side: usize) -> Vec<Vec3> {
-        self.border_pixels(per_side)
+        let border = self.border_pixels(per_side);
+        let rays: Option<Vec<Vec3>> = border
             .iter()
-            .filter_map(|p| self.ray_from_pixel(p[0], p[1]))
-            .collect()
+            .map(|p| self.ray_from_pixel(p[0], p[1]))
+            .collect();
+        match (rays, &self.distortion, self.lens_domain()) {
+            (Some(rays), _, _) => rays,
+            (None, Some(d), Some(domain)) => {
+                crate::footprint::clipped_border_rays(self, d.model(), &domain, per_side)
+            }
+            (None, _, _) => border
+                .iter()
+                .filter_map(|p| self.ray_from_pixel(p[0], p[1]))
+                .collect(),
+        }
     }
 }
 

@@ -9,6 +9,7 @@ pub mod camera;
 pub mod distortion;
 pub mod error;
 pub mod evaluate;
+mod footprint;
 pub mod frame_camera;
 pub mod homography;
 pub mod motion;

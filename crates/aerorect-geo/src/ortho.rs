@@ -2,7 +2,7 @@
 //! point (its grid position at the terrain's height) projected through the camera, in f64.
 
 use crate::{Pose, Terrain};
-use aerorect_core::distortion::{Distortion, DistortionModel};
+use aerorect_core::distortion::{Distortion, DistortionModel, ValidDomain};
 use aerorect_core::{Camera, ImageSize, Vec3};
 use aerorect_raster::PixelMap;
 use serde::Serialize;
@@ -62,7 +62,7 @@ pub struct GroundMap {
 impl GroundMap {
     fn row_with<M: DistortionModel>(
         &self,
-        lens: Option<&M>,
+        lens: Option<(&M, ValidDomain)>,
         row: usize,
         col0: usize,
         xs: &mut [f64],
@@ -76,9 +76,9 @@ impl GroundMap {
             let d = self.pose.camera_from_world([x, y, z]);
             let p = if d.z < 0.0 {
                 let n = [d.x / -d.z, d.y / d.z];
-                let q = match lens {
+                let q = match &lens {
                     None => Some(n),
-                    Some(m) => m.observed_from_ideal(n),
+                    Some((m, domain)) => m.observed_from_ideal_within(domain, n),
                 };
                 q.map(|q| k.pixel_from_normalized(q[0], q[1]))
             } else {
@@ -101,12 +101,16 @@ impl PixelMap for GroundMap {
     /// The lens model is matched once per row; the loop is monomorphised.
     fn source_row(&self, row: usize, col0: usize, xs: &mut [f64], ys: &mut [f64]) {
         use Distortion as D;
+        // The lens's valid domain, cached in the camera; ground beyond it is not seen.
+        let Some(domain) = self.camera.lens_domain() else {
+            return self.row_with::<aerorect_core::distortion::OpenCv>(None, row, col0, xs, ys);
+        };
         match &self.camera.distortion {
             None => self.row_with::<aerorect_core::distortion::OpenCv>(None, row, col0, xs, ys),
-            Some(D::Tsai(m)) => self.row_with(Some(m), row, col0, xs, ys),
-            Some(D::Brown(m)) => self.row_with(Some(m), row, col0, xs, ys),
-            Some(D::Improved(m)) => self.row_with(Some(m), row, col0, xs, ys),
-            Some(D::OpenCv(m)) => self.row_with(Some(m), row, col0, xs, ys),
+            Some(D::Tsai(m)) => self.row_with(Some((m, domain)), row, col0, xs, ys),
+            Some(D::Brown(m)) => self.row_with(Some((m, domain)), row, col0, xs, ys),
+            Some(D::Improved(m)) => self.row_with(Some((m, domain)), row, col0, xs, ys),
+            Some(D::OpenCv(m)) => self.row_with(Some((m, domain)), row, col0, xs, ys),
         }
     }
 }

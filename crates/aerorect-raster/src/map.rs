@@ -156,35 +156,55 @@ pub enum LensDirection {
 }
 
 /// Pixel -> pixel through a lens model: the destination pixel is normalised with `from`, moved
-/// through `model` in `direction`, and put back into pixels with `to`. No source where the
-/// model's inverse does not converge.
+/// through `model` in `direction`, and put back into pixels with `to`. No source outside the
+/// model's valid domain (computed once, in [`LensMap::new`]) or where its inverse does not
+/// converge.
 #[derive(Debug, Clone)]
 pub struct LensMap {
     pub from: aerorect_core::Intrinsics,
     pub to: aerorect_core::Intrinsics,
     pub model: aerorect_core::distortion::Distortion,
     pub direction: LensDirection,
+    domain: aerorect_core::distortion::ValidDomain,
 }
 
 impl LensMap {
+    /// The map, with the model's valid domain.
+    pub fn new(
+        from: aerorect_core::Intrinsics,
+        to: aerorect_core::Intrinsics,
+        model: aerorect_core::distortion::Distortion,
+        direction: LensDirection,
+    ) -> Self {
+        let domain = model.valid_domain();
+        Self {
+            from,
+            to,
+            model,
+            direction,
+            domain,
+        }
+    }
+
     /// A map within one camera (the same intrinsics on both sides).
     pub fn within(
         k: aerorect_core::Intrinsics,
         model: aerorect_core::distortion::Distortion,
         direction: LensDirection,
     ) -> Self {
-        Self {
-            from: k,
-            to: k,
-            model,
-            direction,
-        }
+        Self::new(k, k, model, direction)
     }
 
     /// The lens of `camera`, within it; `None` for an ideal pinhole.
     pub fn of_camera(camera: &aerorect_core::Camera, direction: LensDirection) -> Option<Self> {
-        let model = camera.distortion.clone()?;
-        Some(Self::within(camera.intrinsics, model, direction))
+        // The camera's cached domain, not a second search.
+        Some(Self {
+            from: camera.intrinsics,
+            to: camera.intrinsics,
+            model: camera.distortion.clone()?,
+            direction,
+            domain: camera.lens_domain()?,
+        })
     }
 
     /// One point through a concrete model (statically dispatched in row loops).
@@ -196,9 +216,10 @@ impl LensMap {
         row: f64,
     ) -> Option<[f64; 2]> {
         let n = self.from.normalized_from_pixel(col, row);
+        let d = &self.domain;
         let q = match self.direction {
-            LensDirection::ObservedFromIdeal => m.observed_from_ideal(n)?,
-            LensDirection::IdealFromObserved => m.ideal_from_observed(n)?,
+            LensDirection::ObservedFromIdeal => m.observed_from_ideal_within(d, n)?,
+            LensDirection::IdealFromObserved => m.ideal_from_observed_within(d, n)?,
         };
         Some(self.to.pixel_from_normalized(q[0], q[1]))
     }
@@ -216,9 +237,10 @@ impl LensMap {
         let step = 1.0 / self.from.fx;
         for (i, (x, y)) in xs.iter_mut().zip(ys.iter_mut()).enumerate() {
             let n = [x0 + i as f64 * step, ny];
+            let d = &self.domain;
             let q = match self.direction {
-                LensDirection::ObservedFromIdeal => m.observed_from_ideal(n),
-                LensDirection::IdealFromObserved => m.ideal_from_observed(n),
+                LensDirection::ObservedFromIdeal => m.observed_from_ideal_within(d, n),
+                LensDirection::IdealFromObserved => m.ideal_from_observed_within(d, n),
             };
             let p = q.map_or([f64::NAN; 2], |q| self.to.pixel_from_normalized(q[0], q[1]));
             (*x, *y) = (p[0], p[1]);
@@ -284,18 +306,8 @@ mod lens_tests {
         let mut d = Distortion::zero("improved").expect("known");
         d.model_mut()
             .set_params(&[-0.2, 0.05, 1e-3, -1e-3, 0.0, 0.0]);
-        let fwd = LensMap {
-            from: k,
-            to: k,
-            model: d.clone(),
-            direction: LensDirection::ObservedFromIdeal,
-        };
-        let back = LensMap {
-            from: k,
-            to: k,
-            model: d,
-            direction: LensDirection::IdealFromObserved,
-        };
+        let fwd = LensMap::within(k, d.clone(), LensDirection::ObservedFromIdeal);
+        let back = LensMap::within(k, d, LensDirection::IdealFromObserved);
         let p = fwd.source_of(30.0, 250.0).expect("converges");
         let q = back.source_of(p[0], p[1]).expect("closed form");
         assert!((q[0] - 30.0).abs() < 1e-8 && (q[1] - 250.0).abs() < 1e-8);

@@ -4,6 +4,7 @@
 
 pub mod chessboard;
 pub mod flight;
+pub mod lens_domain;
 pub mod zone_plate;
 
 use aerorect_core::ImageSize;

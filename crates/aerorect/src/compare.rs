@@ -173,10 +173,7 @@ fn paper(method: &str) -> [f64; 6] {
 /// Runs the four methods on a frame simulated from `reference`.
 pub fn compare(reference: &AnyRaster, cfg: &CompareConfig) -> Result<CompareResult, Error> {
     let ref_size = reference.size();
-    let camera = Camera {
-        distortion: None,
-        ..cfg.camera.clone()
-    };
+    let camera = Camera::new(cfg.camera.intrinsics, None, cfg.camera.size);
     let (k, frame_size) = (camera.intrinsics, camera.size);
     let plan = SimulatePlan::new(camera.clone(), &cfg.attitude, ref_size);
     let warp = WarpOptions::default();

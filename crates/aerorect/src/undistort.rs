@@ -2,9 +2,8 @@
 //! model and resampled by the warp engine.
 
 use crate::{Error, warp_any};
-use aerorect_core::distortion::Distortion;
 use aerorect_core::{Camera, ImageSize, Intrinsics};
-use aerorect_raster::{AnyRaster, LensDirection, LensMap, PixelMap, WarpOptions};
+use aerorect_raster::{AnyRaster, LensDirection, LensMap, WarpOptions};
 
 /// Largest output of `--fit`, relative to the input's pixel count.
 const MAX_FIT_GROWTH: f64 = 16.0;
@@ -31,14 +30,9 @@ impl UndistortPlan {
         let k = camera.intrinsics;
         let (mut out_k, mut size) = (k, camera.size);
         if fit {
-            (out_k, size) = fitted(&k, camera.size, &model)?;
+            (out_k, size) = fitted(camera)?;
         }
-        let map = LensMap {
-            from: out_k,
-            to: k,
-            model,
-            direction: LensDirection::ObservedFromIdeal,
-        };
+        let map = LensMap::new(out_k, k, model, LensDirection::ObservedFromIdeal);
         Ok(Self {
             map,
             output: Camera::new(out_k, None, size),
@@ -50,29 +44,21 @@ impl UndistortPlan {
     }
 }
 
-/// Bounds of the undistorted border of the input, in ideal pixels of `k`.
-fn fitted(
-    k: &Intrinsics,
-    size: ImageSize,
-    model: &Distortion,
-) -> Result<(Intrinsics, ImageSize), Error> {
-    let back = LensMap {
-        from: *k,
-        to: *k,
-        model: model.clone(),
-        direction: LensDirection::IdealFromObserved,
-    };
-    let (w, h) = (size.width as f64 - 1.0, size.height as f64 - 1.0);
-    let border = (0..size.width)
-        .flat_map(|x| [[x as f64, 0.0], [x as f64, h]])
-        .chain((0..size.height).flat_map(|y| [[0.0, y as f64], [w, y as f64]]));
-    let ([x0, y0], [nw, nh]) = crate::covering_grid(border, |p| back.source_of(p[0], p[1]))
-        .map_err(|p| {
-            Error::Invalid(format!(
-                "the lens model cannot undistort border pixel ({}, {})",
-                p[0], p[1]
-            ))
-        })?;
+/// Bounds of the undistorted border of the input (clipped to the lens's valid domain), in ideal
+/// pixels of the camera's intrinsics.
+fn fitted(camera: &Camera) -> Result<(Intrinsics, ImageSize), Error> {
+    let (k, size) = (&camera.intrinsics, camera.size);
+    let rays = camera.border_rays(size.width.max(size.height));
+    if rays.is_empty() {
+        return Err(Error::Invalid(
+            "the lens model cannot undistort the image border".into(),
+        ));
+    }
+    let ideal = rays
+        .iter()
+        .map(|r| k.pixel_from_normalized(r.x / -r.z, r.y / r.z));
+    let ([x0, y0], [nw, nh]) = crate::covering_grid(ideal, Some)
+        .map_err(|p| Error::Invalid(format!("the lens model cannot undistort pixel {p:?}")))?;
     // NaN-safe: a non-finite size fails `is_finite` and is refused too.
     let pixels = nw * nh;
     if !pixels.is_finite() || pixels > MAX_FIT_GROWTH * size.pixels() as f64 {

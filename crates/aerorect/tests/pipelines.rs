@@ -189,12 +189,7 @@ fn undistortion_inverts_a_rendered_distortion() {
         p[1] = 0.04;
         d.model_mut().set_params(&p);
         // The recorded frame: each observed pixel takes the ideal scene at its ideal position.
-        let record = LensMap {
-            from: k,
-            to: k,
-            model: d.clone(),
-            direction: LensDirection::IdealFromObserved,
-        };
+        let record = LensMap::within(k, d.clone(), LensDirection::IdealFromObserved);
         let opts = WarpOptions {
             interp: Interp::Bicubic,
             ..Default::default()

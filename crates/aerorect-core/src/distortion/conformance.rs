@@ -232,3 +232,155 @@ fn an_older_opencv_file_with_rational_terms_loads_as_the_rational_model() {
     let text = toml::to_string(&Distortion::zero("opencv").expect("known")).expect("writes");
     assert!(!text.contains("k4") && !text.contains("s1"), "{text}");
 }
+
+/// A strongly folding lens of every model, in [`Distortion::NAMES`] order.
+fn folding_models() -> Vec<Distortion> {
+    let coefficients: [&[f64]; 7] = [
+        &[-0.4, 0.0],
+        &[
+            -0.4, 0.02, 0.0, 1e-3, -1e-3, 1e-3, -5e-4, 1e-3, 5e-4, -5e-4, 5e-4, -1e-3, 1e-3, 5e-4,
+            -5e-4, 1e-3, -1e-3,
+        ],
+        &[-0.4, 0.02, 1e-3, -1e-3, 1e-3, -1e-3],
+        &[-0.4, 0.06, 1e-3, -5e-4, 0.0],
+        &[-0.3, 0.05, 0.0, 0.0, 0.0, 0.1, 0.0, 0.0],
+        &[-0.4, 0.06, 0.0, 0.0, 0.0, 2e-3, -1e-3, -1.5e-3, 5e-4],
+        &[
+            -0.35, 0.05, 1e-3, -5e-4, 0.0, 0.05, 0.0, 0.0, 2e-3, -1e-3, -1.5e-3, 5e-4,
+        ],
+    ];
+    Distortion::NAMES
+        .iter()
+        .zip(coefficients)
+        .map(|(kind, c)| {
+            let mut d = Distortion::zero(kind).expect("known");
+            d.model_mut().set_params(c);
+            d
+        })
+        .collect()
+}
+
+/// Dense march (independent of the domain's bisection): the value along the ray from the axis
+/// to `a` increases at each of `steps` steps with a positive Jacobian determinant.
+fn monotonic_to(m: &dyn DistortionModel, a: [f64; 2], steps: usize) -> bool {
+    let r = a[0].hypot(a[1]);
+    let u = [a[0] / r, a[1] / r];
+    let v0 = m.value([0.0, 0.0]);
+    let mut last = 0.0;
+    (1..=steps).all(|i| {
+        let t = i as f64 / steps as f64;
+        let (v, j) = m.value_d_point([t * a[0], t * a[1]]);
+        let along = (v[0] - v0[0]) * u[0] + (v[1] - v0[1]) * u[1];
+        let ok = along > last && j[0][0] * j[1][1] - j[0][1] * j[1][0] > 0.0;
+        last = along;
+        ok
+    })
+}
+
+#[test]
+fn radial_valid_domain_is_the_closed_form_fold() {
+    // x (1 + k1 r^2) folds where d/dr = 1 + 3 k1 r^2 = 0, whichever way the model goes.
+    let k1: f64 = -0.4;
+    let fold = 1.0 / (3.0 * -k1).sqrt();
+    let o = OpenCv {
+        k1,
+        ..Default::default()
+    };
+    let t = Tsai { k1, k2: 0.0 };
+    for (d, direction) in [
+        (Distortion::OpenCv(o), Direction::ObservedFromIdeal),
+        (Distortion::Tsai(t), Direction::IdealFromObserved),
+    ] {
+        let v = d.valid_domain();
+        assert_eq!(v.direction, direction);
+        assert!((v.radius - fold).abs() < 1e-5, "{}: {v:?}", d.kind());
+        // The rim's image: r (1 + k1 r^2) at the fold.
+        let image = fold * (1.0 + k1 * fold * fold);
+        assert!((v.image_radius - image).abs() < 1e-5, "{v:?}");
+    }
+    // The P4 RTK's DewarpData lens (issue 28): 1 + 3 k1 u + 5 k2 u^2 + 7 k3 u^3 = 0 at u = r^2.
+    let p4 = OpenCv {
+        k1: -0.267,
+        k2: 0.112,
+        k3: -0.033,
+        ..Default::default()
+    };
+    let r = p4.valid_domain().radius;
+    let slope = |r: f64| {
+        let u = r * r;
+        1.0 + 3.0 * p4.k1 * u + 5.0 * p4.k2 * u * u + 7.0 * p4.k3 * u * u * u
+    };
+    assert!(slope(r * 0.999) > 0.0 && slope(r * 1.001) < 0.0, "{r}");
+    assert!((1.3..1.4).contains(&r), "{r}");
+}
+
+#[test]
+fn every_model_is_monotonic_inside_its_valid_domain_and_folds_just_beyond() {
+    for d in folding_models() {
+        let m = d.model();
+        let v = d.valid_domain();
+        assert!(v.is_bounded(), "{}: {v:?}", d.kind());
+        let mut folds_beyond = false;
+        for i in 0..360 {
+            let a = (i as f64).to_radians();
+            let u = [a.cos(), a.sin()];
+            let at = |r: f64| [r * u[0], r * u[1]];
+            assert!(
+                monotonic_to(m, at(v.radius), 4000),
+                "{} at {i} deg: not monotonic inside {v:?}",
+                d.kind()
+            );
+            folds_beyond |= !monotonic_to(m, at(1.02 * v.radius), 4000);
+        }
+        assert!(folds_beyond, "{}: the domain {v:?} is too small", d.kind());
+    }
+}
+
+#[test]
+fn a_lens_that_never_folds_has_an_unbounded_domain() {
+    for kind in Distortion::NAMES {
+        let d = Distortion::zero(kind).expect("known");
+        assert!(!d.valid_domain().is_bounded(), "{kind}");
+    }
+    let pincushion = OpenCv {
+        k1: 0.1,
+        k2: 0.01,
+        ..Default::default()
+    };
+    assert!(!pincushion.valid_domain().is_bounded());
+}
+
+#[test]
+fn the_gated_directions_refuse_points_beyond_the_fold() {
+    for d in folding_models() {
+        let m = d.model();
+        let v = d.valid_domain();
+        let (inside, beyond) = (0.9 * v.radius, 1.3 * v.radius);
+        for a in [0.3f64, 2.0, 4.0] {
+            let (c, s) = (a.cos(), a.sin());
+            let q = [inside * c, inside * s];
+            let far = [beyond * c, beyond * s];
+            let value = m.value(q);
+            // The closed form's argument inside: both directions answer and agree.
+            let (to_value, back) = match v.direction {
+                Direction::ObservedFromIdeal => (
+                    m.observed_from_ideal_within(&v, q),
+                    m.ideal_from_observed_within(&v, value),
+                ),
+                Direction::IdealFromObserved => (
+                    m.ideal_from_observed_within(&v, q),
+                    m.observed_from_ideal_within(&v, value),
+                ),
+            };
+            assert_eq!(to_value, Some(value), "{}", d.kind());
+            let back = back.unwrap_or_else(|| panic!("{}: no inverse inside", d.kind()));
+            assert!((back[0] - q[0]).abs() < 1e-9 && (back[1] - q[1]).abs() < 1e-9);
+            // Beyond the fold: no answer, though the plain closed form has one.
+            let refused = match v.direction {
+                Direction::ObservedFromIdeal => m.observed_from_ideal_within(&v, far),
+                Direction::IdealFromObserved => m.ideal_from_observed_within(&v, far),
+            };
+            assert_eq!(refused, None, "{}", d.kind());
+        }
+    }
+}

@@ -12,17 +12,23 @@
 //! unless it converges (step below 1e-12, residual below 1e-10, within 30 iterations) to a point
 //! where the Jacobian has a positive diagonal and determinant (the sheet that contains the
 //! identity, not a point beyond a fold).
+//!
+//! Valid domain: every model has one ([`DistortionModel::valid_domain`], see [`domain`]): the
+//! disc about the axis where it is monotonic along rays. The `*_within` directions answer `None`
+//! outside it; per-pixel maps compute the domain once and gate with them.
 
+mod domain;
 mod opencv;
 mod paper;
 
+pub use domain::ValidDomain;
 pub use opencv::{OpenCv, OpenCvTerms};
 pub use paper::{Brown, Improved, Tsai};
 
 use serde::{Deserialize, Serialize};
 
 /// Which direction a model's closed form computes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum Direction {
     IdealFromObserved,
     ObservedFromIdeal,
@@ -84,6 +90,36 @@ pub trait DistortionModel {
         match self.direction() {
             Direction::ObservedFromIdeal => Some(self.value(p)),
             Direction::IdealFromObserved => newton_inverse(self, p),
+        }
+    }
+
+    /// Whether every non-zero term is radially symmetric (the valid domain is then found on
+    /// one ray).
+    fn is_radial(&self) -> bool {
+        false
+    }
+
+    /// The disc where the model is one-to-one (see [`ValidDomain`]); marches rays, so compute
+    /// it once per map, not per point.
+    fn valid_domain(&self) -> ValidDomain {
+        domain::valid_domain(self, self.is_radial())
+    }
+
+    /// [`DistortionModel::observed_from_ideal`] inside `domain` (this model's), `None` outside.
+    #[inline(always)]
+    fn observed_from_ideal_within(&self, domain: &ValidDomain, p: [f64; 2]) -> Option<[f64; 2]> {
+        match self.direction() {
+            Direction::ObservedFromIdeal => domain.holds(p).then(|| self.value(p)),
+            Direction::IdealFromObserved => newton_inverse(self, p).filter(|q| domain.holds(*q)),
+        }
+    }
+
+    /// [`DistortionModel::ideal_from_observed`] inside `domain` (this model's), `None` outside.
+    #[inline(always)]
+    fn ideal_from_observed_within(&self, domain: &ValidDomain, p: [f64; 2]) -> Option<[f64; 2]> {
+        match self.direction() {
+            Direction::IdealFromObserved => domain.holds(p).then(|| self.value(p)),
+            Direction::ObservedFromIdeal => newton_inverse(self, p).filter(|q| domain.holds(*q)),
         }
     }
 }
@@ -259,6 +295,11 @@ impl Distortion {
             Distortion::Improved(_) => &[("dx0", "cx"), ("dy0", "cy")],
             Distortion::Tsai(_) | Distortion::OpenCv(_) => &[],
         }
+    }
+
+    /// The model's valid domain (see [`ValidDomain`]).
+    pub fn valid_domain(&self) -> ValidDomain {
+        self.model().valid_domain()
     }
 
     /// The model's name in files.

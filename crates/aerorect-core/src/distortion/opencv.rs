@@ -230,6 +230,13 @@ impl DistortionModel for OpenCv {
         Direction::ObservedFromIdeal
     }
 
+    /// k1..k6 are radial; the tangential p1, p2 and the thin prism's s1..s4 are not.
+    fn is_radial(&self) -> bool {
+        [self.p1, self.p2, self.s1, self.s2, self.s3, self.s4]
+            .iter()
+            .all(|v| *v == 0.0)
+    }
+
     #[inline]
     fn value(&self, q: [f64; 2]) -> [f64; 2] {
         let [x, y] = q;

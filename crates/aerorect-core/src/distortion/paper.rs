@@ -153,6 +153,9 @@ macro_rules! paper_model {
                 $(self.$field = it.next().unwrap_or(0.0);)*
             }
             fn direction(&self) -> Direction { Direction::IdealFromObserved }
+            fn is_radial(&self) -> bool {
+                Self::NAMES.iter().zip(self.params()).all(|(n, v)| v == 0.0 || n.starts_with('k'))
+            }
             fn closed(&self, q: [f64; 2]) -> ClosedForm { linear_closed(Self::BASIS, &self.params(), q) }
             fn closed_into(&self, q: [f64; 2], d_params: &mut [[f64; 2]]) -> ([f64; 2], [[f64; 2]; 2]) {
                 linear_closed_into(Self::BASIS, &[$(self.$field),*], q, d_params)
