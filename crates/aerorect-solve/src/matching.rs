@@ -62,7 +62,7 @@ fn rows(which: &'static str, len: usize, dim: usize) -> Result<usize, MatchError
     if dim == 0 {
         return Err(MatchError::ZeroLength { dim });
     }
-    if len % dim != 0 {
+    if !len.is_multiple_of(dim) {
         return Err(MatchError::Ragged { which, len, dim });
     }
     Ok(len / dim)
@@ -99,13 +99,14 @@ pub fn hamming(a: &[u8], b: &[u8]) -> u32 {
         .sum::<u32>()
 }
 
+/// Per query row: (best train row, best distance, second-best distance).
+type RowBest = Vec<(usize, f32, f32)>;
+/// Per train row: (best query row, its distance).
+type ColumnBest = Vec<(usize, f32)>;
+
 /// The best and second-best distance per query row, and the best query per train row, in one
 /// pass over all (query, train) distances `dist(i, j)`.
-fn nearest(
-    nq: usize,
-    nt: usize,
-    dist: impl Fn(usize, usize) -> f32,
-) -> (Vec<(usize, f32, f32)>, Vec<(usize, f32)>) {
+fn nearest(nq: usize, nt: usize, dist: impl Fn(usize, usize) -> f32) -> (RowBest, ColumnBest) {
     let mut column = vec![(usize::MAX, f32::INFINITY); nt];
     let mut row = Vec::with_capacity(nq);
     for i in 0..nq {
