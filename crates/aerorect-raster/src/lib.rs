@@ -8,6 +8,7 @@
 pub mod chessboard;
 mod cpu;
 pub mod error;
+pub mod features;
 pub mod map;
 pub mod pyramid;
 pub mod raster;

@@ -2,7 +2,10 @@
 
 pub mod adjust;
 pub mod calib;
+pub mod fundamental;
 pub mod gcp;
+pub mod matching;
+pub mod pairs;
 pub mod ransac;
 
 use aerorect_core::{Homography, Mat3};

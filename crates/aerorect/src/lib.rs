@@ -11,6 +11,7 @@ pub mod demo;
 pub mod drone;
 pub mod error;
 pub mod evaluate;
+pub mod features;
 pub mod flight;
 pub mod gcp;
 pub mod georef;

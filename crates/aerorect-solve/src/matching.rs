@@ -1,0 +1,309 @@
+//! Brute-force descriptor matching: L2 for float descriptors (SIFT), Hamming for binary ones
+//! (ORB), with Lowe's ratio test and a mutual (cross) check.
+//!
+//! Descriptors are rows of one flat slice (`dim` values a row), so this crate needs no image
+//! or keypoint type: the caller keeps the keypoints' positions in the same order.
+
+use thiserror::Error;
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum MatchError {
+    #[error("descriptor length {dim} is not usable (it must be at least 1)")]
+    ZeroLength { dim: usize },
+    #[error("{which} descriptors hold {len} values, not a multiple of the length {dim}")]
+    Ragged {
+        which: &'static str,
+        len: usize,
+        dim: usize,
+    },
+    #[error("ratio {ratio} is outside (0, 1]")]
+    Ratio { ratio: f32 },
+}
+
+/// Matching settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchOptions {
+    /// Lowe's ratio: keep a match when its distance is below `ratio` times the second-best
+    /// distance (0.8 in Lowe 2004; 1 turns the test off).
+    pub ratio: f32,
+    /// Keep a match only when each descriptor is the other's nearest neighbour.
+    pub mutual: bool,
+}
+
+impl Default for MatchOptions {
+    fn default() -> Self {
+        Self {
+            ratio: 0.8,
+            mutual: true,
+        }
+    }
+}
+
+impl MatchOptions {
+    pub fn validate(&self) -> Result<(), MatchError> {
+        if self.ratio > 0.0 && self.ratio <= 1.0 {
+            Ok(())
+        } else {
+            Err(MatchError::Ratio { ratio: self.ratio })
+        }
+    }
+}
+
+/// Descriptor `query` of the first set matches descriptor `train` of the second at `distance`
+/// (Euclidean for float descriptors, bits for binary ones).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Match {
+    pub query: usize,
+    pub train: usize,
+    pub distance: f32,
+}
+
+fn rows(which: &'static str, len: usize, dim: usize) -> Result<usize, MatchError> {
+    if dim == 0 {
+        return Err(MatchError::ZeroLength { dim });
+    }
+    if !len.is_multiple_of(dim) {
+        return Err(MatchError::Ragged { which, len, dim });
+    }
+    Ok(len / dim)
+}
+
+/// Squared Euclidean distance; eight running sums so the loop vectorises.
+pub fn l2_squared(a: &[f32], b: &[f32]) -> f32 {
+    let mut acc = [0f32; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            let d = x[k] - y[k];
+            acc[k] += d * d;
+        }
+    }
+    let tail: f32 = ra.iter().zip(rb).map(|(x, y)| (x - y) * (x - y)).sum();
+    acc.iter().sum::<f32>() + tail
+}
+
+/// Number of differing bits.
+pub fn hamming(a: &[u8], b: &[u8]) -> u32 {
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    let word = |c: &[u8]| u64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]);
+    let full: u32 = ca
+        .zip(cb)
+        .map(|(x, y)| (word(x) ^ word(y)).count_ones())
+        .sum();
+    full + ra
+        .iter()
+        .zip(rb)
+        .map(|(x, y)| (x ^ y).count_ones())
+        .sum::<u32>()
+}
+
+/// Per query row: (best train row, best distance, second-best distance).
+type RowBest = Vec<(usize, f32, f32)>;
+/// Per train row: (best query row, its distance).
+type ColumnBest = Vec<(usize, f32)>;
+
+/// The best and second-best distance per query row, and the best query per train row, in one
+/// pass over all (query, train) distances `dist(i, j)`.
+fn nearest(nq: usize, nt: usize, dist: impl Fn(usize, usize) -> f32) -> (RowBest, ColumnBest) {
+    let mut column = vec![(usize::MAX, f32::INFINITY); nt];
+    let mut row = Vec::with_capacity(nq);
+    for i in 0..nq {
+        let (mut best, mut second, mut best_j) = (f32::INFINITY, f32::INFINITY, usize::MAX);
+        for (j, col) in column.iter_mut().enumerate() {
+            let d = dist(i, j);
+            if d < best {
+                second = best;
+                best = d;
+                best_j = j;
+            } else if d < second {
+                second = d;
+            }
+            if d < col.1 {
+                *col = (i, d);
+            }
+        }
+        row.push((best_j, best, second));
+    }
+    (row, column)
+}
+
+/// Applies the ratio test (on distances `d`, given as `d` itself or squared by `squared`) and
+/// the mutual check.
+fn select(
+    row: &[(usize, f32, f32)],
+    column: &[(usize, f32)],
+    opts: &MatchOptions,
+    squared: bool,
+) -> Vec<Match> {
+    let ratio = if squared {
+        opts.ratio * opts.ratio
+    } else {
+        opts.ratio
+    };
+    row.iter()
+        .enumerate()
+        .filter(|(_, (j, best, second))| {
+            *j != usize::MAX && (opts.ratio >= 1.0 || *best < ratio * *second)
+        })
+        .filter(|(i, (j, _, _))| !opts.mutual || column[*j].0 == *i)
+        .map(|(i, &(j, best, _))| Match {
+            query: i,
+            train: j,
+            distance: if squared { best.sqrt() } else { best },
+        })
+        .collect()
+}
+
+/// Matches float descriptors (rows of `dim` values) of `query` against `train` by Euclidean
+/// distance.
+pub fn match_float(
+    query: &[f32],
+    train: &[f32],
+    dim: usize,
+    opts: &MatchOptions,
+) -> Result<Vec<Match>, MatchError> {
+    opts.validate()?;
+    let (nq, nt) = (
+        rows("query", query.len(), dim)?,
+        rows("train", train.len(), dim)?,
+    );
+    let (row, column) = nearest(nq, nt, |i, j| {
+        l2_squared(
+            &query[i * dim..(i + 1) * dim],
+            &train[j * dim..(j + 1) * dim],
+        )
+    });
+    Ok(select(&row, &column, opts, true))
+}
+
+/// Matches binary descriptors (rows of `bytes` bytes) of `query` against `train` by Hamming
+/// distance.
+pub fn match_binary(
+    query: &[u8],
+    train: &[u8],
+    bytes: usize,
+    opts: &MatchOptions,
+) -> Result<Vec<Match>, MatchError> {
+    opts.validate()?;
+    let (nq, nt) = (
+        rows("query", query.len(), bytes)?,
+        rows("train", train.len(), bytes)?,
+    );
+    let (row, column) = nearest(nq, nt, |i, j| {
+        hamming(
+            &query[i * bytes..(i + 1) * bytes],
+            &train[j * bytes..(j + 1) * bytes],
+        ) as f32
+    });
+    Ok(select(&row, &column, opts, false))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The slow oracle: every distance sorted, per query and per train row.
+    fn oracle(q: &[Vec<f32>], t: &[Vec<f32>], opts: &MatchOptions) -> Vec<(usize, usize)> {
+        let d = |a: &[f32], b: &[f32]| -> f64 {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| ((x - y) as f64).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let mut out = vec![];
+        for (i, a) in q.iter().enumerate() {
+            let mut ds: Vec<(f64, usize)> =
+                t.iter().enumerate().map(|(j, b)| (d(a, b), j)).collect();
+            ds.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let (best, j) = ds[0];
+            if best >= opts.ratio as f64 * ds[1].0 {
+                continue;
+            }
+            let back = q
+                .iter()
+                .enumerate()
+                .map(|(k, c)| (d(c, &t[j]), k))
+                .min_by(|x, y| x.0.total_cmp(&y.0))
+                .map(|x| x.1);
+            if !opts.mutual || back == Some(i) {
+                out.push((i, j));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn float_matches_equal_the_sorted_distance_oracle() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let dim = 20;
+        let t: Vec<Vec<f32>> = (0..150)
+            .map(|_| (0..dim).map(|_| rng.random::<f32>()).collect())
+            .collect();
+        // Queries: noisy copies of some train rows, plus unrelated rows.
+        let q: Vec<Vec<f32>> = (0..120)
+            .map(|i| {
+                if i % 3 == 0 {
+                    (0..dim).map(|_| rng.random::<f32>()).collect()
+                } else {
+                    t[i].iter()
+                        .map(|v| v + 0.05 * rng.random::<f32>())
+                        .collect()
+                }
+            })
+            .collect();
+        for opts in [
+            MatchOptions::default(),
+            MatchOptions {
+                ratio: 0.95,
+                mutual: false,
+            },
+        ] {
+            let got = match_float(&q.concat(), &t.concat(), dim, &opts).expect("match");
+            let got: Vec<(usize, usize)> = got.iter().map(|m| (m.query, m.train)).collect();
+            assert_eq!(got, oracle(&q, &t, &opts));
+            assert!(got.len() >= 60, "{} matches", got.len());
+        }
+    }
+
+    #[test]
+    fn hamming_counts_bits_and_binary_matching_finds_flipped_copies() {
+        assert_eq!(hamming(&[0xFF; 11], &[0x0F; 11]), 44);
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let t: Vec<u8> = (0..64 * 32).map(|_| rng.random()).collect();
+        // Each query is a train row read backwards in row order with 10 bits flipped.
+        let mut q = vec![];
+        for i in (0..64).rev() {
+            let mut row = t[i * 32..(i + 1) * 32].to_vec();
+            for k in 0..10 {
+                row[(k * 7 + i) % 32] ^= 1 << (k % 8);
+            }
+            q.extend(row);
+        }
+        let m = match_binary(&q, &t, 32, &MatchOptions::default()).expect("match");
+        assert_eq!(m.len(), 64);
+        assert!(
+            m.iter()
+                .all(|m| m.train == 63 - m.query && m.distance <= 10.0)
+        );
+    }
+
+    #[test]
+    fn bad_shapes_and_ratios_are_refused() {
+        let o = MatchOptions::default();
+        assert_eq!(
+            match_float(&[0.0; 5], &[0.0; 4], 2, &o).unwrap_err(),
+            MatchError::Ragged {
+                which: "query",
+                len: 5,
+                dim: 2
+            }
+        );
+        let bad = MatchOptions { ratio: 1.5, ..o };
+        assert!(match_binary(&[0; 4], &[0; 4], 4, &bad).is_err());
+    }
+}

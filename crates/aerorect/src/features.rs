@@ -1,0 +1,211 @@
+//! Feature tie points between photos: each frame decoded, reduced to about
+//! [`TieOptions::long_side_px`] on its long side and described by SIFT; candidate pairs from
+//! the frames' positions (or all pairs); descriptors matched (ratio test, mutual check) and
+//! verified by RANSAC. Tie points come back in each frame's full-resolution pixel coordinates,
+//! with an inlier flag per match, ready to become the first round's tie points of a flight
+//! adjustment (no attitude needed).
+
+use crate::Error;
+use aerorect_core::ImageSize;
+use aerorect_raster::AnyRaster;
+use aerorect_raster::features::{
+    DESCRIPTOR_LEN, FeatureOptions, Features, full_from_reduced, gray_reduced, sift,
+};
+use aerorect_solve::fundamental::ransac_fundamental;
+use aerorect_solve::matching::{MatchOptions, match_float};
+use aerorect_solve::pairs::{PairOptions, candidate_pairs};
+use aerorect_solve::ransac::{RansacOptions, ransac_homography};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Which model the matches must agree with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verification {
+    /// A homography: flat ground, or a camera turning about its centre.
+    Homography,
+    /// A fundamental matrix (Sampson distance): any scene, relief included.
+    Fundamental,
+}
+
+/// Settings of [`tie_photos`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TieOptions {
+    /// Frames are reduced by the smallest integer factor that brings their long side to at
+    /// most this (4608 x 3456 photos: factor 4 at 1152).
+    pub long_side_px: usize,
+    pub features: FeatureOptions,
+    pub matching: MatchOptions,
+    /// RANSAC; the threshold is in pixels of the reduced frames.
+    pub ransac: RansacOptions,
+    pub verification: Verification,
+    /// Candidate pairs when frame positions are given.
+    pub pairs: PairOptions,
+}
+
+impl Default for TieOptions {
+    fn default() -> Self {
+        Self {
+            long_side_px: 1152,
+            features: FeatureOptions::default(),
+            matching: MatchOptions::default(),
+            ransac: RansacOptions {
+                threshold: 1.0,
+                max_iterations: 4000,
+                ..RansacOptions::default()
+            },
+            verification: Verification::Fundamental,
+            pairs: PairOptions::default(),
+        }
+    }
+}
+
+/// One frame's features, positions in the reduced frame.
+#[derive(Debug, Clone)]
+pub struct FrameFeatures {
+    pub path: PathBuf,
+    /// The decoded (full-resolution) size.
+    pub size: ImageSize,
+    /// The reduction factor: reduced position x is full `factor (x + 0.5) - 0.5`.
+    pub factor: usize,
+    pub features: Features,
+    /// Seconds to reduce and describe the frame (decoding not counted).
+    pub seconds: f64,
+}
+
+/// The matches of one pair, in full-resolution pixels of each frame, with RANSAC's verdict.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairTies {
+    pub first: usize,
+    pub second: usize,
+    pub first_px: Vec<[f64; 2]>,
+    pub second_px: Vec<[f64; 2]>,
+    pub inliers: Vec<bool>,
+}
+
+impl PairTies {
+    pub fn inlier_count(&self) -> usize {
+        self.inliers.iter().filter(|&&b| b).count()
+    }
+}
+
+/// Every frame's features and the verified ties of every candidate pair.
+#[derive(Debug, Clone)]
+pub struct Ties {
+    pub frames: Vec<FrameFeatures>,
+    pub pairs: Vec<PairTies>,
+}
+
+/// The reduction factor for a frame of `size` (at least 1).
+pub fn reduction_factor(size: ImageSize, long_side_px: usize) -> usize {
+    size.width
+        .max(size.height)
+        .div_ceil(long_side_px.max(1))
+        .max(1)
+}
+
+/// Features of a decoded frame.
+pub fn raster_features(
+    path: &Path,
+    image: &AnyRaster,
+    opts: &TieOptions,
+) -> Result<FrameFeatures, Error> {
+    let start = Instant::now();
+    let factor = reduction_factor(image.size(), opts.long_side_px);
+    let gray = gray_reduced(image, factor)?;
+    let features = sift(&gray, &opts.features)
+        .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
+    Ok(FrameFeatures {
+        path: path.to_path_buf(),
+        size: image.size(),
+        factor,
+        features,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Decodes the photo at `path` and describes it.
+pub fn frame_features(path: &Path, opts: &TieOptions) -> Result<FrameFeatures, Error> {
+    let image = aerorect_io::read_image(path)?;
+    raster_features(path, &image, opts)
+}
+
+/// Matches two frames and verifies the matches. Fewer matches than the model needs is no
+/// error: the pair simply has no inliers.
+pub fn match_frames(
+    a: &FrameFeatures,
+    b: &FrameFeatures,
+    (first, second): (usize, usize),
+    opts: &TieOptions,
+) -> Result<PairTies, Error> {
+    let m = match_float(
+        &a.features.descriptors,
+        &b.features.descriptors,
+        DESCRIPTOR_LEN,
+        &opts.matching,
+    )
+    .map_err(|e| {
+        Error::Invalid(format!(
+            "matching {} with {}: {e}",
+            a.path.display(),
+            b.path.display()
+        ))
+    })?;
+    let pa: Vec<[f64; 2]> = m.iter().map(|m| position(a, m.query)).collect();
+    let pb: Vec<[f64; 2]> = m.iter().map(|m| position(b, m.train)).collect();
+    let verdict = match opts.verification {
+        Verification::Homography => ransac_homography(&pa, &pb, &opts.ransac).map(|f| f.inliers),
+        Verification::Fundamental => ransac_fundamental(&pa, &pb, &opts.ransac).map(|f| f.inliers),
+    };
+    let inliers = verdict.unwrap_or_else(|_| vec![false; pa.len()]);
+    Ok(PairTies {
+        first,
+        second,
+        first_px: pa.iter().map(|&p| full_from_reduced(a.factor, p)).collect(),
+        second_px: pb.iter().map(|&p| full_from_reduced(b.factor, p)).collect(),
+        inliers,
+    })
+}
+
+fn position(f: &FrameFeatures, k: usize) -> [f64; 2] {
+    let kp = &f.features.keypoints[k];
+    [kp.x, kp.y]
+}
+
+/// Features of every photo (in parallel), then the verified ties of each candidate pair: from
+/// `centres` (one ground position per photo, any planar unit) when given, else every pair.
+pub fn tie_photos(
+    paths: &[PathBuf],
+    centres: Option<&[[f64; 2]]>,
+    opts: &TieOptions,
+) -> Result<Ties, Error> {
+    opts.features
+        .validate()
+        .map_err(|e| Error::Invalid(e.to_string()))?;
+    let frames: Vec<FrameFeatures> = paths
+        .par_iter()
+        .map(|p| frame_features(p, opts))
+        .collect::<Result<_, _>>()?;
+    let pairs = match centres {
+        Some(c) if c.len() != paths.len() => {
+            return Err(Error::Invalid(format!(
+                "{} frame positions given for {} photos",
+                c.len(),
+                paths.len()
+            )));
+        }
+        Some(c) => candidate_pairs(c, None, &opts.pairs)
+            .map_err(|e| Error::Invalid(format!("candidate pairs: {e}")))?,
+        None => (0..paths.len())
+            .flat_map(|i| (i + 1..paths.len()).map(move |j| (i, j)))
+            .collect(),
+    };
+    let ties = pairs
+        .par_iter()
+        .map(|&(i, j)| match_frames(&frames[i], &frames[j], (i, j), opts))
+        .collect::<Result<_, _>>()?;
+    Ok(Ties {
+        frames,
+        pairs: ties,
+    })
+}
