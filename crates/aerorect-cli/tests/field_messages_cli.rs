@@ -352,7 +352,12 @@ fn absurd_camera_values_are_refused_naming_the_file_and_field() {
 #[test]
 fn an_absurd_attitude_sigma_is_refused_naming_it() {
     let (_t, d) = setup();
-    photo(&d, "b.jpg", HEIGHTS);
+    // A second photo, not a copy of a.jpg (a copy is refused as the same photo first).
+    photo(
+        &d,
+        "b.jpg",
+        r#"drone-dji:AbsoluteAltitude="+311.00" drone-dji:RelativeAltitude="+81.00""#,
+    );
     let out = run(
         &d,
         &[
