@@ -3,6 +3,7 @@
 pub mod adjust;
 pub mod calib;
 pub mod gcp;
+pub mod lm;
 pub mod ransac;
 
 use aerorect_core::{Homography, Mat3};
