@@ -379,6 +379,7 @@ pub struct FlightArgs {
     pub attitude_sigma_deg: f64,
     /// With --adjust: the most matching rounds (each renders the frames again with the last
     /// round's orientation and matches afresh; they stop when the median frame's attitude moves less than 0.005 deg).
+    /// At most 20 are run; rounds that do not settle are reported with their turns.
     #[arg(long, requires = "adjust", default_value_t = 8)]
     pub adjust_passes: usize,
 }
@@ -839,14 +840,21 @@ pub(crate) fn print_adjustment(r: &aerorect::flight::FlightReport) {
     for u in &r.unconnected {
         eprintln!("warning: {u}: overlaps no other frame reliably; left as recorded");
     }
+    for w in &r.warnings {
+        eprintln!("warning: {w}");
+    }
     let adj = &r.adjustment;
     outln!(
-        "adjustment: {} frames, {} tie points, rms {:.2} -> {:.2} px in {} iterations, {:.2} s",
+        "adjustment: {} frames, {} tie points, rms {:.2} -> {:.2} px in {} iterations ({}), {:.2} s",
         r.frames.len(),
         adj.tie_points,
         adj.rms_before_px,
         adj.rms_after_px,
         adj.iterations,
+        serde_json::to_value(adj.termination)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_owned))
+            .unwrap_or_default(),
         adj.seconds
     );
 }

@@ -4,6 +4,7 @@ pub mod adjust;
 pub mod calib;
 pub mod fundamental;
 pub mod gcp;
+pub mod lm;
 pub mod matching;
 pub mod pairs;
 pub mod ransac;

@@ -200,3 +200,135 @@ fn a_common_boresight_error_goes_to_the_camera() {
     );
     assert!(max_norm(&errors(&fl.truth, &out.frames)) < 0.1);
 }
+
+/// Frames from one point 120 m up (a hover: pitched 40-75 degrees off nadir at three
+/// headings), recorded 1 degree off, with ties on level ground seen by two or more of them.
+fn hover(seed: u64) -> aerorect_testkit::flight::Flight {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let cam = camera(800.0);
+    let centre = [0.0, 0.0, 120.0];
+    let (mut truth, mut recorded) = (Vec::new(), Vec::new());
+    for (k, (tilt, heading)) in [(40f64, 0f64), (50.0, 12.0), (75.0, -10.0)]
+        .into_iter()
+        .enumerate()
+    {
+        let r = Rotation3::new(Vector3::z() * heading.to_radians()).into_inner()
+            * Rotation3::new(Vector3::x() * tilt.to_radians()).into_inner();
+        let e = [0.7, -0.8, 0.6].map(|v: f64| (v * (1.0 + 0.1 * k as f64)).to_radians());
+        let f = |m| AdjustFrame {
+            camera: 0,
+            centre,
+            world_from_camera: m,
+            position_sigma_m: None,
+        };
+        truth.push(f(r));
+        recorded.push(f(Rotation3::new(Vector3::from(e)).into_inner() * r));
+    }
+    let mut ties = Vec::new();
+    for _ in 0..3000 {
+        let g = Vec3::new(
+            rng.random_range(-150.0..150.0),
+            rng.random_range(0.0..400.0),
+            0.0,
+        );
+        let observations: Vec<Observation> = truth
+            .iter()
+            .enumerate()
+            .filter_map(|(k, f)| {
+                let d = f.world_from_camera.transpose() * (g - Vec3::from(f.centre));
+                let p = cam.pixel_from_camera_point(d)?;
+                let inside = p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= 999.0 && p[1] <= 749.0;
+                inside.then_some(Observation {
+                    frame: k,
+                    pixel: p,
+                    weight: 1.0,
+                })
+            })
+            .collect();
+        if observations.len() >= 2 {
+            // The first guess 3 m off the truth.
+            ties.push(TiePoint {
+                ground: [g.x + 3.0, g.y - 2.0, 0.0],
+                observations,
+            });
+        }
+    }
+    aerorect_testkit::flight::Flight {
+        truth,
+        recorded,
+        ties,
+    }
+}
+
+#[test]
+fn frames_from_one_point_hold_their_positions_and_are_turned_right() {
+    let flat = |_: f64, _: f64| 0.0;
+    let fl = hover(21);
+    assert!(fl.ties.len() > 300, "{}", fl.ties.len());
+    let opts = AdjustOptions {
+        refine_focal: false,
+        refine_principal_point: false,
+        position_sigma_m: Some(5.0),
+        terrain: Some((&flat, 0.1)),
+        ..Default::default()
+    };
+    let out = adjust(&fl.recorded, &[camera(800.0)], &fl.ties, &opts).unwrap();
+    let r = &out.report;
+    // The gauge freedom is found: the three frames, zero baseline, about 200 m range.
+    assert_eq!(r.gauge.len(), 1, "{:?}", r.gauge);
+    assert_eq!(r.gauge[0].frames, vec![0, 1, 2]);
+    assert!(r.gauge[0].baseline_m < 1e-9 && r.gauge[0].range_m > 100.0);
+    // Held: every position as recorded.
+    for f in &out.frames {
+        assert_eq!(f.centre, [0.0, 0.0, 120.0]);
+    }
+    // On level ground their common turn is the priors' (the ties cannot see it): the frames
+    // must agree with each other.
+    let e = errors(&fl.truth, &out.frames);
+    let mean = e.iter().fold(Vec3::zeros(), |a, v| a + v) / e.len() as f64;
+    let relative: Vec<Vec3> = e.iter().map(|v| v - mean).collect();
+    let worst = max_norm(&relative);
+    eprintln!(
+        "hover: {} ties, worst attitude error {worst:.4} deg, rms {:.2} -> {:.3} px, {} iterations ({:?})",
+        r.tie_points, r.rms_before_px, r.rms_after_px, r.iterations, r.termination
+    );
+    assert!(r.converged, "{:?}", r.termination);
+    assert!(worst < 0.05, "{worst}");
+    assert!(r.rms_after_px < 0.1);
+}
+
+#[test]
+fn a_solve_cut_by_its_iteration_limit_says_so_and_gives_its_result() {
+    let hills = |x: f64, y: f64| 25.0 + 20.0 * (x / 40.0).sin() * (y / 35.0).cos();
+    let fl = flight(4, 3, 1.0, &hills, 5);
+    let opts = AdjustOptions {
+        refine_focal: false,
+        refine_principal_point: false,
+        terrain: Some((&hills, 0.05)),
+        max_iterations: 1,
+        ..Default::default()
+    };
+    let out = adjust(&fl.recorded, &[camera(800.0)], &fl.ties, &opts).unwrap();
+    let r = &out.report;
+    assert_eq!(r.iterations, 1);
+    assert_eq!(
+        r.termination,
+        aerorect_solve::adjust::Termination::MaxIterations
+    );
+    assert!(!r.converged);
+    // One step already lowers the residuals (the result is the step's, not the start's).
+    assert!(r.rms_after_px < 0.5 * r.rms_before_px, "{r:?}");
+    // Unlimited, the same flight stops by a tolerance.
+    let full = adjust(
+        &fl.recorded,
+        &[camera(800.0)],
+        &fl.ties,
+        &AdjustOptions {
+            max_iterations: 50,
+            ..opts
+        },
+    )
+    .unwrap();
+    assert!(full.report.converged, "{:?}", full.report.termination);
+}

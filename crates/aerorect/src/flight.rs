@@ -40,7 +40,7 @@ pub struct FlightOptions {
     /// frames' remaining relative rotation and scale fades), and the adjustment is solved
     /// again; rounds stop when the median frame's attitude moves by less than `settled_deg`
     /// (one weakly held frame at the edge of a block can wander by a hundredth of a degree
-    /// from round to round without the others moving).
+    /// from round to round without the others moving). At most [`MAX_PASSES`].
     pub passes: usize,
     pub settled_deg: f64,
 }
@@ -88,6 +88,19 @@ impl Default for FlightOptions {
         }
     }
 }
+
+/// The most pixels of one frame's gray ortho on the matching grid (16 MB as f32): the grid's
+/// GSD is coarsened until every frame fits (a warning says so).
+pub const MATCH_BUDGET_PX: u64 = 4_000_000;
+
+/// The matching rounds' cap: [`FlightOptions::passes`] above it runs this many (a warning
+/// says so).
+pub const MAX_PASSES: usize = 20;
+
+/// A solve stopped by its iteration limit (no tolerance met) is kept, with a warning, when
+/// its residual RMS is at most this (px: four times the tie points' 0.5 px sigma); above it
+/// the flight is an error naming the frames.
+pub const UNCONVERGED_RMS_PX: f64 = 2.0;
 
 /// Standard deviation (m) of a consumer GPS position, the prior of frames with no RTK tags.
 pub const GPS_SIGMA_M: f64 = 5.0;
@@ -188,6 +201,14 @@ pub struct FlightReport {
     /// round before.
     pub rounds: Vec<RoundSummary>,
     pub match_gsd_m: f64,
+    /// Whether the last round's median turn met [`FlightOptions::settled_deg`]; when not,
+    /// `oscillating` says whether the turns stopped shrinking (the last round's median turn
+    /// is above half the smallest before it) and a warning lists the turns per round.
+    pub settled: bool,
+    pub oscillating: bool,
+    /// What the user should know: the matching grid coarsened, passes capped, gauge
+    /// freedoms held, a solve kept at its iteration limit, rounds that did not settle.
+    pub warnings: Vec<String>,
     pub pairs: Vec<PairReport>,
     /// Frames no reliable pair reaches (left as recorded).
     pub unconnected: Vec<String>,
@@ -215,9 +236,9 @@ fn flight_crs(
 /// Plans a frame on the matching grid with its recorded orientation.
 fn plan_frame(
     input: &Path,
-    meta: PhotoMetadata,
+    meta: &PhotoMetadata,
     opts: &DroneOptions,
-    gsd: f64,
+    (gsd, max_output_px): (f64, u64),
 ) -> Result<Frame, Error> {
     let file = input.display().to_string();
     let rtk_std_m = meta.dji.rtk_std_m;
@@ -231,9 +252,7 @@ fn plan_frame(
             prefilter: true,
             ..WarpOptions::default()
         },
-        limits: aerorect_core::RectifyLimits {
-            max_output_px: 4_000_000,
-        },
+        limits: aerorect_core::RectifyLimits { max_output_px },
         occlusion: false,
         ..opts.clone()
     };
@@ -242,9 +261,9 @@ fn plan_frame(
         .as_deref()
         .map(|p| crate::drone::pose_for(p, input));
     let (coarse_plan, info) = match posed {
-        Some(Some(pose)) => crate::drone::plan_from_pose(pose, &meta, size, &coarse_opts, &file)?,
+        Some(Some(pose)) => crate::drone::plan_from_pose(pose, meta, size, &coarse_opts, &file)?,
         Some(None) => return Err(Error::Invalid(format!("{file}: not in the pose table"))),
-        None => plan_from_metadata(&meta, size, &coarse_opts, &file)?,
+        None => plan_from_metadata(meta, size, &coarse_opts, &file)?,
     };
     Ok(Frame {
         input: input.to_path_buf(),
@@ -548,6 +567,8 @@ pub struct FlightPlan {
     world: Projection,
     crs: Crs,
     started: std::time::Instant,
+    /// The plan's warnings (the matching grid coarsened).
+    warnings: Vec<String>,
 }
 
 /// Every frame's pose and camera (a round's adjusted orientation).
@@ -589,10 +610,7 @@ impl FlightPlan {
                 g * (short_side as f64 / 600.0).clamp(1.0, 4.0)
             }
         };
-        let frames: Vec<Frame> = metas
-            .into_par_iter()
-            .map(|(p, m)| plan_frame(&p, m, &opts, gsd))
-            .collect::<Result<_, Error>>()?;
+        let (gsd, frames, warnings) = plan_matching(&metas, &opts, gsd)?;
         Ok(Self {
             ground: ground_fn(&opts, &world),
             rec: recorded(&frames),
@@ -603,6 +621,7 @@ impl FlightPlan {
             world,
             crs,
             started,
+            warnings,
         })
     }
 
@@ -632,8 +651,10 @@ impl FlightPlan {
             world: &self.world,
             ground: &ground,
             gsd_m: f.coarse_plan.grid.gsd,
+            // The GSD was chosen for the recorded orientation to fit the budget; an adjusted
+            // one moves the footprint a little.
             limits: aerorect_core::RectifyLimits {
-                max_output_px: 4_000_000,
+                max_output_px: 4 * MATCH_BUDGET_PX,
             },
             occlusion: false,
         };
@@ -744,7 +765,7 @@ impl FlightPlan {
         let since = progress.since.unwrap_or(self.started);
         progress.rounds.push(round.summary((before, &poses), since));
         progress.since = Some(std::time::Instant::now());
-        progress.done = progress.rounds.len() >= self.fo.passes
+        progress.done = progress.rounds.len() >= self.fo.passes.min(MAX_PASSES)
             || (progress.rounds.len() > 1 && typical < self.fo.settled_deg);
         progress.orientation = Some(Orientation { poses, cameras });
         Ok(round)
@@ -753,6 +774,22 @@ impl FlightPlan {
     /// The flight's report after `round`, and the round's tie vectors.
     fn report(&self, progress: &FlightProgress, round: Round) -> (FlightReport, Vec<TieVector>) {
         let (poses, cameras) = round.orientation(&self.rec);
+        let (settled, oscillating) = settling(&progress.rounds, self.fo.settled_deg);
+        let mut warnings = self.warnings.clone();
+        if self.fo.passes > MAX_PASSES {
+            warnings.push(format!(
+                "{} matching rounds asked for: at most {MAX_PASSES} are run",
+                self.fo.passes
+            ));
+        }
+        warnings.extend(round.warnings.iter().cloned());
+        if !settled {
+            warnings.push(rounds_warning(
+                &progress.rounds,
+                self.fo.settled_deg,
+                oscillating,
+            ));
+        }
         let report = FlightReport {
             frames: self
                 .frames
@@ -762,6 +799,9 @@ impl FlightPlan {
             passes: progress.rounds.len(),
             rounds: progress.rounds.clone(),
             match_gsd_m: self.gsd,
+            settled,
+            oscillating,
+            warnings,
             unconnected: unconnected(&self.frames, &round.reports),
             pairs: round.reports,
             adjustment: round.adjusted.report,
@@ -990,6 +1030,7 @@ struct Round {
     reports: Vec<PairReport>,
     adjusted: aerorect_solve::adjust::Adjusted,
     ties: Vec<TieVector>,
+    warnings: Vec<String>,
 }
 
 /// A tie point on the ground and how far apart its two frames put it (frame b's ground point
@@ -1100,18 +1141,12 @@ fn match_and_adjust(
     };
     let adjusted = aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &ties, &aopts)
         .map_err(|e| Error::Invalid(format!("flight adjustment: {e}")))?;
-    if !adjusted.report.converged {
-        return Err(Error::Invalid(format!(
-            "the flight adjustment did not converge in {} iterations (rms {:.2} px); the frames it could not place: {}; nothing written",
-            adjusted.report.iterations,
-            adjusted.report.rms_after_px,
-            unplaced(frames, &adjusted.report)
-        )));
-    }
+    let warnings = solve_warnings(frames, &adjusted.report)?;
     let mut round = Round {
         reports,
         adjusted,
         ties: Vec::new(),
+        warnings,
     };
     let (poses, cameras) = round.orientation(rec);
     let new_cams: Vec<&Camera> = cameras.iter().collect();
@@ -1127,6 +1162,117 @@ fn match_and_adjust(
         })
         .collect();
     Ok(round)
+}
+
+/// The warnings of a solve (gauge freedoms held, an iteration limit met with a sub-pixel
+/// RMS), or its error when its own residuals say it failed.
+fn solve_warnings(frames: &[Frame], report: &AdjustReport) -> Result<Vec<String>, Error> {
+    let name = |k: usize| frames[k].input.display().to_string();
+    let mut out = Vec::new();
+    for g in &report.gauge {
+        let names: Vec<String> = g.frames.iter().map(|&k| name(k)).collect();
+        out.push(format!(
+            "{} were taken from one point ({:.2} m apart at {:.0} m range): {}",
+            names.join(", "),
+            g.baseline_m,
+            g.range_m,
+            g.held
+        ));
+    }
+    if !report.converged {
+        if report.rms_after_px > UNCONVERGED_RMS_PX {
+            return Err(Error::Invalid(format!(
+                "the flight adjustment did not converge in {} iterations (rms {:.2} px, over {UNCONVERGED_RMS_PX} px); the frames it could not place: {}; nothing written",
+                report.iterations,
+                report.rms_after_px,
+                unplaced(frames, report)
+            )));
+        }
+        out.push(format!(
+            "the flight adjustment met no tolerance in {} iterations ({:?}); its rms {:.2} px is sub-pixel, so its result is kept",
+            report.iterations, report.termination, report.rms_after_px
+        ));
+    }
+    Ok(out)
+}
+
+/// Every frame planned on the matching grid: at `gsd`, or coarser until every frame's ortho
+/// fits [`MATCH_BUDGET_PX`] (with a warning); returns the GSD used.
+fn plan_matching(
+    metas: &[(PathBuf, PhotoMetadata)],
+    opts: &DroneOptions,
+    gsd: f64,
+) -> Result<(f64, Vec<Frame>, Vec<String>), Error> {
+    let (mut g, mut first) = (gsd, None);
+    for _ in 0..8 {
+        let planned: Vec<Result<Frame, Error>> = metas
+            .par_iter()
+            .map(|(p, m)| plan_frame(p, m, opts, (g, MATCH_BUDGET_PX)))
+            .collect();
+        if planned.iter().all(Result::is_ok) {
+            let frames = planned.into_iter().collect::<Result<Vec<_>, _>>()?;
+            let warnings = first
+                .map(|(px, k): (u64, usize)| {
+                    format!(
+                        "matching grid: at {gsd:.4} m the ortho of {} would be {px} px, over the matching budget of {MATCH_BUDGET_PX} px; the frames are matched at {g:.4} m",
+                        metas[k].0.display()
+                    )
+                })
+                .into_iter()
+                .collect();
+            return Ok((g, frames, warnings));
+        }
+        // A frame over the budget plans with room to spare (a plan allocates no pixels):
+        // its size says how much coarser the grid must be; any other failure is the frame's.
+        let mut worst = (0u64, 0usize);
+        for (k, r) in planned.into_iter().enumerate() {
+            let Err(e) = r else { continue };
+            let (p, m) = &metas[k];
+            let Ok(f) = plan_frame(p, m, opts, (g, 64 * MATCH_BUDGET_PX)) else {
+                return Err(e);
+            };
+            worst = worst.max((f.coarse_plan.grid.size.pixels() as u64, k));
+        }
+        first.get_or_insert(worst);
+        g *= 1.02 * (worst.0 as f64 / MATCH_BUDGET_PX as f64).sqrt().max(1.0);
+    }
+    Err(Error::Invalid(format!(
+        "matching grid: no GSD up to {g:.3} m keeps every frame's ortho within {MATCH_BUDGET_PX} px"
+    )))
+}
+
+/// Whether the rounds settled (the last median turn below `settled_deg`) and, if not,
+/// whether they oscillate (the last median turn above half the smallest before it).
+fn settling(rounds: &[RoundSummary], settled_deg: f64) -> (bool, bool) {
+    let Some(last) = rounds.last() else {
+        return (true, false);
+    };
+    if rounds.len() < 2 || last.median_turn_deg < settled_deg {
+        return (true, false);
+    }
+    let smallest = rounds[..rounds.len() - 1]
+        .iter()
+        .map(|r| r.median_turn_deg)
+        .fold(f64::INFINITY, f64::min);
+    (false, last.median_turn_deg > 0.5 * smallest)
+}
+
+fn rounds_warning(rounds: &[RoundSummary], settled_deg: f64, oscillating: bool) -> String {
+    let turns: Vec<String> = rounds
+        .iter()
+        .map(|r| format!("{:.3}", r.median_turn_deg))
+        .collect();
+    format!(
+        "the matching rounds {} in {} rounds: the median frame turned by {} deg per round (largest {:.3} deg in the last), never below {settled_deg} deg; the last round's orientation is kept",
+        if oscillating {
+            "oscillate"
+        } else {
+            "did not settle"
+        },
+        rounds.len(),
+        turns.join(", "),
+        rounds.last().map_or(0.0, |r| r.largest_turn_deg)
+    )
 }
 
 /// The frames a failed solve left worst: those with no observation, then the (at most five)

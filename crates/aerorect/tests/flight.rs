@@ -40,3 +40,35 @@ fn adjustment_brings_the_nadir_pair_within_a_pixel() {
     // Below one output pixel (0.1 m).
     assert!(norm(after.median_px) < 1.0, "{:?}", after.median_px);
 }
+
+fn drone(name: &str) -> Option<std::path::PathBuf> {
+    aerorect_testkit::shared_data(&format!("drone-xmp/{name}.JPG"))
+}
+
+#[test]
+fn a_matching_grid_over_its_budget_is_coarsened_not_refused() {
+    // 4000 x 2250 nadir frames matched at 2 cm: about 20 Mpx each, over the 4 Mpx budget
+    // (the grid's own limit used to refuse it with "over the limit of 4000000 px").
+    let (Some(a), Some(b)) = (drone("DJI_0010"), drone("DJI_0012")) else {
+        return;
+    };
+    let opts = DroneOptions {
+        gsd_m: Some(0.1),
+        ..Default::default()
+    };
+    let fo = FlightOptions {
+        match_gsd_m: Some(0.02),
+        passes: 1,
+        ..Default::default()
+    };
+    let flight = adjust_flight(&[a, b], &opts, &fo).unwrap();
+    let r = &flight.report;
+    eprintln!("matched at {:.4} m: {:?}", r.match_gsd_m, r.warnings);
+    assert!(r.match_gsd_m > 0.02);
+    assert!(
+        r.warnings.iter().any(|w| w.contains("matching budget")),
+        "{:?}",
+        r.warnings
+    );
+    assert!(r.pairs[0].reliable && r.adjustment.rms_after_px < 1.0);
+}

@@ -1,9 +1,8 @@
-//! A Levenberg-Marquardt loop with Marquardt's diagonal damping. The problem supplies its
-//! residuals and its normal equations (J^T J, J^T r) in whatever block form it has, and solves
-//! the damped system with nalgebra; this file only decides steps and stops, because the paper's
-//! stop rule (every update moves every predicted point by less than a threshold in pixels) is
-//! not one of the usual relative tolerances. Buffers are made once: an iteration allocates
-//! nothing here.
+//! The calibration's side of the crate's Levenberg-Marquardt loop ([`crate::lm`]): the problem
+//! supplies its residuals and its normal equations (J^T J, J^T r) in whatever block form it
+//! has, and solves the damped system with nalgebra; the paper's stop rule (every update moves
+//! every predicted point by less than a threshold in pixels) is the loop's
+//! [`crate::lm::Model::settled`].
 
 use nalgebra::DVector;
 
@@ -45,8 +44,53 @@ pub(crate) struct LmResult<N> {
     pub residuals: DVector<f64>,
 }
 
-/// Minimises |r(x)|^2 from `x0`. `point_shift(dr)` is the largest change of a predicted point
-/// (in pixels) for a change `dr` of the residual vector: the stop rule.
+/// The calibration's state in the shared loop: the free vector and its residuals.
+struct CalibState {
+    x: DVector<f64>,
+    r: DVector<f64>,
+}
+
+/// A calibration problem as the crate's [`crate::lm::Model`], with the paper's stop rule.
+struct Adapter<'a, P: Problem, F> {
+    p: &'a P,
+    normal: P::Normal,
+    stop_px: f64,
+    point_shift: F,
+}
+
+impl<P: Problem, F: Fn(&DVector<f64>) -> f64> crate::lm::Model for Adapter<'_, P, F> {
+    type State = CalibState;
+    fn cost(&self, s: &CalibState) -> Option<f64> {
+        Some(s.r.norm_squared())
+    }
+    fn linearise(&mut self, s: &CalibState) -> Option<f64> {
+        self.p.normal_into(&s.x, &s.r, &mut self.normal);
+        // No gradient stop: the paper's rule and the cost's own decrease decide.
+        Some(f64::INFINITY)
+    }
+    fn step(&mut self, s: &CalibState, lambda: f64) -> Option<crate::lm::Step<CalibState>> {
+        let mut dx = DVector::zeros(s.x.len());
+        if !self.normal.solve_damped(lambda, &mut dx) {
+            return None;
+        }
+        let x = &s.x + &dx;
+        let mut r = DVector::zeros(s.r.len());
+        self.p.residuals_into(&x, &mut r);
+        Some(crate::lm::Step {
+            state: CalibState { x, r },
+            step_norm: dx.norm(),
+            x_norm: s.x.norm(),
+        })
+    }
+    fn settled(&self, before: &CalibState, after: &CalibState) -> bool {
+        (self.point_shift)(&(&after.r - &before.r)) < self.stop_px
+    }
+}
+
+/// Minimises |r(x)|^2 from `x0` with the crate's loop ([`crate::lm::minimise`]).
+/// `point_shift(dr)` is the largest change of a predicted point (in pixels) for a change `dr`
+/// of the residual vector: the stop rule. The cost's relative decrease stops it below 1e-15;
+/// the gradient and step tolerances are not used.
 pub(crate) fn minimise<P: Problem>(
     p: &P,
     x0: DVector<f64>,
@@ -54,64 +98,32 @@ pub(crate) fn minimise<P: Problem>(
     stop_px: f64,
     point_shift: impl Fn(&DVector<f64>) -> f64,
 ) -> LmResult<P::Normal> {
-    let m = p.residual_count();
-    let mut x = x0;
-    let mut r = DVector::zeros(m);
-    p.residuals_into(&x, &mut r);
-    let mut cost = r.norm_squared();
-    let mut lambda = 1e-3;
-    let mut normal = p.new_normal();
-    p.normal_into(&x, &r, &mut normal);
-    let (mut dx, mut x_new) = (DVector::zeros(x.len()), DVector::zeros(x.len()));
-    let (mut r_new, mut dr) = (DVector::zeros(m), DVector::zeros(m));
-    let mut stop = StopReason::MaxIterations;
-    let mut iterations = 0;
-    while iterations < max_iterations {
-        iterations += 1;
-        let mut accepted = false;
-        for _ in 0..20 {
-            if !normal.solve_damped(lambda, &mut dx) {
-                lambda *= 10.0;
-                continue;
-            }
-            x_new.copy_from(&x);
-            x_new += &dx;
-            p.residuals_into(&x_new, &mut r_new);
-            let cost_new = r_new.norm_squared();
-            if cost_new.is_finite() && cost_new <= cost {
-                dr.copy_from(&r_new);
-                dr -= &r;
-                let shift = point_shift(&dr);
-                let rel = (cost - cost_new) / cost.max(1e-300);
-                std::mem::swap(&mut x, &mut x_new);
-                std::mem::swap(&mut r, &mut r_new);
-                cost = cost_new;
-                lambda = (lambda / 3.0).max(1e-12);
-                accepted = true;
-                if shift < stop_px {
-                    stop = StopReason::UpdateBelowThreshold;
-                } else if rel < 1e-15 {
-                    stop = StopReason::NoFurtherDecrease;
-                }
-                break;
-            }
-            lambda *= 4.0;
-        }
-        if !accepted {
-            stop = StopReason::NoFurtherDecrease;
-            break;
-        }
-        p.normal_into(&x, &r, &mut normal);
-        if stop != StopReason::MaxIterations {
-            break;
-        }
-    }
+    let mut r = DVector::zeros(p.residual_count());
+    p.residuals_into(&x0, &mut r);
+    let mut model = Adapter {
+        p,
+        normal: p.new_normal(),
+        stop_px,
+        point_shift,
+    };
+    let tol = crate::lm::Tolerances {
+        function: 1e-15,
+        gradient: 0.0,
+        parameter: 0.0,
+    };
+    let out = crate::lm::minimise(&mut model, CalibState { x: x0, r }, max_iterations, tol);
+    use crate::lm::Termination as T;
+    let stop = match out.termination {
+        T::Settled => StopReason::UpdateBelowThreshold,
+        T::MaxIterations => StopReason::MaxIterations,
+        _ => StopReason::NoFurtherDecrease,
+    };
     LmResult {
-        x,
-        iterations,
+        x: out.state.x,
+        iterations: out.iterations,
         stop,
-        normal,
-        residuals: r,
+        normal: model.normal,
+        residuals: out.state.r,
     }
 }
 

@@ -1,0 +1,92 @@
+//! Gauge freedoms: motions of the frames the ties cannot see, held before solving.
+//!
+//! Frames taken from one point (a hover, a panorama) see the ground along the same rays: a
+//! common shift of their positions, and any shift along those rays, leaves every tie where it
+//! was. Such frames are found geometrically: the frames the ties join (a connected set) whose
+//! centres all lie within [`ONE_POINT_RATIO`] of their distance to the ground they tie. Their
+//! positions are held as recorded (the attitudes, the cameras and the points are solved).
+
+use super::{AdjustFrame, TiePoint};
+use aerorect_core::Vec3;
+use serde::Serialize;
+
+/// Frames whose largest baseline is below this fraction of their median range to their tie
+/// points are taken as seen from one point (0.02: rays from the two ends meet at a
+/// ground point at less than 1.2 degrees).
+pub const ONE_POINT_RATIO: f64 = 0.02;
+
+/// A gauge freedom found and how it was held.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct GaugeHold {
+    /// The frames concerned (indices into the adjustment's frames).
+    pub frames: Vec<usize>,
+    /// Their largest baseline and median range to their tie points (m).
+    pub baseline_m: f64,
+    pub range_m: f64,
+    /// What was held, in words.
+    pub held: String,
+}
+
+/// The sets of frames the ties join (union-find over the tie points' observations), each
+/// sorted, the frames no tie reaches left out.
+pub(super) fn connected(frames: usize, ties: &[TiePoint]) -> Vec<Vec<usize>> {
+    let mut parent: Vec<usize> = (0..frames).collect();
+    fn root(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let mut seen = vec![false; frames];
+    for t in ties {
+        let Some(first) = t.observations.first() else {
+            continue;
+        };
+        for o in &t.observations {
+            seen[o.frame] = true;
+            let (a, b) = (root(&mut parent, first.frame), root(&mut parent, o.frame));
+            parent[a] = b;
+        }
+    }
+    let mut sets: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for f in (0..frames).filter(|&f| seen[f]) {
+        let r = root(&mut parent, f);
+        sets.entry(r).or_default().push(f);
+    }
+    sets.into_values().collect()
+}
+
+/// The connected sets of two or more frames seen from one point.
+pub(super) fn one_point_sets(frames: &[AdjustFrame], ties: &[TiePoint]) -> Vec<GaugeHold> {
+    let mut out = Vec::new();
+    for set in connected(frames.len(), ties) {
+        if set.len() < 2 {
+            continue;
+        }
+        let c: Vec<Vec3> = set.iter().map(|&f| Vec3::from(frames[f].centre)).collect();
+        let baseline = c
+            .iter()
+            .flat_map(|a| c.iter().map(move |b| (a - b).norm()))
+            .fold(0.0, f64::max);
+        let mut ranges: Vec<f64> = ties
+            .iter()
+            .flat_map(|t| t.observations.iter().map(move |o| (o.frame, t.ground)))
+            .filter(|(f, _)| set.binary_search(f).is_ok())
+            .map(|(f, g)| (Vec3::from(g) - Vec3::from(frames[f].centre)).norm())
+            .collect();
+        ranges.sort_by(f64::total_cmp);
+        let range = ranges.get(ranges.len() / 2).copied().unwrap_or(0.0);
+        if range > 0.0 && baseline < ONE_POINT_RATIO * range {
+            out.push(GaugeHold {
+                frames: set,
+                baseline_m: baseline,
+                range_m: range,
+                held: "positions held as recorded: frames from one point cannot place \
+                       themselves from their ties"
+                    .into(),
+            });
+        }
+    }
+    out
+}

@@ -1,0 +1,261 @@
+//! Joint adjustment of a flight: small attitude corrections per frame (and optionally position
+//! corrections), focal length and principal point per camera, from tie points seen in several
+//! frames, with priors on the recorded attitude and position and a robust (Huber) loss.
+//!
+//! Tie points' ground positions are unknowns too; with a terrain they are held near it by a
+//! height observation. They are eliminated block by block (Schur complement), and the reduced
+//! system over frames and cameras, sparse because frames only meet their neighbours, is solved
+//! with faer's sparse Cholesky: it scales to thousands of frames.
+//!
+//! Frame model: `world_from_camera = Rot(w) * R0 * Rot(b)` (w a rotation vector in world
+//! axes, b the camera's boresight rotation in its own axes), `centre = C0 + dc`; camera: fx,
+//! fy scaled by (1 + s), principal point moved by (du, dv), and radial terms dk1, dk2 added to
+//! the lens's own (`q + n (dk1 r^2 + dk2 r^4)` for ideal normalised `n`, `r = |n|`: exactly
+//! OpenCV's k1, k2 moved by dk1, dk2 when the lens has no rational terms).
+//! Camera frame as in `aerorect_core::camera` (x right, y up, z back).
+//!
+//! Files: `blocks` (the named parameter blocks and their indices), `residuals` (the model and
+//! the cost), `jacobian` (analytic derivatives; `oracle` checks them against central
+//! differences), `solve` (normal equations, Schur complement, the loop's steps), `gauge`
+//! (freedoms the ties cannot see), `report` (statistics and the adjusted frames).
+//! The loop is the crate's one Levenberg-Marquardt ([`crate::lm`]), stopped by Ceres's
+//! tolerances ([`AdjustOptions::tolerances`]).
+
+mod blocks;
+mod gauge;
+mod jacobian;
+#[cfg(test)]
+mod oracle;
+mod report;
+mod residuals;
+mod solve;
+
+pub use crate::lm::{Termination, Tolerances};
+pub use gauge::{GaugeHold, ONE_POINT_RATIO};
+pub use residuals::radial_refinable;
+
+use crate::SolveError;
+use aerorect_core::{Camera, Mat3, Vec3};
+use blocks::{CameraBlock, FrameBlock, FrameParam, Layout, State};
+use residuals::Problem;
+use serde::Serialize;
+
+/// One frame's recorded exterior orientation and its camera.
+#[derive(Debug, Clone)]
+pub struct AdjustFrame {
+    pub camera: usize,
+    pub centre: [f64; 3],
+    pub world_from_camera: Mat3,
+    /// This frame's position prior (m, per world axis) when positions are adjusted, e.g. the
+    /// receiver's own RTK standard deviations; `None` takes [`AdjustOptions::position_sigma_m`].
+    pub position_sigma_m: Option<[f64; 3]>,
+}
+
+/// A tie point's observation in one frame (observed pixel, with the matcher's confidence as a
+/// relative weight in (0, 1]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Observation {
+    pub frame: usize,
+    pub pixel: [f64; 2],
+    pub weight: f64,
+}
+
+/// A point seen in two or more frames, with a first guess of its ground position.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TiePoint {
+    pub ground: [f64; 3],
+    pub observations: Vec<Observation>,
+}
+
+/// The terrain's height at (x, y) of the world frame.
+pub type HeightFn<'a> = &'a (dyn Fn(f64, f64) -> f64 + Sync);
+
+/// What is solved for, and how strongly the records hold.
+#[derive(Clone)]
+pub struct AdjustOptions<'a> {
+    /// Standard deviation of the recorded attitude (each axis), degrees.
+    pub attitude_sigma_deg: f64,
+    /// Position corrections with this prior standard deviation (metres) where a frame gives
+    /// none of its own; `None` keeps positions.
+    pub position_sigma_m: Option<f64>,
+    pub refine_focal: bool,
+    pub refine_principal_point: bool,
+    /// Radial distortion k1, k2 per camera (only for a camera with no lens model or OpenCV's
+    /// without rational terms; others keep their lens as it is).
+    pub refine_radial: bool,
+    /// A boresight rotation per camera (the attitude priors hold each frame's own correction
+    /// near zero, so what all frames of a camera share goes here).
+    pub refine_boresight: bool,
+    /// Standard deviation of a tie point's image position, pixels.
+    pub pixel_sigma: f64,
+    /// Huber threshold, in units of `pixel_sigma`.
+    pub huber: f64,
+    /// Terrain height at (x, y) and its standard deviation (m): tie points stay on the ground.
+    pub terrain: Option<(HeightFn<'a>, f64)>,
+    pub max_iterations: usize,
+    /// The stops on the cost's relative decrease, the gradient and the step (Ceres's).
+    pub tolerances: Tolerances,
+}
+
+impl Default for AdjustOptions<'_> {
+    fn default() -> Self {
+        Self {
+            attitude_sigma_deg: 1.0,
+            position_sigma_m: None,
+            refine_focal: true,
+            refine_principal_point: true,
+            refine_radial: false,
+            refine_boresight: false,
+            pixel_sigma: 0.5,
+            huber: 3.0,
+            terrain: None,
+            max_iterations: 50,
+            tolerances: Tolerances::default(),
+        }
+    }
+}
+
+/// The corrections and statistics of one frame.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameAdjustment {
+    /// The rotation correction (world axes), degrees, and its standard deviation.
+    pub rotation_deg: [f64; 3],
+    pub rotation_sigma_deg: [f64; 3],
+    pub position_m: [f64; 3],
+    pub position_sigma_m: [f64; 3],
+    pub observations: usize,
+    pub rms_before_px: f64,
+    pub rms_after_px: f64,
+    /// Observations the robust loss down-weighted (residual above the Huber threshold).
+    pub outliers: usize,
+}
+
+/// The corrections of one camera.
+#[derive(Debug, Clone, Serialize)]
+pub struct CameraAdjustment {
+    pub focal_scale: f64,
+    pub focal_scale_sigma: f64,
+    pub principal_point_shift_px: [f64; 2],
+    pub principal_point_sigma_px: [f64; 2],
+    /// What was added to the lens's k1, k2.
+    pub radial_k1_k2: [f64; 2],
+    pub radial_sigma: [f64; 2],
+    /// The boresight rotation (camera axes), degrees.
+    pub boresight_deg: [f64; 3],
+    pub boresight_sigma_deg: [f64; 3],
+}
+
+/// The result of an adjustment.
+#[derive(Debug, Clone, Serialize)]
+pub struct AdjustReport {
+    pub frames: Vec<FrameAdjustment>,
+    pub cameras: Vec<CameraAdjustment>,
+    pub tie_points: usize,
+    pub observations: usize,
+    pub iterations: usize,
+    /// Whether a tolerance stopped the solve (else the iteration limit did, or no step
+    /// lowered the cost from the start).
+    pub converged: bool,
+    /// Why the solve stopped.
+    pub termination: Termination,
+    /// Gauge freedoms found and held before solving.
+    pub gauge: Vec<GaugeHold>,
+    pub rms_before_px: f64,
+    pub rms_after_px: f64,
+    pub seconds: f64,
+}
+
+/// The adjusted orientation of every frame and camera.
+#[derive(Debug, Clone)]
+pub struct Adjusted {
+    pub frames: Vec<AdjustFrame>,
+    pub cameras: Vec<Camera>,
+    pub report: AdjustReport,
+}
+
+/// Adjusts the frames and cameras to the tie points.
+pub fn adjust(
+    frames: &[AdjustFrame],
+    cameras: &[Camera],
+    ties: &[TiePoint],
+    opts: &AdjustOptions<'_>,
+) -> Result<Adjusted, SolveError> {
+    let t0 = std::time::Instant::now();
+    check_input(frames, cameras, ties)?;
+    let mut positions_free = vec![opts.position_sigma_m.is_some(); frames.len()];
+    let gauge: Vec<GaugeHold> = if opts.position_sigma_m.is_some() {
+        gauge::one_point_sets(frames, ties)
+    } else {
+        Vec::new()
+    };
+    for g in &gauge {
+        for &f in &g.frames {
+            positions_free[f] = false;
+        }
+    }
+    let layout = Layout::new(
+        frames.len(),
+        cameras.len(),
+        |f, p| matches!(p, FrameParam::Rotation(_)) || positions_free[f],
+        |c, p| Problem::camera_free(opts, &cameras[c], p),
+    );
+    let p = Problem {
+        frames,
+        cameras,
+        ties,
+        layout,
+        opts,
+    };
+    let start: Vec<Vec3> = ties.iter().map(|t| Vec3::from(t.ground)).collect();
+    let s = State {
+        frames: vec![FrameBlock::default(); frames.len()],
+        cameras: vec![CameraBlock::default(); cameras.len()],
+        points: start.clone(),
+    };
+    let before = p.rms(&s);
+    if p.cost(&s).is_none() {
+        return Err(SolveError::Degenerate);
+    }
+    let mut solver = solve::Solver {
+        problem: &p,
+        start,
+        linear: None,
+    };
+    let out = crate::lm::minimise(&mut solver, s, opts.max_iterations, opts.tolerances);
+    if out.termination == Termination::Failed {
+        return Err(SolveError::Degenerate);
+    }
+    let fit = report::Fit {
+        before,
+        after: p.rms(&out.state),
+        sigmas: report::standard_deviations(&p, &out.state),
+        iterations: out.iterations,
+        termination: out.termination,
+        gauge,
+        t0,
+    };
+    Ok(report::finish(&p, &out.state, fit))
+}
+
+fn check_input(
+    frames: &[AdjustFrame],
+    cameras: &[Camera],
+    ties: &[TiePoint],
+) -> Result<(), SolveError> {
+    if frames.iter().any(|f| f.camera >= cameras.len()) {
+        return Err(SolveError::Degenerate);
+    }
+    for (index, t) in ties.iter().enumerate() {
+        let bad = t.observations.len() < 2
+            || t.observations.iter().any(|o| {
+                o.frame >= frames.len()
+                    || o.weight.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+                    || !o.pixel.iter().all(|v| v.is_finite())
+            })
+            || !t.ground.iter().all(|v| v.is_finite());
+        if bad {
+            return Err(SolveError::NotFinite { index });
+        }
+    }
+    Ok(())
+}

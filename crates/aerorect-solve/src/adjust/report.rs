@@ -1,0 +1,150 @@
+//! The adjustment's statistics and its adjusted frames and cameras.
+
+use super::blocks::{CameraParam, FrameParam, Param, State};
+use super::residuals::{Problem, world_from_camera};
+use super::solve::factor;
+use super::{
+    AdjustFrame, AdjustReport, Adjusted, CameraAdjustment, FrameAdjustment, GaugeHold, Termination,
+};
+use faer::linalg::solvers::Solve;
+
+/// Residual RMS per frame (with counts and outliers) and overall.
+pub(super) type Rms = (Vec<(f64, usize, usize)>, f64);
+
+/// What the solve gave, for the report.
+pub(super) struct Fit {
+    pub before: Rms,
+    pub after: Rms,
+    /// One per parameter, by [`Param`]: 0 for held ones.
+    pub sigmas: Vec<(Param, f64)>,
+    pub iterations: usize,
+    pub termination: Termination,
+    pub gauge: Vec<GaugeHold>,
+    pub t0: std::time::Instant,
+}
+
+/// Standard deviations of the free parameters: the diagonal of the reduced system's inverse
+/// (Gauss-Newton, undamped), scaled by the a-posteriori variance factor.
+pub(super) fn standard_deviations(p: &Problem<'_>, s: &State) -> Vec<(Param, f64)> {
+    let free: Vec<(usize, Param)> = p.layout.free().collect();
+    let nan = || free.iter().map(|&(_, q)| (q, f64::NAN)).collect();
+    let Some(lin) = p.linear(s) else {
+        return nan();
+    };
+    let (entries, _, _) = lin.reduced(0.0);
+    let n = p.layout.len();
+    let Some(llt) = factor(n, &entries) else {
+        return nan();
+    };
+    let (_, rms_all) = p.rms(s);
+    let scale = (rms_all / p.opts.pixel_sigma).max(1.0);
+    // Columns of the identity, solved many at a time (the factor's blocked solve).
+    let mut diag = Vec::with_capacity(n);
+    for start in (0..n).step_by(256) {
+        let cols = 256.min(n - start);
+        let b = faer::Mat::<f64>::from_fn(n, cols, |i, j| f64::from(u8::from(i == start + j)));
+        let x = llt.solve(&b);
+        diag.extend((0..cols).map(|j| x[(start + j, j)].max(0.0).sqrt() * scale));
+    }
+    free.into_iter().map(|(i, q)| (q, diag[i])).collect()
+}
+
+fn sigma_of(fit: &Fit, q: Param) -> f64 {
+    fit.sigmas
+        .iter()
+        .find(|(p, _)| *p == q)
+        .map_or(0.0, |(_, s)| *s)
+}
+
+fn frame_report(s: &State, fit: &Fit, f: usize) -> FrameAdjustment {
+    let b = &s.frames[f];
+    let sd = |q| sigma_of(fit, Param::Frame(f, q));
+    FrameAdjustment {
+        rotation_deg: b.rotation.map(f64::to_degrees).into(),
+        rotation_sigma_deg: [0, 1, 2].map(|k| sd(FrameParam::Rotation(k)).to_degrees()),
+        position_m: b.position.into(),
+        position_sigma_m: [0, 1, 2].map(|k| sd(FrameParam::Position(k))),
+        observations: fit.after.0[f].1,
+        rms_before_px: fit.before.0[f].0,
+        rms_after_px: fit.after.0[f].0,
+        outliers: fit.after.0[f].2,
+    }
+}
+
+fn camera_report(s: &State, fit: &Fit, c: usize) -> CameraAdjustment {
+    let v = &s.cameras[c];
+    let sd = |q| sigma_of(fit, Param::Camera(c, q));
+    CameraAdjustment {
+        focal_scale: 1.0 + v.focal_scale,
+        focal_scale_sigma: sd(CameraParam::FocalScale),
+        principal_point_shift_px: v.principal_point,
+        principal_point_sigma_px: [0, 1].map(|k| sd(CameraParam::PrincipalPoint(k))),
+        radial_k1_k2: v.radial,
+        radial_sigma: [0, 1].map(|k| sd(CameraParam::Radial(k))),
+        boresight_deg: v.boresight.map(f64::to_degrees).into(),
+        boresight_sigma_deg: [0, 1, 2].map(|k| sd(CameraParam::Boresight(k)).to_degrees()),
+    }
+}
+
+/// The adjusted camera `c`.
+fn adjusted_camera(p: &Problem<'_>, s: &State, c: usize) -> aerorect_core::Camera {
+    use aerorect_core::distortion::{Distortion, OpenCv};
+    let v = &s.cameras[c];
+    let cam = &p.cameras[c];
+    let mut out = cam.clone();
+    if v.radial != [0.0; 2] {
+        let mut lens = match &cam.distortion {
+            Some(Distortion::OpenCv(o)) => *o,
+            _ => OpenCv::default(),
+        };
+        (lens.k1, lens.k2) = (lens.k1 + v.radial[0], lens.k2 + v.radial[1]);
+        out.distortion = Some(Distortion::OpenCv(lens));
+    }
+    let k = &mut out.intrinsics;
+    let scale = 1.0 + v.focal_scale;
+    (k.fx, k.fy, k.skew) = (k.fx * scale, k.fy * scale, k.skew * scale);
+    (k.cx, k.cy) = (k.cx + v.principal_point[0], k.cy + v.principal_point[1]);
+    out
+}
+
+pub(super) fn finish(p: &Problem<'_>, s: &State, fit: Fit) -> Adjusted {
+    let frames = p
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(f, fr)| {
+            let b = &s.frames[f];
+            let c = (nalgebra::Vector3::from(fr.centre) + b.position).into();
+            AdjustFrame {
+                camera: fr.camera,
+                centre: c,
+                world_from_camera: world_from_camera(fr, b, &s.cameras[fr.camera]),
+                position_sigma_m: fr.position_sigma_m,
+            }
+        })
+        .collect();
+    let report = AdjustReport {
+        frames: (0..p.frames.len())
+            .map(|f| frame_report(s, &fit, f))
+            .collect(),
+        cameras: (0..p.cameras.len())
+            .map(|c| camera_report(s, &fit, c))
+            .collect(),
+        tie_points: p.ties.len(),
+        observations: p.ties.iter().map(|t| t.observations.len()).sum(),
+        iterations: fit.iterations,
+        converged: fit.termination.converged(),
+        termination: fit.termination,
+        rms_before_px: fit.before.1,
+        rms_after_px: fit.after.1,
+        seconds: fit.t0.elapsed().as_secs_f64(),
+        gauge: fit.gauge,
+    };
+    Adjusted {
+        frames,
+        cameras: (0..p.cameras.len())
+            .map(|c| adjusted_camera(p, s, c))
+            .collect(),
+        report,
+    }
+}

@@ -1,0 +1,242 @@
+//! The adjustment's normal equations and damped steps for the crate's Levenberg-Marquardt
+//! loop ([`crate::lm`]). Tie points are eliminated block by block (Schur complement); the
+//! reduced system over frames and cameras, sparse because frames only meet their neighbours,
+//! is solved with faer's sparse Cholesky.
+
+use super::blocks::{LOCAL, State};
+use super::jacobian::pixel_jacobian;
+use super::residuals::Problem;
+use super::{Observation, TiePoint};
+use aerorect_core::Vec3;
+use faer::linalg::solvers::Solve;
+use faer::sparse::{SparseColMat, Triplet};
+use nalgebra::{Matrix3, SMatrix, SVector};
+use std::collections::BTreeMap;
+
+/// One tie point's blocks of the (undamped) normal equations.
+pub(super) struct PointLin {
+    pub hpp: Matrix3<f64>,
+    /// -J_p^T W r.
+    pub bp: Vec3,
+    /// H_cp by reduced index.
+    pub hpc: Vec<(usize, Vec3)>,
+}
+
+/// The undamped normal equations at one state: the frame-and-camera block (data and
+/// priors), its right-hand side (-gradient) and each point's blocks.
+#[derive(Default)]
+pub(super) struct Linear {
+    pub entries: BTreeMap<(usize, usize), f64>,
+    pub rhs: Vec<f64>,
+    pub points: Vec<PointLin>,
+}
+
+/// One observation's residual, weight and Jacobians (local columns and point).
+struct Lin {
+    r: SVector<f64, 2>,
+    w: f64,
+    local: SMatrix<f64, 2, LOCAL>,
+    point: nalgebra::Matrix2x3<f64>,
+    idx: [Option<usize>; LOCAL],
+}
+
+impl Problem<'_> {
+    fn observation_lin(&self, s: &State, o: &Observation, x: &Vec3) -> Option<Lin> {
+        let fr = &self.frames[o.frame];
+        let c = fr.camera;
+        let pj = pixel_jacobian(fr, &self.cameras[c], &s.frames[o.frame], &s.cameras[c], x)?;
+        let sig = self.opts.pixel_sigma;
+        let r = SVector::<f64, 2>::new(pj.pixel[0] - o.pixel[0], pj.pixel[1] - o.pixel[1]) / sig;
+        Some(Lin {
+            w: self.weight(&r, o),
+            r,
+            local: pj.local / sig,
+            point: pj.point / sig,
+            idx: self.layout.local(o.frame, c),
+        })
+    }
+
+    /// One tie point's blocks, its frame-camera products added to `lin`.
+    fn point_lin(&self, s: &State, tie: &TiePoint, x: &Vec3, lin: &mut Linear) -> Option<PointLin> {
+        let mut hpp = Matrix3::<f64>::zeros();
+        let mut bp = Vec3::zeros();
+        let mut hpc: BTreeMap<usize, Vec3> = BTreeMap::new();
+        for o in &tie.observations {
+            let l = self.observation_lin(s, o, x)?;
+            hpp += l.w * l.point.transpose() * l.point;
+            bp -= l.w * l.point.transpose() * l.r;
+            let cross = l.w * l.local.transpose() * l.point;
+            let hcc = l.w * l.local.transpose() * l.local;
+            let bc = -l.w * l.local.transpose() * l.r;
+            for (a, i) in l.idx.iter().enumerate() {
+                let Some(i) = *i else { continue };
+                *hpc.entry(i).or_insert_with(Vec3::zeros) += cross.row(a).transpose();
+                lin.rhs[i] += bc[a];
+                for (b, j) in l.idx.iter().enumerate() {
+                    if let Some(j) = *j {
+                        *lin.entries.entry((i, j)).or_insert(0.0) += hcc[(a, b)];
+                    }
+                }
+            }
+        }
+        if let Some((h, sigma)) = self.opts.terrain {
+            // d/dx of (z - h(x, y)) / sigma (the terrain by central differences).
+            let e = 1e-2;
+            let gx = (h(x.x + e, x.y) - h(x.x - e, x.y)) / (2.0 * e);
+            let gy = (h(x.x, x.y + e) - h(x.x, x.y - e)) / (2.0 * e);
+            let j = Vec3::new(-gx, -gy, 1.0) / sigma;
+            let r = (x.z - h(x.x, x.y)) / sigma;
+            hpp += j * j.transpose();
+            bp -= j * r;
+        }
+        Some(PointLin {
+            hpp,
+            bp,
+            hpc: hpc.into_iter().collect(),
+        })
+    }
+
+    /// The undamped normal equations at `s`.
+    pub fn linear(&self, s: &State) -> Option<Linear> {
+        let mut lin = Linear {
+            rhs: vec![0.0; self.layout.len()],
+            ..Linear::default()
+        };
+        lin.points = Vec::with_capacity(self.ties.len());
+        for (tie, x) in self.ties.iter().zip(&s.points) {
+            let p = self.point_lin(s, tie, x, &mut lin)?;
+            lin.points.push(p);
+        }
+        for (i, v, sigma) in self.priors(s) {
+            let w = 1.0 / (sigma * sigma);
+            *lin.entries.entry((i, i)).or_insert(0.0) += w;
+            lin.rhs[i] -= w * v;
+        }
+        Some(lin)
+    }
+}
+
+impl Linear {
+    /// The gradient's largest entry (frames, cameras and points).
+    pub fn gradient_max_norm(&self) -> f64 {
+        let c = self.rhs.iter().fold(0.0, |a: f64, v| a.max(v.abs()));
+        self.points.iter().fold(c, |a, p| a.max(p.bp.amax()))
+    }
+
+    /// The damped reduced system (points eliminated), each point's damped H_pp^-1 (none where
+    /// it is singular), and its right-hand side.
+    pub fn reduced(
+        &self,
+        lambda: f64,
+    ) -> (
+        BTreeMap<(usize, usize), f64>,
+        Vec<f64>,
+        Vec<Option<Matrix3<f64>>>,
+    ) {
+        let mut entries = self.entries.clone();
+        for i in 0..self.rhs.len() {
+            let d = entries.entry((i, i)).or_insert(0.0);
+            *d += lambda * d.max(1e-9);
+        }
+        let mut rhs = self.rhs.clone();
+        let mut inverses = Vec::with_capacity(self.points.len());
+        for p in &self.points {
+            let mut hpp = p.hpp;
+            for k in 0..3 {
+                hpp[(k, k)] += lambda * p.hpp[(k, k)].max(1e-9);
+            }
+            let Some(inv) = hpp.try_inverse() else {
+                inverses.push(None);
+                continue;
+            };
+            // S -= H_cp H_pp^-1 H_pc ; rhs -= H_cp H_pp^-1 b_p.
+            let t: Vec<Vec3> = p.hpc.iter().map(|(_, v)| inv * v).collect();
+            let ib = inv * p.bp;
+            for (i, vi) in &p.hpc {
+                rhs[*i] -= vi.dot(&ib);
+                for ((j, _), tj) in p.hpc.iter().zip(&t) {
+                    *entries.entry((*i, *j)).or_insert(0.0) -= vi.dot(tj);
+                }
+            }
+            inverses.push(Some(inv));
+        }
+        (entries, rhs, inverses)
+    }
+}
+
+/// Factorises a symmetric system given by its entries (both triangles).
+pub(super) fn factor(
+    n: usize,
+    entries: &BTreeMap<(usize, usize), f64>,
+) -> Option<faer::sparse::linalg::solvers::Llt<usize, f64>> {
+    let triplets: Vec<Triplet<usize, usize, f64>> = entries
+        .iter()
+        .filter(|((i, j), _)| i >= j)
+        .map(|(&(i, j), &v)| Triplet::new(i, j, v))
+        .collect();
+    let m = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).ok()?;
+    m.sp_cholesky(faer::Side::Lower).ok()
+}
+
+pub(super) fn solve_with(
+    llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
+    rhs: &[f64],
+) -> Vec<f64> {
+    let b = faer::Mat::<f64>::from_fn(rhs.len(), 1, |i, _| rhs[i]);
+    let x = llt.solve(&b);
+    (0..rhs.len()).map(|i| x[(i, 0)]).collect()
+}
+
+/// The adjustment as the loop's model: the problem, its starting points (the parameter
+/// tolerance is relative to the corrections, not to world coordinates) and the last
+/// linearisation.
+pub(super) struct Solver<'p, 'a> {
+    pub problem: &'p Problem<'a>,
+    pub start: Vec<Vec3>,
+    pub linear: Option<Linear>,
+}
+
+impl crate::lm::Model for Solver<'_, '_> {
+    type State = State;
+
+    fn cost(&self, s: &State) -> Option<f64> {
+        self.problem.cost(s)
+    }
+
+    fn linearise(&mut self, s: &State) -> Option<f64> {
+        self.linear = self.problem.linear(s);
+        self.linear.as_ref().map(Linear::gradient_max_norm)
+    }
+
+    fn step(&mut self, s: &State, lambda: f64) -> Option<crate::lm::Step<State>> {
+        let lin = self.linear.as_ref()?;
+        let (entries, rhs, inverses) = lin.reduced(lambda);
+        let llt = factor(rhs.len(), &entries)?;
+        let dc = solve_with(&llt, &rhs);
+        let mut next = self.problem.layout.moved(s, &dc);
+        let mut step2: f64 = dc.iter().map(|d| d * d).sum();
+        for ((x, p), inv) in next.points.iter_mut().zip(&lin.points).zip(&inverses) {
+            if let Some(inv) = inv {
+                let hd = p.hpc.iter().fold(Vec3::zeros(), |a, (i, v)| a + v * dc[*i]);
+                let dx = inv * (p.bp - hd);
+                step2 += dx.norm_squared();
+                *x += dx;
+            }
+        }
+        if !step2.is_finite() {
+            return None;
+        }
+        let params: f64 = self.problem.layout.values(s).iter().map(|v| v * v).sum();
+        let points: f64 = s
+            .points
+            .iter()
+            .zip(&self.start)
+            .map(|(x, x0)| (x - x0).norm_squared())
+            .sum();
+        Some(crate::lm::Step {
+            state: next,
+            step_norm: step2.sqrt(),
+            x_norm: (params + points).sqrt(),
+        })
+    }
+}
