@@ -13,6 +13,14 @@ use faer::sparse::{SparseColMat, Triplet};
 use nalgebra::{Matrix3, SMatrix, SVector};
 use std::collections::BTreeMap;
 
+/// The damped reduced system's entries (row, column), its right-hand side, and each point's
+/// damped H_pp^-1 (none where it is singular).
+type Reduced = (
+    BTreeMap<(usize, usize), f64>,
+    Vec<f64>,
+    Vec<Option<Matrix3<f64>>>,
+);
+
 /// One tie point's blocks of the (undamped) normal equations.
 pub(super) struct PointLin {
     pub hpp: Matrix3<f64>,
@@ -125,14 +133,7 @@ impl Linear {
 
     /// The damped reduced system (points eliminated), each point's damped H_pp^-1 (none where
     /// it is singular), and its right-hand side.
-    pub fn reduced(
-        &self,
-        lambda: f64,
-    ) -> (
-        BTreeMap<(usize, usize), f64>,
-        Vec<f64>,
-        Vec<Option<Matrix3<f64>>>,
-    ) {
+    pub fn reduced(&self, lambda: f64) -> Reduced {
         let mut entries = self.entries.clone();
         for i in 0..self.rhs.len() {
             let d = entries.entry((i, i)).or_insert(0.0);
