@@ -131,7 +131,11 @@ fn a_closed_stdout_ends_quietly_with_141_and_keeps_the_outputs() {
     assert!(report.is_object());
     no_temporaries(&d);
     // batch: every frame is still written and committed.
-    std::fs::copy(d.join("photo.jpg"), d.join("photo2.jpg")).unwrap();
+    // A second photo, not a byte copy (a copy is refused as the same photo given twice): the
+    // same JPEG with bytes after its end-of-image marker, which decoders ignore.
+    let mut second = std::fs::read(d.join("photo.jpg")).unwrap();
+    second.extend_from_slice(b"second photo");
+    std::fs::write(d.join("photo2.jpg"), second).unwrap();
     let batch = [
         "batch",
         "photo.jpg",
@@ -254,7 +258,12 @@ fn a_directory_as_an_output_is_refused_and_nothing_is_written() {
     let (_t, d) = fixture();
     std::fs::create_dir(d.join("adir.json")).unwrap();
     let out = aerorect(&rectify_args("out.tif", &["--report", "adir.json"]), &d);
-    fails(&out, &["adir.json", "is a directory"]);
+    // Refused up front by the output checks, before any decoding (staged.rs refuses it again
+    // at commit time if a folder appears there meanwhile: its unit test).
+    fails(
+        &out,
+        &["adir.json", "is a folder, not a file", "nothing written"],
+    );
     assert!(!d.join("out.tif").exists());
     assert!(names(&d.join("adir.json")).is_empty());
     no_temporaries(&d);
