@@ -606,14 +606,8 @@ fn refuse_collisions(a: &BatchArgs) -> Result<()> {
     for input in &a.inputs {
         let out = output_for(a, input)?;
         let key = aerorect::io::resolved_path(&out).unwrap_or_else(|| out.clone());
+        // The same photo twice was refused before (refuse_duplicate_photos in batch_files).
         if let Some(other) = first.insert(key, input) {
-            if aerorect::io::same_file(other, input) {
-                bail!(
-                    "{}: the same photo is given twice (also as {}); nothing written",
-                    input.display(),
-                    other.display()
-                );
-            }
             bail!(
                 "{} and {} would both be written to {}: rename one, or rectify them in separate runs; nothing written",
                 other.display(),

@@ -28,17 +28,8 @@ fn some_names(names: &[String]) -> String {
 /// Fills `opts.track_headings` for `inputs` and checks them; returns warnings. Errors name
 /// the photos: one given twice, photos the `--geo` file does not list.
 pub fn prepare_flight(opts: &mut DroneOptions, inputs: &[PathBuf]) -> Result<Vec<String>, Error> {
-    let mut seen = std::collections::BTreeMap::new();
-    for p in inputs {
-        let key = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
-        if let Some(first) = seen.insert(key, p) {
-            return Err(Error::Invalid(format!(
-                "{}: the same photo is given twice (also as {})",
-                p.display(),
-                first.display()
-            )));
-        }
-    }
+    // The one rule for a photo given twice (same file, or identical bytes).
+    aerorect_io::refuse_duplicate_photos(inputs)?;
     let mut warnings = vec![];
     if let Some(t) = opts.geo.as_deref() {
         let missing: Vec<String> = inputs
