@@ -1,0 +1,180 @@
+//! Tie points by correlation: frames rendered on the matching grid with the last round's
+//! orientation, patches of each overlapping pair phase-correlated, RANSAC keeping the
+//! matches one homography explains.
+
+use super::*;
+
+/// The overlap of two frames' grids in A's pixels: [c0, r0, c1, r1) and B's offset.
+pub(super) fn overlap(ga: &OrthoGrid, gb: &OrthoGrid) -> Option<([i64; 4], [i64; 2])> {
+    let g = ga.gsd;
+    let off = [
+        ((gb.top_left[0] - ga.top_left[0]) / g).round() as i64,
+        ((ga.top_left[1] - gb.top_left[1]) / g).round() as i64,
+    ];
+    let [c0, r0, c1, r1] = aerorect_geo::common_window(ga.size, gb.size, off);
+    (c1 > c0 && r1 > r0).then_some(([c0, r0, c1, r1], off))
+}
+
+/// A patch of a raster at (c, r) of `side` px, or `None` if it has nodata or no texture.
+pub(super) fn patch(img: &Raster<f32>, c: usize, r: usize, side: usize) -> Option<Vec<f32>> {
+    let w = img.size().width;
+    let mut out = Vec::with_capacity(side * side);
+    for y in r..r + side {
+        out.extend_from_slice(&img.plane(0)[y * w + c..y * w + c + side]);
+    }
+    if out.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let n = out.len() as f32;
+    let mean = out.iter().sum::<f32>() / n;
+    let var = out.iter().map(|v| (v - mean) * (v - mean)).sum::<f32>() / n;
+    (var > 4.0).then_some(out)
+}
+
+/// Matched patch centres: position in A's grid and in B's grid, with confidence.
+pub(super) type Match = ([f64; 2], [f64; 2], f64);
+
+/// Patches of `side` px over the pair's overlap, each of B's taken `prior` px away from A's,
+/// phase-correlated: the matches and the number of patches compared.
+pub(super) fn match_patches(
+    a: &Rendered,
+    b: &Rendered,
+    side: usize,
+    prior: [i64; 2],
+) -> Result<(Vec<Match>, usize), Error> {
+    let Some(([c0, r0, c1, r1], off)) = overlap(&a.coarse_plan.grid, &b.coarse_plan.grid) else {
+        return Ok((vec![], 0));
+    };
+    let mut pc = PhaseCorrelator::new(
+        side,
+        side,
+        PhaseOptions {
+            weighting: Weighting::Phase,
+            window: true,
+            smooth: 0.0,
+        },
+    )
+    .map_err(|e| Error::Invalid(e.to_string()))?;
+    let (mut out, mut tried) = (Vec::new(), 0);
+    let step = (side / 2) as i64;
+    let (bw, bh) = (b.coarse.size().width as i64, b.coarse.size().height as i64);
+    let mut r = r0;
+    while r + side as i64 <= r1 {
+        let mut c = c0;
+        while c + side as i64 <= c1 {
+            let (cb, rb) = (c - off[0] + prior[0], r - off[1] + prior[1]);
+            let inside_b = cb >= 0 && rb >= 0 && cb + side as i64 <= bw && rb + side as i64 <= bh;
+            let pa = patch(&a.coarse, c as usize, r as usize, side);
+            let pb = if inside_b {
+                patch(&b.coarse, cb as usize, rb as usize, side)
+            } else {
+                None
+            };
+            if let (Some(pa), Some(pb)) = (pa, pb) {
+                tried += 1;
+                if let Ok(e) = pc.estimate(&pa, &pb)
+                    && e.confidence > 0.08
+                    && e.dx.abs().max(e.dy.abs()) < side as f64 / 4.0
+                {
+                    let h = side as f64 / 2.0 - 0.5;
+                    let at_a = [c as f64 + h, r as f64 + h];
+                    let at_b = [cb as f64 + h + e.dx, rb as f64 + h + e.dy];
+                    out.push((at_a, at_b, e.confidence));
+                }
+            }
+            c += step;
+        }
+        r += step;
+    }
+    Ok((out, tried))
+}
+
+/// Coarse to fine: large patches find the pair's overall offset (attitude errors move frames
+/// by metres), then `side` patches are matched around it.
+pub(super) fn match_pair(
+    a: &Rendered,
+    b: &Rendered,
+    side: usize,
+) -> Result<(Vec<Match>, usize), Error> {
+    let (ga, gb) = (&a.coarse_plan.grid, &b.coarse_plan.grid);
+    // The largest power-of-two patch (up to 256 px) that fits the overlap.
+    let fits = overlap(ga, gb).map_or(0, |([c0, r0, c1, r1], _)| {
+        (c1 - c0).min(r1 - r0).max(0) as usize
+    });
+    let big = [256, 128, 64]
+        .into_iter()
+        .find(|&s| s <= fits)
+        .unwrap_or(side);
+    let (coarse, _) = match_patches(a, b, big, [0, 0])?;
+    let mut prior = [0i64; 2];
+    if !coarse.is_empty() {
+        let off = overlap(ga, gb).map_or([0, 0], |o| o.1);
+        for k in 0..2 {
+            let mut d: Vec<f64> = coarse
+                .iter()
+                .map(|m| m.1[k] - (m.0[k] - off[k] as f64))
+                .collect();
+            d.sort_by(f64::total_cmp);
+            prior[k] = d[d.len() / 2].round() as i64;
+        }
+    }
+    match_patches(a, b, side, prior)
+}
+
+/// Tie points of one pair (frame indices `i`, `j`) as rendered.
+pub(super) fn pair_ties(
+    (i, a): (usize, &Rendered),
+    (j, b): (usize, &Rendered),
+    side: usize,
+    ground_z: &(dyn Fn(f64, f64) -> f64 + Send + Sync),
+) -> Result<PairMatch, Error> {
+    let (matches, tried) = match_pair(a, b, side)?;
+    let mut report = PairMatch {
+        a: i,
+        b: j,
+        patches: tried,
+        inliers: 0,
+        ties: vec![],
+    };
+    let from: Vec<[f64; 2]> = matches.iter().map(|m| m.0).collect();
+    let to: Vec<[f64; 2]> = matches.iter().map(|m| m.1).collect();
+    let ransac = RansacOptions {
+        threshold: 1.0,
+        ..RansacOptions::default()
+    };
+    let Ok(fit) = ransac_homography(&from, &to, &ransac) else {
+        return Ok(report);
+    };
+    let mut ties = Vec::new();
+    for (m, keep) in matches.iter().zip(&fit.inliers) {
+        let (Some(pa), Some(pb)) = (
+            a.coarse_plan.frame_pixel_of_unmasked(m.0[0], m.0[1]),
+            b.coarse_plan.frame_pixel_of_unmasked(m.1[0], m.1[1]),
+        ) else {
+            continue;
+        };
+        if !*keep {
+            continue;
+        }
+        let g = a.coarse_plan.grid.centre_of(m.0[0], m.0[1]);
+        ties.push(PairTie {
+            ground: [g[0], g[1], ground_z(g[0], g[1])],
+            pixel_a: pa,
+            pixel_b: pb,
+            weight: m.2.clamp(0.05, 1.0),
+        });
+    }
+    report.inliers = ties.len();
+    if report.reliable() {
+        report.ties = ties;
+    }
+    Ok(report)
+}
+
+/// The pairs (i < j) of these grids that overlap.
+pub(super) fn overlapping(grids: &[OrthoGrid]) -> Vec<(usize, usize)> {
+    (0..grids.len())
+        .flat_map(|i| (i + 1..grids.len()).map(move |j| (i, j)))
+        .filter(|&(i, j)| overlap(&grids[i], &grids[j]).is_some())
+        .collect()
+}

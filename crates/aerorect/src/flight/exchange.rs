@@ -1,0 +1,196 @@
+//! What travels between processes: JSON that gives back every float to the bit, and a
+//! flight's progress (orientation, rounds) in that form.
+
+use super::*;
+
+/// JSON that gives back every finite float to the bit (each written as `"f64:"` and its bits
+/// in hex; a NaN or infinity becomes null, which reading refuses): a round's matches and
+/// orientation go from worker to worker so.
+pub fn exact_json<T: Serialize>(value: &T) -> Result<String, Error> {
+    let mut v = serde_json::to_value(value).map_err(|e| Error::Invalid(e.to_string()))?;
+    map_numbers(&mut v, &|v| {
+        if let serde_json::Value::Number(n) = v
+            && n.is_f64()
+            && let Some(x) = n.as_f64()
+        {
+            *v = serde_json::Value::String(format!("f64:{:016x}", x.to_bits()));
+        }
+    });
+    serde_json::to_string(&v).map_err(|e| Error::Invalid(e.to_string()))
+}
+
+/// The value [`exact_json`] wrote.
+pub fn from_exact_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, Error> {
+    let mut v: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| Error::Invalid(format!("exact JSON: {e}")))?;
+    map_numbers(&mut v, &|v| {
+        if let serde_json::Value::String(s) = v
+            && let Some(bits) = s.strip_prefix("f64:")
+            && let Ok(b) = u64::from_str_radix(bits, 16)
+        {
+            *v = serde_json::Number::from_f64(f64::from_bits(b))
+                .map_or(serde_json::Value::Null, serde_json::Value::Number);
+        }
+    });
+    serde_json::from_value(v).map_err(|e| Error::Invalid(format!("exact JSON: {e}")))
+}
+
+pub(super) fn map_numbers(v: &mut serde_json::Value, f: &dyn Fn(&mut serde_json::Value)) {
+    match v {
+        serde_json::Value::Array(a) => a.iter_mut().for_each(|x| map_numbers(x, f)),
+        serde_json::Value::Object(o) => o.values_mut().for_each(|x| map_numbers(x, f)),
+        _ => f(v),
+    }
+}
+
+/// A pose's file form: the centre and `world_from_camera` row by row.
+pub(super) type PoseFile = ([f64; 3], [[f64; 3]; 3]);
+
+/// [`FlightProgress`]'s file form.
+#[derive(Serialize, Deserialize)]
+pub(super) struct ProgressFile {
+    pub(super) poses: Option<Vec<PoseFile>>,
+    pub(super) cameras: Option<Vec<CameraFile>>,
+    pub(super) rounds: Vec<RoundSummary>,
+    pub(super) done: bool,
+}
+
+#[derive(Serialize, Deserialize)]
+pub(super) struct CameraFile {
+    pub(super) intrinsics: aerorect_core::Intrinsics,
+    pub(super) distortion: Option<aerorect_core::distortion::Distortion>,
+    pub(super) size: ImageSize,
+}
+
+impl FlightProgress {
+    /// As [`exact_json`]: every float to the bit.
+    pub fn to_json(&self) -> Result<String, Error> {
+        let o = self.orientation.as_ref();
+        let file = ProgressFile {
+            poses: o.map(|o| {
+                o.poses
+                    .iter()
+                    .map(|p| {
+                        let m = p.world_from_camera();
+                        let row = |r: usize| [m[(r, 0)], m[(r, 1)], m[(r, 2)]];
+                        (p.centre, [row(0), row(1), row(2)])
+                    })
+                    .collect()
+            }),
+            cameras: o.map(|o| {
+                o.cameras
+                    .iter()
+                    .map(|c| CameraFile {
+                        intrinsics: c.intrinsics,
+                        distortion: c.distortion.clone(),
+                        size: c.size,
+                    })
+                    .collect()
+            }),
+            rounds: self.rounds.clone(),
+            done: self.done,
+        };
+        exact_json(&file)
+    }
+
+    pub fn from_json(text: &str) -> Result<Self, Error> {
+        let f: ProgressFile = from_exact_json(text)?;
+        let orientation = match (f.poses, f.cameras) {
+            (Some(p), Some(c)) => Some(Orientation {
+                poses: p
+                    .into_iter()
+                    .map(|(centre, [a, b, c])| {
+                        let m = aerorect_core::Mat3::new(
+                            a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2],
+                        );
+                        Pose::new(centre, &m)
+                    })
+                    .collect(),
+                cameras: c
+                    .into_iter()
+                    .map(|c| Camera::new(c.intrinsics, c.distortion, c.size))
+                    .collect(),
+            }),
+            _ => None,
+        };
+        Ok(Self {
+            orientation,
+            rounds: f.rounds,
+            done: f.done,
+            since: None,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exact_json_gives_back_every_float_to_the_bit() {
+        // Floats whose shortest decimal form a best-effort parser may miss by an ulp.
+        let awkward = [
+            0.1 + 0.2,
+            -0.0,
+            f64::MIN_POSITIVE / 3.0,
+            f64::MAX,
+            1.0 - f64::EPSILON / 2.0,
+            2.0f64.sqrt() * 1e-300,
+            123456.789_012_345_67,
+        ];
+        let m = PairMatch {
+            a: 2,
+            b: 7,
+            patches: 40,
+            inliers: 9,
+            ties: awkward
+                .windows(2)
+                .map(|w| PairTie {
+                    ground: [w[0], w[1], -w[0]],
+                    pixel_a: [w[1], w[0]],
+                    pixel_b: [w[0] * 0.5, w[1] / 7.0],
+                    weight: w[0],
+                })
+                .collect(),
+        };
+        let back: PairMatch = from_exact_json(&exact_json(&m).unwrap()).unwrap();
+        let bits = |m: &PairMatch| -> Vec<u64> {
+            m.ties
+                .iter()
+                .flat_map(|t| {
+                    let mut v = t.ground.to_vec();
+                    v.extend(t.pixel_a);
+                    v.extend(t.pixel_b);
+                    v.push(t.weight);
+                    v
+                })
+                .map(f64::to_bits)
+                .collect()
+        };
+        assert_eq!(bits(&back), bits(&m));
+        assert_eq!((back.a, back.b, back.patches, back.inliers), (2, 7, 40, 9));
+    }
+
+    #[test]
+    fn progress_gives_back_poses_and_cameras_to_the_bit() {
+        let r = aerorect_core::CameraRotation::omega_phi_kappa(0.1 + 0.2, -1.3e-3, 271.7).unwrap();
+        let pose = Pose::new(
+            [512_345.678_9, 5_974_321.012_3, 0.1 + 0.2],
+            r.ground_from_camera(),
+        );
+        let k = aerorect_core::Intrinsics::new(3666.6667, 3666.6666, 2735.7, 1823.3).unwrap();
+        let camera = Camera::new(k, None, ImageSize::new(5472, 3648));
+        let p = FlightProgress {
+            orientation: Some(Orientation {
+                poses: vec![pose],
+                cameras: vec![camera],
+            }),
+            rounds: vec![],
+            done: true,
+            since: None,
+        };
+        let back = FlightProgress::from_json(&p.to_json().unwrap()).unwrap();
+        assert_eq!(back.orientation, p.orientation);
+        assert!(back.done);
+    }
+}

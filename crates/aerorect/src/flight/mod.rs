@@ -1,0 +1,256 @@
+//! A flight made consistent from its own overlaps: each frame is first rectified from its
+//! metadata onto one coarse ground grid; overlapping frames are matched there by phase
+//! correlation of patches (the ortho removes most of the perspective between look
+//! directions); RANSAC keeps the matches one homography explains; every match becomes a tie
+//! point (its frame pixels through each frame's own ortho map), and the joint adjustment
+//! (`aerorect_solve::adjust`) corrects attitudes (and optionally positions) and the cameras.
+//!
+//! One file per stage: `frames` (the photos and their first orientation), `features` (the
+//! first round's tie points from SIFT features, which need no attitude), `correlate` (the
+//! later rounds' tie points, by correlation of the frames rendered on one grid), `ties` (a
+//! pair's tie points as the adjustment takes them), `solve` (a round's adjustment), `plan`
+//! (the steps as pure functions, for Dask), `exchange` (what travels between processes),
+//! `render` (the adjusted frames onto the output grid).
+
+mod correlate;
+mod exchange;
+mod frames;
+mod plan;
+mod render;
+mod solve;
+mod ties;
+
+pub use exchange::{exact_json, from_exact_json};
+pub use plan::{FlightPlan, FlightProgress, Orientation};
+pub use render::AdjustedFlight;
+pub use ties::{PairMatch, PairTie, TieVector};
+
+use correlate::*;
+use frames::*;
+use render::*;
+use solve::*;
+use ties::*;
+
+use crate::Error;
+use crate::drone::{DroneOptions, DronePlanInfo, georeference, plan_from_metadata};
+use crate::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
+use aerorect_core::{Camera, ImageSize};
+use aerorect_geo::{OrthoGrid, Pose, Projection};
+use aerorect_io::{Crs, PhotoMetadata};
+use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
+use aerorect_raster::{AnyRaster, Interp, Raster, WarpOptions};
+use aerorect_solve::adjust::{AdjustFrame, AdjustOptions, AdjustReport, Observation, TiePoint};
+use aerorect_solve::ransac::{RansacOptions, ransac_homography};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// How frames are matched and what the adjustment solves for.
+#[derive(Debug, Clone)]
+pub struct FlightOptions {
+    /// Ground sample distance of the matching grid; default 4x the finest frame's own.
+    pub match_gsd_m: Option<f64>,
+    /// Side of the correlated patches (pixels of the matching grid).
+    pub patch: usize,
+    pub positions: PositionPrior,
+    pub attitude_sigma_deg: f64,
+    pub refine_focal: bool,
+    pub refine_principal_point: bool,
+    /// Radial distortion k1, k2 per camera (a camera with no lens model or OpenCV's).
+    pub refine_radial: bool,
+    /// A boresight rotation per camera.
+    pub refine_boresight: bool,
+    /// Most matching rounds: after each adjustment every frame is rendered again with its
+    /// adjusted orientation and matched afresh (as the frames come to coincide, patches that
+    /// an attitude error had pushed apart match too, and the correlation's bias from the
+    /// frames' remaining relative rotation and scale fades), and the adjustment is solved
+    /// again; rounds stop when the median frame's attitude moves by less than `settled_deg`
+    /// (one weakly held frame at the edge of a block can wander by a hundredth of a degree
+    /// from round to round without the others moving). At most [`MAX_PASSES`].
+    pub passes: usize,
+    pub settled_deg: f64,
+}
+
+/// The largest standard deviation of a recorded attitude, degrees (half a turn).
+pub const MAX_ATTITUDE_SIGMA_DEG: f64 = 180.0;
+
+impl FlightOptions {
+    /// Refuses an attitude standard deviation outside 0 < s <= [`MAX_ATTITUDE_SIGMA_DEG`] and
+    /// a position one that is not a finite number in 0 < s <= 1e5 m.
+    pub fn validate(&self) -> Result<(), Error> {
+        let s = self.attitude_sigma_deg;
+        if !(s.is_finite() && s > 0.0 && s <= MAX_ATTITUDE_SIGMA_DEG) {
+            return Err(Error::Invalid(format!(
+                "attitude standard deviation {} deg: must be > 0 and at most {MAX_ATTITUDE_SIGMA_DEG} deg",
+                aerorect_core::error::Num(s)
+            )));
+        }
+        if let PositionPrior::Sigma(p) = self.positions
+            && !(p.is_finite() && p > 0.0 && p <= crate::sane::MAX_HEIGHT_M)
+        {
+            return Err(Error::Invalid(format!(
+                "position standard deviation {} m: must be > 0 and at most {} m",
+                aerorect_core::error::Num(p),
+                crate::sane::MAX_HEIGHT_M
+            )));
+        }
+        Ok(())
+    }
+}
+
+impl Default for FlightOptions {
+    fn default() -> Self {
+        Self {
+            match_gsd_m: None,
+            patch: 64,
+            positions: PositionPrior::Recorded,
+            attitude_sigma_deg: 1.0,
+            refine_focal: true,
+            refine_principal_point: false,
+            refine_radial: false,
+            refine_boresight: false,
+            passes: 8,
+            settled_deg: 0.005,
+        }
+    }
+}
+
+/// The most pixels of one frame's gray ortho on the matching grid (16 MB as f32): the grid's
+/// GSD is coarsened until every frame fits (a warning says so).
+pub const MATCH_BUDGET_PX: u64 = 4_000_000;
+
+/// The matching rounds' cap: [`FlightOptions::passes`] above it runs this many (a warning
+/// says so).
+pub const MAX_PASSES: usize = 20;
+
+/// A solve stopped by its iteration limit (no tolerance met) is kept, with a warning, when
+/// its residual RMS is at most this (px: four times the tie points' 0.5 px sigma); above it
+/// the flight is an error naming the frames.
+pub const UNCONVERGED_RMS_PX: f64 = 2.0;
+
+/// Standard deviation (m) of a consumer GPS position, the prior of frames with no RTK tags.
+pub const GPS_SIGMA_M: f64 = 5.0;
+
+/// How the adjustment treats the recorded positions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PositionPrior {
+    /// As recorded (surveyed exterior orientation).
+    Hold,
+    /// Corrected, with this standard deviation (m) for every frame.
+    Sigma(f64),
+    /// Corrected, each frame with its receiver's RTK standard deviations where the photo
+    /// carries them (DJI's `RtkStd*`), else [`GPS_SIGMA_M`]; held when the frames come with a
+    /// pose table. Positions matter: from GPS a few metres apart, two frames' rays meet at
+    /// heights the ground contradicts, and with positions held that error has only the
+    /// attitudes to go to.
+    Recorded,
+}
+
+/// What matching a pair of frames found.
+#[derive(Debug, Clone, Serialize)]
+pub struct PairReport {
+    pub a: String,
+    pub b: String,
+    pub patches: usize,
+    pub inliers: usize,
+    /// Median ground distance between where the two frames put the same tie point (m), with
+    /// the recorded and with the adjusted orientation.
+    pub misalignment_before_m: f64,
+    pub misalignment_after_m: Option<f64>,
+    /// False when the pair shares nothing reliable (then it gives no tie points).
+    pub reliable: bool,
+}
+
+/// A frame's adjusted exterior orientation: the projection centre in the flight's CRS and
+/// omega, phi, kappa (degrees) about that CRS's grid axes, as `--poses` reads them.
+#[derive(Debug, Clone, Serialize)]
+pub struct AdjustedPose {
+    /// `filename` is the photo's file name.
+    #[serde(flatten)]
+    pub pose: aerorect_io::PoseRecord,
+    /// The adjusted camera's focal length (px, fx).
+    pub focal_px: f64,
+}
+
+impl FlightReport {
+    /// The adjusted poses as `--poses` (and Orthority) read them:
+    /// `filename,x,y,z,omega,phi,kappa`.
+    pub fn poses_csv(&self) -> String {
+        let mut out = String::from("filename,x,y,z,omega,phi,kappa\n");
+        for a in &self.poses {
+            let p = &a.pose;
+            out += &format!(
+                "{},{:.4},{:.4},{:.4},{:.8},{:.8},{:.8}\n",
+                p.filename, p.x, p.y, p.z, p.omega, p.phi, p.kappa
+            );
+        }
+        out
+    }
+}
+
+/// What one matching round found.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RoundSummary {
+    pub tie_points: usize,
+    pub reliable_pairs: usize,
+    pub rms_after_px: f64,
+    /// The largest and the median attitude change from the previous round's (degrees; the
+    /// first round's from the recorded attitudes).
+    pub largest_turn_deg: f64,
+    pub median_turn_deg: f64,
+    pub seconds: f64,
+}
+
+/// The flight's matching and adjustment.
+#[derive(Debug, Clone, Serialize)]
+pub struct FlightReport {
+    pub frames: Vec<String>,
+    /// Matching rounds run (see [`FlightOptions::passes`]); the pairs are the last round's.
+    pub passes: usize,
+    /// Each round: its tie points, residual RMS and the largest attitude change from the
+    /// round before.
+    pub rounds: Vec<RoundSummary>,
+    pub match_gsd_m: f64,
+    /// Whether the last round's median turn met [`FlightOptions::settled_deg`]; when not,
+    /// `oscillating` says whether the turns stopped shrinking (the last round's median turn
+    /// is above half the smallest before it) and a warning lists the turns per round.
+    pub settled: bool,
+    pub oscillating: bool,
+    /// What the user should know: the matching grid coarsened, passes capped, gauge
+    /// freedoms held, a solve kept at its iteration limit, rounds that did not settle.
+    pub warnings: Vec<String>,
+    pub pairs: Vec<PairReport>,
+    /// Frames no reliable pair reaches (left as recorded).
+    pub unconnected: Vec<String>,
+    pub adjustment: AdjustReport,
+    pub poses: Vec<AdjustedPose>,
+    pub seconds: f64,
+}
+
+/// Plans, matches and adjusts a flight: [`FlightPlan`]'s steps, each round's frames rendered
+/// once and shared by their pairs.
+pub fn adjust_flight(
+    inputs: &[PathBuf],
+    opts: &DroneOptions,
+    fo: &FlightOptions,
+) -> Result<AdjustedFlight, Error> {
+    fo.validate()?;
+    let plan = FlightPlan::new(inputs, opts, fo)?;
+    let mut progress = FlightProgress::default();
+    loop {
+        let o = progress.orientation.as_ref();
+        let rendered: Vec<Rendered> = (0..plan.len())
+            .into_par_iter()
+            .map(|k| plan.render(k, o))
+            .collect::<Result<_, Error>>()?;
+        let grids: Vec<OrthoGrid> = rendered.iter().map(|r| r.coarse_plan.grid).collect();
+        let matched: Vec<PairMatch> = overlapping(&grids)
+            .par_iter()
+            .map(|&(i, j)| plan.match_rendered((i, &rendered[i]), (j, &rendered[j])))
+            .collect::<Result<_, Error>>()?;
+        let round = plan.adjust_round(&mut progress, matched)?;
+        if progress.done {
+            return Ok(plan.finish(progress, round, rendered));
+        }
+    }
+}

@@ -1,0 +1,326 @@
+//! The flight's steps as pure functions of its plan: plan, render, match, adjust a round,
+//! report, each able to run apart (Dask) and give what `adjust_flight` gives.
+
+use super::*;
+
+/// A flight planned for matching (every frame's metadata, camera and recorded pose, its plan
+/// on the matching grid, the flight's CRS and ground): the steps of [`adjust_flight`], each a
+/// pure function of the plan and its arguments, so that they can run apart (a pair on each
+/// worker) and give what `adjust_flight` gives. The same inputs and options plan the same.
+pub struct FlightPlan {
+    pub(super) frames: Vec<Frame>,
+    pub(super) opts: DroneOptions,
+    pub(super) fo: FlightOptions,
+    pub(super) gsd: f64,
+    pub(super) ground: Box<dyn Fn(f64, f64) -> f64 + Send + Sync>,
+    pub(super) rec: Recorded,
+    pub(super) world: Projection,
+    pub(super) crs: Crs,
+    pub(super) started: std::time::Instant,
+    /// The plan's warnings (the matching grid coarsened).
+    pub(super) warnings: Vec<String>,
+}
+
+/// Every frame's pose and camera (a round's adjusted orientation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Orientation {
+    pub poses: Vec<Pose>,
+    pub cameras: Vec<Camera>,
+}
+
+/// The rounds so far: the last round's orientation (none before the first), their summaries,
+/// and whether they are done. Travels between processes as [`FlightProgress::to_json`].
+#[derive(Debug, Clone, Default)]
+pub struct FlightProgress {
+    pub orientation: Option<Orientation>,
+    pub rounds: Vec<RoundSummary>,
+    pub done: bool,
+    /// When the last round ended (its successor's clock).
+    pub(super) since: Option<std::time::Instant>,
+}
+
+impl FlightPlan {
+    /// Reads every frame's metadata and plans it on the matching grid.
+    pub fn new(inputs: &[PathBuf], opts: &DroneOptions, fo: &FlightOptions) -> Result<Self, Error> {
+        let started = std::time::Instant::now();
+        let metas: Vec<(PathBuf, PhotoMetadata)> = inputs
+            .iter()
+            .map(|p| Ok((p.clone(), aerorect_io::read_photo_metadata(p)?)))
+            .collect::<Result<_, Error>>()?;
+        let (crs, world) = flight_crs(&metas, opts)?;
+        let opts = DroneOptions {
+            crs: Some((crs.clone(), world.clone())),
+            ..opts.clone()
+        };
+        // The matching grid: the finest nadir GSD times up to 4 (frames keep about 600 px across).
+        let gsd = match fo.match_gsd_m {
+            Some(g) => g,
+            None => {
+                let (g, short_side) = finest_gsd(&metas, &opts)?;
+                g * (short_side as f64 / 600.0).clamp(1.0, 4.0)
+            }
+        };
+        let (gsd, frames, warnings) = plan_matching(&metas, &opts, gsd)?;
+        Ok(Self {
+            ground: ground_fn(&opts, &world),
+            rec: recorded(&frames),
+            frames,
+            opts,
+            fo: fo.clone(),
+            gsd,
+            world,
+            crs,
+            started,
+            warnings,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// Frame `k`'s plan on the matching grid: as recorded, or with `orientation`'s pose and
+    /// camera (its frame pixels, and so its tie observations, stay those of the photo).
+    pub(super) fn matching_plan(
+        &self,
+        k: usize,
+        orientation: Option<&Orientation>,
+    ) -> Result<OrthoPlan, Error> {
+        let f = &self.frames[k];
+        let Some(o) = orientation else {
+            return Ok(f.coarse_plan.clone());
+        };
+        let ground = frame_ground(f, &self.opts);
+        let req = OrthoRequest {
+            camera: &o.cameras[k],
+            pose: o.poses[k],
+            world: &self.world,
+            ground: &ground,
+            gsd_m: f.coarse_plan.grid.gsd,
+            // The GSD was chosen for the recorded orientation to fit the budget; an adjusted
+            // one moves the footprint a little.
+            limits: aerorect_core::RectifyLimits {
+                max_output_px: 4 * MATCH_BUDGET_PX,
+            },
+            occlusion: false,
+        };
+        let warp = WarpOptions {
+            interp: Interp::Bilinear,
+            nodata: f64::NAN,
+            alpha: false,
+            prefilter: true,
+            ..WarpOptions::default()
+        };
+        plan_ortho(&req, warp).map_err(|e| Error::Invalid(format!("{}: {e}", f.input.display())))
+    }
+
+    /// Frame `k`'s gray ortho on the matching grid.
+    pub(super) fn render(
+        &self,
+        k: usize,
+        orientation: Option<&Orientation>,
+    ) -> Result<Rendered, Error> {
+        let coarse_plan = self.matching_plan(k, orientation)?;
+        let input = &self.frames[k].input;
+        let image = aerorect_io::read_image(input)?;
+        let gray = AnyRaster::F32(crate::motion::gray(&image)?);
+        drop(image);
+        let AnyRaster::F32(coarse) = coarse_plan.run(&gray)? else {
+            return Err(Error::Invalid(format!(
+                "{}: gray ortho is not f32",
+                input.display()
+            )));
+        };
+        Ok(Rendered {
+            coarse,
+            coarse_plan,
+        })
+    }
+
+    /// The pairs of frames whose matching grids overlap with `orientation` (none: recorded).
+    pub fn pairs(&self, orientation: Option<&Orientation>) -> Result<Vec<(usize, usize)>, Error> {
+        let grids: Vec<OrthoGrid> = (0..self.len())
+            .into_par_iter()
+            .map(|k| Ok(self.matching_plan(k, orientation)?.grid))
+            .collect::<Result<_, Error>>()?;
+        Ok(overlapping(&grids))
+    }
+
+    /// Frames `i` and `j` rendered with `orientation` (none: recorded) and matched.
+    pub fn pair_match(
+        &self,
+        i: usize,
+        j: usize,
+        orientation: Option<&Orientation>,
+    ) -> Result<PairMatch, Error> {
+        if i.max(j) >= self.len() {
+            return Err(Error::Invalid(format!(
+                "pair ({i}, {j}) of a flight of {} frames",
+                self.len()
+            )));
+        }
+        let (a, b) = (self.render(i, orientation)?, self.render(j, orientation)?);
+        self.match_rendered((i, &a), (j, &b))
+    }
+
+    pub(super) fn match_rendered(
+        &self,
+        a: (usize, &Rendered),
+        b: (usize, &Rendered),
+    ) -> Result<PairMatch, Error> {
+        pair_ties(a, b, self.fo.patch, self.ground.as_ref())
+    }
+
+    /// One round's adjustment from the matches of every overlapping pair (in [`Self::pairs`]'
+    /// order): the recorded orientation adjusted to their tie points; `progress` gets the
+    /// round's orientation and summary, and is done after [`FlightOptions::passes`] rounds or
+    /// when the median frame turned by less than [`FlightOptions::settled_deg`]. Returns the
+    /// flight's report as of this round.
+    pub fn adjust(
+        &self,
+        progress: &mut FlightProgress,
+        matched: Vec<PairMatch>,
+    ) -> Result<FlightReport, Error> {
+        let round = self.adjust_round(progress, matched)?;
+        Ok(self.report(progress, round).0)
+    }
+
+    pub(super) fn adjust_round(
+        &self,
+        progress: &mut FlightProgress,
+        matched: Vec<PairMatch>,
+    ) -> Result<Round, Error> {
+        let posed = self.opts.poses.is_some();
+        let mode = (self.opts.dem.is_some(), posed);
+        let name = |k: usize| self.frames.get(k).map(|f| f.input.display().to_string());
+        let mut pairs = Vec::with_capacity(matched.len());
+        for m in matched {
+            let (Some(a), Some(b)) = (name(m.a), name(m.b)) else {
+                return Err(Error::Invalid(format!(
+                    "pair ({}, {}) of a flight of {} frames",
+                    m.a,
+                    m.b,
+                    self.len()
+                )));
+            };
+            pairs.push((m, a, b));
+        }
+        let round = match_and_adjust(pairs, self, mode)?;
+        let (poses, cameras) = round.orientation(&self.rec);
+        let before = progress
+            .orientation
+            .as_ref()
+            .map_or(&self.rec.poses, |o| &o.poses);
+        let typical = median_turn_deg(before, &poses);
+        let since = progress.since.unwrap_or(self.started);
+        progress.rounds.push(round.summary((before, &poses), since));
+        progress.since = Some(std::time::Instant::now());
+        progress.done = progress.rounds.len() >= self.fo.passes.min(MAX_PASSES)
+            || (progress.rounds.len() > 1 && typical < self.fo.settled_deg);
+        progress.orientation = Some(Orientation { poses, cameras });
+        Ok(round)
+    }
+
+    /// The flight's report after `round`, and the round's tie vectors.
+    pub(super) fn report(
+        &self,
+        progress: &FlightProgress,
+        round: Round,
+    ) -> (FlightReport, Vec<TieVector>) {
+        let (poses, cameras) = round.orientation(&self.rec);
+        let (settled, oscillating) = settling(&progress.rounds, self.fo.settled_deg);
+        let mut warnings = self.warnings.clone();
+        if self.fo.passes > MAX_PASSES {
+            warnings.push(format!(
+                "{} matching rounds asked for: at most {MAX_PASSES} are run",
+                self.fo.passes
+            ));
+        }
+        warnings.extend(round.warnings.iter().cloned());
+        if !settled {
+            warnings.push(rounds_warning(
+                &progress.rounds,
+                self.fo.settled_deg,
+                oscillating,
+            ));
+        }
+        let report = FlightReport {
+            frames: self
+                .frames
+                .iter()
+                .map(|f| f.input.display().to_string())
+                .collect(),
+            passes: progress.rounds.len(),
+            rounds: progress.rounds.clone(),
+            match_gsd_m: self.gsd,
+            settled,
+            oscillating,
+            warnings,
+            unconnected: unconnected(&self.frames, &round.reports),
+            pairs: round.reports,
+            adjustment: round.adjusted.report,
+            poses: adjusted_poses(&self.frames, &poses, &cameras),
+            seconds: self.started.elapsed().as_secs_f64(),
+        };
+        (report, round.ties)
+    }
+
+    pub(super) fn finish(
+        self,
+        progress: FlightProgress,
+        round: Round,
+        rendered: Vec<Rendered>,
+    ) -> AdjustedFlight {
+        let (poses, cameras) = round.orientation(&self.rec);
+        let (report, ties) = self.report(&progress, round);
+        AdjustedFlight {
+            frames: self.frames,
+            rendered,
+            ties,
+            poses,
+            cameras,
+            report,
+            world: self.world,
+            crs: self.crs,
+        }
+    }
+
+    /// The output CRS of every frame.
+    pub fn crs(&self) -> &Crs {
+        &self.crs
+    }
+
+    /// Frame `k` rectified with `orientation`'s pose and camera onto the output grid, staged
+    /// (as [`AdjustedFlight::write_frame_staged`]).
+    pub fn write_frame_staged(
+        &self,
+        k: usize,
+        orientation: &Orientation,
+        output: &Path,
+        opts: &DroneOptions,
+        staged: &mut aerorect_io::StagedOutputs,
+    ) -> Result<crate::drone::PhotoResult, Error> {
+        let (Some(f), Some(pose), Some(camera)) = (
+            self.frames.get(k),
+            orientation.poses.get(k),
+            orientation.cameras.get(k),
+        ) else {
+            return Err(Error::Invalid(format!(
+                "frame {k} of a flight of {} frames",
+                self.len()
+            )));
+        };
+        let oriented = Oriented {
+            frame: f,
+            pose: *pose,
+            camera,
+            world: &self.world,
+            crs: &self.crs,
+        };
+        oriented.write_staged(output, opts, staged)
+    }
+}

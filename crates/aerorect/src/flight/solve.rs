@@ -1,0 +1,311 @@
+//! One round's adjustment: the pairs' tie points and the frames' priors into
+//! `aerorect_solve::adjust`, its warnings and errors, and the rounds' settling.
+
+use super::*;
+
+/// One round of matching and adjustment.
+pub(super) struct Round {
+    pub(super) reports: Vec<PairReport>,
+    pub(super) adjusted: aerorect_solve::adjust::Adjusted,
+    pub(super) ties: Vec<TieVector>,
+    pub(super) warnings: Vec<String>,
+}
+
+impl Round {
+    /// The round's summary; restarts the clock `t`.
+    pub(super) fn summary(
+        &self,
+        (before, after): (&[Pose], &[Pose]),
+        since: std::time::Instant,
+    ) -> RoundSummary {
+        RoundSummary {
+            largest_turn_deg: largest_turn_deg(before, after),
+            median_turn_deg: median_turn_deg(before, after),
+            tie_points: self.adjusted.report.tie_points,
+            reliable_pairs: self.reports.iter().filter(|r| r.reliable).count(),
+            rms_after_px: self.adjusted.report.rms_after_px,
+            seconds: since.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Every frame's adjusted pose and camera.
+    pub(super) fn orientation(&self, rec: &Recorded) -> (Vec<Pose>, Vec<Camera>) {
+        let poses = self
+            .adjusted
+            .frames
+            .iter()
+            .map(|f| Pose::new(f.centre, &f.world_from_camera))
+            .collect();
+        let cameras = rec
+            .camera_of
+            .iter()
+            .map(|&c| self.adjusted.cameras[c].clone())
+            .collect();
+        (poses, cameras)
+    }
+}
+
+/// Adjusts the recorded orientation to the tie points of the matched pairs (each with its
+/// frames' names; `dem`: the ground is a DEM; `posed`: the frames come from a pose table).
+pub(super) fn match_and_adjust(
+    matched: Vec<(PairMatch, String, String)>,
+    plan: &FlightPlan,
+    (dem, posed): (bool, bool),
+) -> Result<Round, Error> {
+    let (rec, fo, frames) = (&plan.rec, &plan.fo, &plan.frames);
+    let ground = plan.ground.as_ref();
+    let cams: Vec<&Camera> = rec.camera_of.iter().map(|&c| &rec.cameras[c]).collect();
+    let mut reports = Vec::with_capacity(matched.len());
+    let mut ties = Vec::new();
+    for (m, a, b) in matched {
+        let t: Vec<TiePoint> = m.ties.iter().map(|t| t.tie_point(m.a, m.b)).collect();
+        reports.push(PairReport {
+            a,
+            b,
+            patches: m.patches,
+            inliers: m.inliers,
+            misalignment_before_m: misalignment(&t, &rec.poses, &cams),
+            misalignment_after_m: None,
+            reliable: m.reliable(),
+        });
+        ties.extend(t);
+    }
+    let position_sigma_m = match fo.positions {
+        PositionPrior::Hold => None,
+        PositionPrior::Sigma(s) => Some(s),
+        PositionPrior::Recorded => (!posed).then_some(GPS_SIGMA_M),
+    };
+    let own = fo.positions == PositionPrior::Recorded;
+    let adjust_frames: Vec<AdjustFrame> = rec
+        .poses
+        .iter()
+        .zip(&rec.camera_of)
+        .zip(frames)
+        .map(|((p, &camera), f)| AdjustFrame {
+            camera,
+            centre: p.centre,
+            world_from_camera: p.world_from_camera(),
+            // A receiver's claim of a millimetre is held to 5 mm.
+            position_sigma_m: f.rtk_std_m.filter(|_| own).map(|s| s.map(|v| v.max(0.005))),
+        })
+        .collect();
+    let aopts = AdjustOptions {
+        attitude_sigma_deg: fo.attitude_sigma_deg,
+        position_sigma_m,
+        refine_focal: fo.refine_focal,
+        refine_principal_point: fo.refine_principal_point,
+        refine_radial: fo.refine_radial,
+        refine_boresight: fo.refine_boresight,
+        terrain: Some((ground, if dem { 1.0 } else { 0.1 })),
+        ..AdjustOptions::default()
+    };
+    let adjusted = aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &ties, &aopts)
+        .map_err(|e| Error::Invalid(format!("flight adjustment: {e}")))?;
+    let warnings = solve_warnings(frames, &adjusted.report)?;
+    let mut round = Round {
+        reports,
+        adjusted,
+        ties: Vec::new(),
+        warnings,
+    };
+    let (poses, cameras) = round.orientation(rec);
+    let new_cams: Vec<&Camera> = cameras.iter().collect();
+    finish_reports(&mut round.reports, &ties, &poses, &new_cams);
+    round.ties = ties
+        .iter()
+        .filter_map(|t| {
+            Some(TieVector {
+                ground: [t.ground[0], t.ground[1]],
+                before_m: tie_gap(t, &rec.poses, &cams)?,
+                after_m: tie_gap(t, &poses, &new_cams)?,
+            })
+        })
+        .collect();
+    Ok(round)
+}
+
+/// The warnings of a solve (gauge freedoms held, an iteration limit met with a sub-pixel
+/// RMS), or its error when its own residuals say it failed.
+pub(super) fn solve_warnings(
+    frames: &[Frame],
+    report: &AdjustReport,
+) -> Result<Vec<String>, Error> {
+    let name = |k: usize| frames[k].input.display().to_string();
+    let mut out = Vec::new();
+    for g in &report.gauge {
+        let names: Vec<String> = g.frames.iter().map(|&k| name(k)).collect();
+        out.push(format!(
+            "{} were taken from one point ({:.2} m apart at {:.0} m range): {}",
+            names.join(", "),
+            g.baseline_m,
+            g.range_m,
+            g.held
+        ));
+    }
+    if !report.converged {
+        if report.rms_after_px > UNCONVERGED_RMS_PX {
+            return Err(Error::Invalid(format!(
+                "the flight adjustment did not converge in {} iterations (rms {:.2} px, over {UNCONVERGED_RMS_PX} px); the frames it could not place: {}; nothing written",
+                report.iterations,
+                report.rms_after_px,
+                unplaced(frames, report)
+            )));
+        }
+        out.push(format!(
+            "the flight adjustment met no tolerance in {} iterations ({:?}); its rms {:.2} px is sub-pixel, so its result is kept",
+            report.iterations, report.termination, report.rms_after_px
+        ));
+    }
+    Ok(out)
+}
+
+/// Whether the rounds settled (the last median turn below `settled_deg`) and, if not,
+/// whether they oscillate (the last median turn above half the smallest before it).
+pub(super) fn settling(rounds: &[RoundSummary], settled_deg: f64) -> (bool, bool) {
+    let Some(last) = rounds.last() else {
+        return (true, false);
+    };
+    if rounds.len() < 2 || last.median_turn_deg < settled_deg {
+        return (true, false);
+    }
+    let smallest = rounds[..rounds.len() - 1]
+        .iter()
+        .map(|r| r.median_turn_deg)
+        .fold(f64::INFINITY, f64::min);
+    (false, last.median_turn_deg > 0.5 * smallest)
+}
+
+pub(super) fn rounds_warning(
+    rounds: &[RoundSummary],
+    settled_deg: f64,
+    oscillating: bool,
+) -> String {
+    let turns: Vec<String> = rounds
+        .iter()
+        .map(|r| format!("{:.3}", r.median_turn_deg))
+        .collect();
+    format!(
+        "the matching rounds {} in {} rounds: the median frame turned by {} deg per round (largest {:.3} deg in the last), never below {settled_deg} deg; the last round's orientation is kept",
+        if oscillating {
+            "oscillate"
+        } else {
+            "did not settle"
+        },
+        rounds.len(),
+        turns.join(", "),
+        rounds.last().map_or(0.0, |r| r.largest_turn_deg)
+    )
+}
+
+/// The frames a failed solve left worst: those with no observation, then the (at most five)
+/// largest residual RMS, with it.
+pub(super) fn unplaced(frames: &[Frame], report: &AdjustReport) -> String {
+    let name = |k: usize| frames[k].input.display().to_string();
+    let mut worst: Vec<(usize, f64)> = report
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            (
+                k,
+                if f.observations == 0 {
+                    f64::INFINITY
+                } else {
+                    f.rms_after_px
+                },
+            )
+        })
+        .collect();
+    worst.sort_by(|a, b| b.1.total_cmp(&a.1));
+    worst
+        .iter()
+        .take(5)
+        .map(|&(k, r)| match r.is_finite() {
+            true => format!("{} (rms {r:.2} px)", name(k)),
+            false => format!("{} (no tie point)", name(k)),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Every frame's adjusted pose as `--poses` reads it (omega-phi-kappa about the grid axes).
+pub(super) fn adjusted_poses(
+    frames: &[Frame],
+    poses: &[Pose],
+    cameras: &[Camera],
+) -> Vec<AdjustedPose> {
+    frames
+        .iter()
+        .zip(poses.iter().zip(cameras))
+        .map(|(f, (p, c))| {
+            let opk = aerorect_core::CameraRotation::from_matrix(p.world_from_camera())
+                .map_or([f64::NAN; 3], |r| r.to_omega_phi_kappa());
+            AdjustedPose {
+                pose: aerorect_io::PoseRecord {
+                    filename: f
+                        .input
+                        .file_name()
+                        .map_or(String::new(), |n| n.to_string_lossy().into_owned()),
+                    x: p.centre[0],
+                    y: p.centre[1],
+                    z: p.centre[2],
+                    omega: opk[0],
+                    phi: opk[1],
+                    kappa: opk[2],
+                },
+                focal_px: c.intrinsics.fx,
+            }
+        })
+        .collect()
+}
+
+pub(super) fn finish_reports(
+    reports: &mut [PairReport],
+    ties: &[TiePoint],
+    poses: &[Pose],
+    cams: &[&Camera],
+) {
+    // Ties are in pair order; each reliable pair contributed `inliers` of them.
+    let mut at = 0;
+    for r in reports.iter_mut().filter(|r| r.reliable) {
+        let t = &ties[at..at + r.inliers];
+        r.misalignment_after_m = Some(misalignment(t, poses, cams));
+        at += r.inliers;
+    }
+}
+
+pub(super) fn unconnected(frames: &[Frame], reports: &[PairReport]) -> Vec<String> {
+    frames
+        .iter()
+        .map(|f| f.input.display().to_string())
+        .filter(|name| {
+            !reports
+                .iter()
+                .any(|r| r.reliable && (&r.a == name || &r.b == name))
+        })
+        .collect()
+}
+
+/// The rotation between each pair of poses of the same frames, degrees.
+pub(super) fn turns_deg(a: &[Pose], b: &[Pose]) -> Vec<f64> {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| {
+            let m = p.world_from_camera().transpose() * q.world_from_camera();
+            ((m.trace() - 1.0) / 2.0)
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
+        })
+        .collect()
+}
+
+pub(super) fn largest_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
+    turns_deg(a, b).into_iter().fold(0.0, f64::max)
+}
+
+pub(super) fn median_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
+    let mut t = turns_deg(a, b);
+    t.sort_by(f64::total_cmp);
+    t.get(t.len() / 2).copied().unwrap_or(0.0)
+}

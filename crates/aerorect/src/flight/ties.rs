@@ -1,0 +1,81 @@
+//! A pair's tie points as the adjustment takes them, and how far apart a pair's frames put
+//! them on the ground.
+
+use super::*;
+
+/// Where a frame pixel's ray meets the level `z` (world x, y).
+pub(super) fn on_level(pose: &Pose, camera: &Camera, px: [f64; 2], z: f64) -> Option<[f64; 2]> {
+    pose.level_point(
+        pose.world_direction(camera.ray_from_pixel(px[0], px[1])?),
+        z,
+    )
+}
+
+/// What matching one pair of frames (indices `a`, `b`) found, as the adjustment takes it; it
+/// travels between processes as [`exact_json`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairMatch {
+    pub a: usize,
+    pub b: usize,
+    pub patches: usize,
+    pub inliers: usize,
+    /// The pair's tie points (none unless at least 8 matches agree).
+    pub ties: Vec<PairTie>,
+}
+
+/// A tie point of a pair: its first guess on the ground, its pixel in each frame and weight.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PairTie {
+    pub ground: [f64; 3],
+    pub pixel_a: [f64; 2],
+    pub pixel_b: [f64; 2],
+    pub weight: f64,
+}
+
+impl PairMatch {
+    pub(super) fn reliable(&self) -> bool {
+        self.inliers >= 8
+    }
+}
+
+impl PairTie {
+    pub(super) fn tie_point(&self, a: usize, b: usize) -> TiePoint {
+        let obs = |frame, pixel| Observation {
+            frame,
+            pixel,
+            weight: self.weight,
+        };
+        TiePoint {
+            ground: self.ground,
+            observations: vec![obs(a, self.pixel_a), obs(b, self.pixel_b)],
+        }
+    }
+}
+
+/// Median ground distance between the two frames' rays of each tie (at the tie's height).
+pub(super) fn misalignment(ties: &[TiePoint], poses: &[Pose], cameras: &[&Camera]) -> f64 {
+    let mut d: Vec<f64> = ties
+        .iter()
+        .filter_map(|t| tie_gap(t, poses, cameras).map(|g| g[0].hypot(g[1])))
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d.get(d.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// A tie point on the ground and how far apart its two frames put it (frame b's ground point
+/// to frame a's, metres east and north, at the tie's height) with the recorded and with the
+/// adjusted orientation.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct TieVector {
+    pub ground: [f64; 2],
+    pub before_m: [f64; 2],
+    pub after_m: [f64; 2],
+}
+
+/// The two frames' ground points of a two-frame tie, b to a.
+pub(super) fn tie_gap(t: &TiePoint, poses: &[Pose], cameras: &[&Camera]) -> Option<[f64; 2]> {
+    let [a, b] = [t.observations.first()?, t.observations.get(1)?];
+    let pa = on_level(&poses[a.frame], cameras[a.frame], a.pixel, t.ground[2])?;
+    let pb = on_level(&poses[b.frame], cameras[b.frame], b.pixel, t.ground[2])?;
+    Some([pa[0] - pb[0], pa[1] - pb[1]])
+}
