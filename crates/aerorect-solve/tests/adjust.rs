@@ -143,6 +143,7 @@ fn ties_that_name_no_frame_are_refused() {
         centre: [0.0, 0.0, 100.0],
         world_from_camera: nadir(),
         position_sigma_m: None,
+        attitude_sigma_deg: None,
     };
     assert!(adjust(&[f], &[camera(800.0)], &[t], &AdjustOptions::default()).is_err());
 }
@@ -221,6 +222,7 @@ fn hover(seed: u64) -> aerorect_testkit::flight::Flight {
             centre,
             world_from_camera: m,
             position_sigma_m: None,
+            attitude_sigma_deg: None,
         };
         truth.push(f(r));
         recorded.push(f(Rotation3::new(Vector3::from(e)).into_inner() * r));

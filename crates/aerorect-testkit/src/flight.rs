@@ -58,6 +58,7 @@ pub fn flight(
                 centre,
                 world_from_camera: r,
                 position_sigma_m: None,
+                attitude_sigma_deg: None,
             });
             let e = Vec3::new(
                 noise.sample(&mut rng),
@@ -69,6 +70,7 @@ pub fn flight(
                 centre,
                 world_from_camera: Rotation3::new(e).into_inner() * r,
                 position_sigma_m: None,
+                attitude_sigma_deg: None,
             });
         }
     }

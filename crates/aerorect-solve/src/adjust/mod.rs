@@ -49,6 +49,9 @@ pub struct AdjustFrame {
     /// This frame's position prior (m, per world axis) when positions are adjusted, e.g. the
     /// receiver's own RTK standard deviations; `None` takes [`AdjustOptions::position_sigma_m`].
     pub position_sigma_m: Option<[f64; 3]>,
+    /// This frame's attitude prior (degrees, each axis), e.g. wide for a photo that recorded
+    /// none; `None` takes [`AdjustOptions::attitude_sigma_deg`].
+    pub attitude_sigma_deg: Option<f64>,
 }
 
 /// A tie point's observation in one frame (observed pixel, with the matcher's confidence as a
@@ -95,6 +98,17 @@ pub struct AdjustOptions<'a> {
     pub max_iterations: usize,
     /// The stops on the cost's relative decrease, the gradient and the step (Ceres's).
     pub tolerances: Tolerances,
+    /// Where the solve starts, per frame (an earlier solve's corrections); `None`: at the
+    /// recorded orientation. The priors stay on the recorded one either way.
+    pub start: Option<&'a [FrameStart]>,
+}
+
+/// A frame's corrections to start from: the rotation vector (world axes, radians) and the
+/// position offset (m; ignored where positions are held).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameStart {
+    pub rotation: [f64; 3],
+    pub position: [f64; 3],
 }
 
 impl Default for AdjustOptions<'_> {
@@ -111,6 +125,7 @@ impl Default for AdjustOptions<'_> {
             terrain: None,
             max_iterations: 50,
             tolerances: Tolerances::default(),
+            start: None,
         }
     }
 }
@@ -170,6 +185,8 @@ pub struct AdjustReport {
 pub struct Adjusted {
     pub frames: Vec<AdjustFrame>,
     pub cameras: Vec<Camera>,
+    /// Every tie point's adjusted ground position, in the ties' order.
+    pub points: Vec<[f64; 3]>,
     pub report: AdjustReport,
 }
 
@@ -199,16 +216,29 @@ pub fn adjust(
         |f, p| matches!(p, FrameParam::Rotation(_)) || positions_free[f],
         |c, p| Problem::camera_free(opts, &cameras[c], p),
     );
-    let p = Problem {
+    let mut p = Problem {
         frames,
         cameras,
         ties,
         layout,
         opts,
+        huber: opts.huber,
     };
     let start: Vec<Vec3> = ties.iter().map(|t| Vec3::from(t.ground)).collect();
-    let s = State {
-        frames: vec![FrameBlock::default(); frames.len()],
+    let mut s = State {
+        frames: (0..frames.len())
+            .map(|f| match opts.start.and_then(|s| s.get(f)) {
+                Some(s) => FrameBlock {
+                    rotation: Vec3::from(s.rotation),
+                    position: if positions_free[f] {
+                        Vec3::from(s.position)
+                    } else {
+                        Vec3::zeros()
+                    },
+                },
+                None => FrameBlock::default(),
+            })
+            .collect(),
         cameras: vec![CameraBlock::default(); cameras.len()],
         points: start.clone(),
     };
@@ -216,15 +246,27 @@ pub fn adjust(
     if p.cost(&s).is_none() {
         return Err(SolveError::Degenerate);
     }
-    let mut solver = solve::Solver {
-        problem: &p,
-        start,
-        linear: None,
-    };
-    let out = crate::lm::minimise(&mut solver, s, opts.max_iterations, opts.tolerances);
-    if out.termination == Termination::Failed {
-        return Err(SolveError::Degenerate);
+    // Frames far from their ties (hundreds of pixels, an attitude recorded degrees off) put
+    // every residual in Huber's linear arm, where the steps crawl: the threshold starts wide
+    // enough to hold the typical residual and narrows fourfold per stage to its own.
+    let mut out = None;
+    for huber in huber_stages(opts.huber, before.1 / opts.pixel_sigma) {
+        p.huber = huber;
+        let mut solver = solve::Solver {
+            problem: &p,
+            start: start.clone(),
+            linear: None,
+        };
+        let o = crate::lm::minimise(&mut solver, s, opts.max_iterations, opts.tolerances);
+        if o.termination == Termination::Failed {
+            return Err(SolveError::Degenerate);
+        }
+        s = o.state.clone();
+        out = Some(o);
     }
+    let Some(out) = out else {
+        return Err(SolveError::Degenerate);
+    };
     let fit = report::Fit {
         before,
         after: p.rms(&out.state),
@@ -235,6 +277,19 @@ pub fn adjust(
         t0,
     };
     Ok(report::finish(&p, &out.state, fit))
+}
+
+/// The Huber thresholds of the stages: `last` alone when the typical residual (`rms`, sigma
+/// units) is within it, else from about the residual down to `last` by factors of four.
+fn huber_stages(last: f64, rms: f64) -> Vec<f64> {
+    let mut stages = vec![last];
+    let mut k = last;
+    while rms.is_finite() && k * 4.0 < rms && stages.len() < 8 {
+        k *= 4.0;
+        stages.push(k);
+    }
+    stages.reverse();
+    stages
 }
 
 fn check_input(

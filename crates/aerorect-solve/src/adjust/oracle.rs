@@ -72,6 +72,7 @@ fn analytic_jacobians_agree_with_central_differences() {
         centre: [10.0, -5.0, 120.0],
         world_from_camera: tilt,
         position_sigma_m: None,
+        attitude_sigma_deg: None,
     };
     let fb = FrameBlock {
         rotation: Vec3::new(0.01, -0.02, 0.015),

@@ -120,6 +120,7 @@ pub(super) fn finish(p: &Problem<'_>, s: &State, fit: Fit) -> Adjusted {
                 centre: c,
                 world_from_camera: world_from_camera(fr, b, &s.cameras[fr.camera]),
                 position_sigma_m: fr.position_sigma_m,
+                attitude_sigma_deg: fr.attitude_sigma_deg,
             }
         })
         .collect();
@@ -142,6 +143,7 @@ pub(super) fn finish(p: &Problem<'_>, s: &State, fit: Fit) -> Adjusted {
     };
     Adjusted {
         frames,
+        points: s.points.iter().map(|x| [x.x, x.y, x.z]).collect(),
         cameras: (0..p.cameras.len())
             .map(|c| adjusted_camera(p, s, c))
             .collect(),

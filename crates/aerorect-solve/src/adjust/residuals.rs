@@ -70,6 +70,9 @@ pub(super) struct Problem<'a> {
     pub ties: &'a [TiePoint],
     pub layout: Layout,
     pub opts: &'a AdjustOptions<'a>,
+    /// The Huber threshold of this stage (sigma units): [`AdjustOptions::huber`] at the end,
+    /// wider while the frames are far from the ties (see `adjust`).
+    pub huber: f64,
 }
 
 impl Problem<'_> {
@@ -89,7 +92,7 @@ impl Problem<'_> {
     /// Huber weight of a residual (already in sigma units), times the matcher's weight.
     pub fn weight(&self, r: &SVector<f64, 2>, o: &Observation) -> f64 {
         let n = r.norm();
-        let k = self.opts.huber;
+        let k = self.huber;
         o.weight * if n <= k { 1.0 } else { k / n }
     }
 
@@ -99,7 +102,7 @@ impl Problem<'_> {
         for (tie, x) in self.ties.iter().zip(&s.points) {
             for o in &tie.observations {
                 let r = self.residual(s, o, x)?;
-                let (n, k) = (r.norm(), self.opts.huber);
+                let (n, k) = (r.norm(), self.huber);
                 c += o.weight * if n <= k { n * n } else { 2.0 * k * n - k * k };
             }
             if let Some((h, sigma)) = self.opts.terrain {
@@ -122,7 +125,10 @@ impl Problem<'_> {
     /// A frame parameter's prior standard deviation (radians, metres).
     pub fn frame_sigma(&self, f: usize, p: FrameParam) -> f64 {
         match p {
-            FrameParam::Rotation(_) => self.opts.attitude_sigma_deg.to_radians(),
+            FrameParam::Rotation(_) => self.frames[f]
+                .attitude_sigma_deg
+                .unwrap_or(self.opts.attitude_sigma_deg)
+                .to_radians(),
             FrameParam::Position(k) => self.frames[f]
                 .position_sigma_m
                 .map_or(self.opts.position_sigma_m.unwrap_or(1.0), |s| s[k]),
