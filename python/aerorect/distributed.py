@@ -217,6 +217,26 @@ def _flight_pair(pair, photos, opts_json, progress):
     return _flight(photos, opts_json).pair_match(pair[0], pair[1], progress)
 
 
+def _flight_feature_pairs(photos, opts_json):
+    """The pairs to match by features (a task)."""
+    return _flight(photos, opts_json).feature_pairs()
+
+
+def _flight_features(k, photos, opts_json):
+    """Frame k's features (a task): exact JSON."""
+    return _flight(photos, opts_json).frame_features(k)
+
+
+def _flight_feature_match(pair, first, second, photos, opts_json):
+    """One pair matched by its features (a task): its tie points, exact JSON."""
+    return _flight(photos, opts_json).feature_match(pair[0], pair[1], first, second)
+
+
+def _flight_first_round(matches):
+    """The feature matches as the first round takes them (all, or none when no pair ties)."""
+    return _aerorect.FlightPlan.first_round(list(matches))
+
+
 def _flight_adjust(photos, opts_json, progress, matches):
     """A round's adjustment (a task on one worker): (progress, done, report, poses CSV)."""
     return _flight(photos, opts_json).adjust(progress, list(matches))
@@ -281,12 +301,27 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
     Returns the report, with `tasks`: the pair and frame tasks run."""
     key = (tuple(photos), json.dumps(opts, sort_keys=True))
     progress, done, pair_tasks = None, False, 0
+    # The first round: features per frame, matches per pair (no attitude needed).
+    fpairs = client.submit(_flight_feature_pairs, *key, pure=False).result()
+    features: List[str] = []
+    if fpairs:
+        feats = client.map(_flight_features, range(len(photos)), photos=key[0],
+                           opts_json=key[1], pure=False)
+        fmatches = [client.submit(_flight_feature_match, tuple(p), feats[p[0]], feats[p[1]],
+                                  *key, pure=False) for p in fpairs]
+        pair_tasks += len(fmatches)
+        features = client.submit(_flight_first_round, fmatches, pure=False).result()
+        del feats, fmatches
+    if features:
+        step = client.submit(_flight_adjust, *key, progress, features, pure=False)
+        progress, done, report_json, poses_csv = step.result()
+    # Later rounds: correlation of the rendered frames, the feature ties kept beside it.
     while not done:
         pairs = client.submit(_flight_pairs, *key, progress, pure=False).result()
         matches = client.map(_flight_pair, [tuple(p) for p in pairs], photos=key[0],
                              opts_json=key[1], progress=progress, pure=False)
         pair_tasks += len(matches)
-        step = client.submit(_flight_adjust, *key, progress, matches, pure=False)
+        step = client.submit(_flight_adjust, *key, progress, matches + features, pure=False)
         progress, done, report_json, poses_csv = step.result()
         del matches, step
     stage = _join(out_dir, ".aerorect-staging-" + uuid.uuid4().hex)

@@ -156,6 +156,55 @@ impl FlightPlan {
         .map_err(py_err)
     }
 
+    /// The pairs (i, j) to match by features for the first round (none when the ties come
+    /// from correlation alone).
+    fn feature_pairs(&self, py: Python<'_>) -> PyResult<Vec<(usize, usize)>> {
+        py.detach(|| self.plan.feature_pairs()).map_err(py_err)
+    }
+
+    /// Frame k decoded, reduced and described (exact JSON).
+    fn frame_features(&self, py: Python<'_>, k: usize) -> PyResult<String> {
+        py.detach(|| -> Result<_> {
+            Ok(aerorect::flight::exact_json(&self.plan.frame_features(k)?)?)
+        })
+        .map_err(py_err)
+    }
+
+    /// Frames i and j matched by their features (`frame_features`' JSON): the tie points
+    /// (exact JSON).
+    fn feature_match(
+        &self,
+        py: Python<'_>,
+        i: usize,
+        j: usize,
+        first: &str,
+        second: &str,
+    ) -> PyResult<String> {
+        py.detach(|| -> Result<_> {
+            let a = aerorect::flight::from_exact_json(first)?;
+            let b = aerorect::flight::from_exact_json(second)?;
+            let m = self.plan.feature_match((i, &a), (j, &b))?;
+            Ok(aerorect::flight::exact_json(&m)?)
+        })
+        .map_err(py_err)
+    }
+
+    /// The feature matches (in `feature_pairs`' order) as the first round takes them: all of
+    /// them when any pair ties, else none.
+    #[staticmethod]
+    fn first_round(matches: Vec<String>) -> PyResult<Vec<String>> {
+        let matched = matches
+            .iter()
+            .map(|m| aerorect::flight::from_exact_json(m))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(py_err)?;
+        aerorect::flight::FlightPlan::first_round_of(matched)
+            .iter()
+            .map(aerorect::flight::exact_json)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(py_err)
+    }
+
     /// One round's adjustment from every pair's matches (in `pairs`' order): (the new
     /// progress, whether the rounds are done, the report as `adjustment.json` holds it, the
     /// adjusted poses as `adjusted_poses.csv`).

@@ -54,6 +54,8 @@ pub struct PhotoArgs {
     pub attitude_sigma_deg: Option<f64>,
     /// With `adjust`: the most matching rounds.
     pub adjust_passes: Option<usize>,
+    /// With `adjust`: where tie points come from (`both`, `features`, `correlation`).
+    pub ties: Option<String>,
 }
 
 impl PhotoArgs {
@@ -193,6 +195,11 @@ impl PhotoArgs {
             },
             attitude_sigma_deg: sigma,
             passes,
+            ties: match &self.ties {
+                Some(t) => aerorect::flight::TieSource::from_name(t)
+                    .map_err(|e| anyhow::anyhow!("ties={t:?}: {e}"))?,
+                None => d.ties,
+            },
             ..d
         })
     }

@@ -382,6 +382,11 @@ pub struct FlightArgs {
     /// At most 20 are run; rounds that do not settle are reported with their turns.
     #[arg(long, requires = "adjust", default_value_t = 8)]
     pub adjust_passes: usize,
+    /// With --adjust: where tie points come from: `both` (SIFT features first, which need no
+    /// attitude, then correlation of the rendered frames with the features kept), `features`
+    /// (one round) or `correlation` (the recorded attitudes must be within a few degrees).
+    #[arg(long, requires = "adjust", default_value = "both")]
+    pub ties: String,
 }
 
 impl FlightArgs {
@@ -452,6 +457,8 @@ impl FlightArgs {
             },
             attitude_sigma_deg: self.attitude_sigma_deg,
             passes: self.adjust_passes,
+            ties: aerorect::flight::TieSource::from_name(&self.ties)
+                .map_err(|e| anyhow::anyhow!("--ties {}: {e}", self.ties))?,
             refine_radial: self.adjust_lens,
             refine_boresight: self.adjust_boresight,
             ..Default::default()

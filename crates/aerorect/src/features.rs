@@ -61,7 +61,7 @@ impl Default for TieOptions {
 }
 
 /// One frame's features, positions in the reduced frame.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct FrameFeatures {
     pub path: PathBuf,
     /// The decoded (full-resolution) size.

@@ -20,6 +20,12 @@ pub use flight_inputs::prepare_flight;
 /// pitches by ~5-10 in turbulence, so the prior must let an adjustment move that far.
 pub const GPS_TRACK_PRIOR_SIGMA_DEG: f64 = 30.0;
 
+/// The prior standard deviation (degrees, each axis) of body angles (senseFly, Pix4D's
+/// `Camera:` tags): an autopilot's attitude, not a gimbal's, and the camera's mounting in the
+/// airframe is not recorded. On a senseFly eBee flight a reconstruction (COLMAP) puts the
+/// cameras 3-4 degrees rms from the recorded roll and pitch and a median 9 from the heading.
+pub const BODY_PRIOR_SIGMA_DEG: f64 = 10.0;
+
 /// How senseFly's roll is read. Peer tools disagree (ODM flips its sign, OpenSfM and Orthority
 /// do not) and nothing records how the camera sits in the airframe: the default was chosen by
 /// the images (CONVENTIONS.md, "senseFly roll").
@@ -126,7 +132,7 @@ pub fn attitude_from_metadata(
             rotation,
             source: AttitudeSource::Body(a.schema),
             angles_deg: [y, p, r],
-            prior_sigma_deg: None,
+            prior_sigma_deg: Some(BODY_PRIOR_SIGMA_DEG),
         });
     }
     gps_track_attitude(meta, opts, file)

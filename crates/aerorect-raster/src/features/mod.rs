@@ -74,7 +74,7 @@ impl FeatureOptions {
 
 /// One keypoint: position (pixels), scale (diameter of its neighbourhood, pixels), dominant
 /// orientation (degrees clockwise from +x, i.e. from +u towards +v) and contrast.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Keypoint {
     pub x: f64,
     pub y: f64,
@@ -84,7 +84,7 @@ pub struct Keypoint {
 }
 
 /// Keypoints and their descriptors, [`DESCRIPTOR_LEN`] values each, in the same order.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Features {
     pub keypoints: Vec<Keypoint>,
     pub descriptors: Vec<f32>,

@@ -135,6 +135,7 @@ pub(super) fn pair_ties(
         patches: tried,
         inliers: 0,
         ties: vec![],
+        features: false,
     };
     let from: Vec<[f64; 2]> = matches.iter().map(|m| m.0).collect();
     let to: Vec<[f64; 2]> = matches.iter().map(|m| m.1).collect();

@@ -152,6 +152,7 @@ mod tests {
                     weight: w[0],
                 })
                 .collect(),
+            features: true,
         };
         let back: PairMatch = from_exact_json(&exact_json(&m).unwrap()).unwrap();
         let bits = |m: &PairMatch| -> Vec<u64> {

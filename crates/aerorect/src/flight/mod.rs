@@ -14,6 +14,7 @@
 
 mod correlate;
 mod exchange;
+mod features;
 mod frames;
 mod plan;
 mod render;
@@ -21,6 +22,7 @@ mod solve;
 mod ties;
 
 pub use exchange::{exact_json, from_exact_json};
+pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource};
 pub use plan::{FlightPlan, FlightProgress, Orientation};
 pub use render::AdjustedFlight;
 pub use ties::{PairMatch, PairTie, TieVector};
@@ -29,6 +31,7 @@ use correlate::*;
 use frames::*;
 use render::*;
 use solve::*;
+
 use ties::*;
 
 use crate::Error;
@@ -39,7 +42,9 @@ use aerorect_geo::{OrthoGrid, Pose, Projection};
 use aerorect_io::{Crs, PhotoMetadata};
 use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
 use aerorect_raster::{AnyRaster, Interp, Raster, WarpOptions};
-use aerorect_solve::adjust::{AdjustFrame, AdjustOptions, AdjustReport, Observation, TiePoint};
+use aerorect_solve::adjust::{
+    AdjustFrame, AdjustOptions, AdjustReport, FrameStart, Observation, TiePoint,
+};
 use aerorect_solve::ransac::{RansacOptions, ransac_homography};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -69,6 +74,8 @@ pub struct FlightOptions {
     /// from round to round without the others moving). At most [`MAX_PASSES`].
     pub passes: usize,
     pub settled_deg: f64,
+    /// Where the tie points come from (features first, then correlation, by default).
+    pub ties: TieSource,
 }
 
 /// The largest standard deviation of a recorded attitude, degrees (half a turn).
@@ -111,6 +118,7 @@ impl Default for FlightOptions {
             refine_boresight: false,
             passes: 8,
             settled_deg: 0.005,
+            ties: TieSource::Both,
         }
     }
 }
@@ -127,6 +135,11 @@ pub const MAX_PASSES: usize = 20;
 /// its residual RMS is at most this (px: four times the tie points' 0.5 px sigma); above it
 /// the flight is an error naming the frames.
 pub const UNCONVERGED_RMS_PX: f64 = 2.0;
+
+/// Without a DEM, how far (m, one standard deviation) a feature tie's height may leave the
+/// level ground: hilly ground under a drone. Correlation ties, matched on the level ground's
+/// orthos, are held to it at 0.1 m.
+pub const RELIEF_SIGMA_M: f64 = 10.0;
 
 /// Standard deviation (m) of a consumer GPS position, the prior of frames with no RTK tags.
 pub const GPS_SIGMA_M: f64 = 5.0;
@@ -236,7 +249,19 @@ pub fn adjust_flight(
 ) -> Result<AdjustedFlight, Error> {
     fo.validate()?;
     let plan = FlightPlan::new(inputs, opts, fo)?;
+    let features = plan.first_round_matches()?;
     let mut progress = FlightProgress::default();
+    if !features.is_empty() {
+        let round = plan.adjust_round(&mut progress, features.clone())?;
+        if progress.done {
+            let o = progress.orientation.as_ref();
+            let rendered: Vec<Rendered> = (0..plan.len())
+                .into_par_iter()
+                .map(|k| plan.render(k, o))
+                .collect::<Result<_, Error>>()?;
+            return Ok(plan.finish(progress, round, rendered));
+        }
+    }
     loop {
         let o = progress.orientation.as_ref();
         let rendered: Vec<Rendered> = (0..plan.len())
@@ -244,10 +269,11 @@ pub fn adjust_flight(
             .map(|k| plan.render(k, o))
             .collect::<Result<_, Error>>()?;
         let grids: Vec<OrthoGrid> = rendered.iter().map(|r| r.coarse_plan.grid).collect();
-        let matched: Vec<PairMatch> = overlapping(&grids)
+        let mut matched: Vec<PairMatch> = overlapping(&grids)
             .par_iter()
             .map(|&(i, j)| plan.match_rendered((i, &rendered[i]), (j, &rendered[j])))
             .collect::<Result<_, Error>>()?;
+        matched.extend(features.iter().cloned());
         let round = plan.adjust_round(&mut progress, matched)?;
         if progress.done {
             return Ok(plan.finish(progress, round, rendered));

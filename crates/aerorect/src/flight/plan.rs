@@ -209,7 +209,7 @@ impl FlightPlan {
             };
             pairs.push((m, a, b));
         }
-        let round = match_and_adjust(pairs, self, mode)?;
+        let round = match_and_adjust(pairs, self, mode, progress.orientation.as_ref())?;
         let (poses, cameras) = round.orientation(&self.rec);
         let before = progress
             .orientation
@@ -220,7 +220,8 @@ impl FlightPlan {
         progress.rounds.push(round.summary((before, &poses), since));
         progress.since = Some(std::time::Instant::now());
         progress.done = progress.rounds.len() >= self.fo.passes.min(MAX_PASSES)
-            || (progress.rounds.len() > 1 && typical < self.fo.settled_deg);
+            || (progress.rounds.len() > 1 && typical < self.fo.settled_deg)
+            || self.fo.ties == TieSource::Features;
         progress.orientation = Some(Orientation { poses, cameras });
         Ok(round)
     }

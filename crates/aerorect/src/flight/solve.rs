@@ -51,14 +51,29 @@ pub(super) fn match_and_adjust(
     matched: Vec<(PairMatch, String, String)>,
     plan: &FlightPlan,
     (dem, posed): (bool, bool),
+    previous: Option<&Orientation>,
 ) -> Result<Round, Error> {
     let (rec, fo, frames) = (&plan.rec, &plan.fo, &plan.frames);
     let ground = plan.ground.as_ref();
     let cams: Vec<&Camera> = rec.camera_of.iter().map(|&c| &rec.cameras[c]).collect();
     let mut reports = Vec::with_capacity(matched.len());
     let mut ties = Vec::new();
+    // Feature ties are points anywhere in 3-D: without a DEM their heights may leave the level
+    // ground by the relief; correlation ties were matched on it.
+    let relief = matched.iter().any(|(m, _, _)| m.features && m.reliable());
     for (m, a, b) in matched {
-        let t: Vec<TiePoint> = m.ties.iter().map(|t| t.tie_point(m.a, m.b)).collect();
+        let mut t: Vec<TiePoint> = m.ties.iter().map(|t| t.tie_point(m.a, m.b)).collect();
+        if let (Some(o), true) = (previous, m.features) {
+            // Feature ties' first guesses came from the recorded orientation: the last
+            // round's puts them where the solve starts.
+            for tie in &mut t {
+                let a = tie.observations[0];
+                let cam = &o.cameras[a.frame];
+                if let Some(g) = on_ground(&o.poses[a.frame], cam, a.pixel, ground) {
+                    tie.ground = g;
+                }
+            }
+        }
         reports.push(PairReport {
             a,
             b,
@@ -87,8 +102,15 @@ pub(super) fn match_and_adjust(
             world_from_camera: p.world_from_camera(),
             // A receiver's claim of a millimetre is held to 5 mm.
             position_sigma_m: f.rtk_std_m.filter(|_| own).map(|s| s.map(|v| v.max(0.005))),
+            // A source that needs a wider prior than the flight's (body angles, GPS track).
+            attitude_sigma_deg: f
+                .info
+                .attitude
+                .prior_sigma_deg
+                .map(|s| s.max(fo.attitude_sigma_deg)),
         })
         .collect();
+    let starts = previous.map(|o| frame_starts(&rec.poses, &o.poses));
     let aopts = AdjustOptions {
         attitude_sigma_deg: fo.attitude_sigma_deg,
         position_sigma_m,
@@ -96,7 +118,15 @@ pub(super) fn match_and_adjust(
         refine_principal_point: fo.refine_principal_point,
         refine_radial: fo.refine_radial,
         refine_boresight: fo.refine_boresight,
-        terrain: Some((ground, if dem { 1.0 } else { 0.1 })),
+        terrain: Some((
+            ground,
+            match (dem, relief) {
+                (true, _) => 1.0,
+                (false, true) => RELIEF_SIGMA_M,
+                (false, false) => 0.1,
+            },
+        )),
+        start: starts.as_deref(),
         ..AdjustOptions::default()
     };
     let adjusted = aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &ties, &aopts)
@@ -308,4 +338,25 @@ pub(super) fn median_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
     let mut t = turns_deg(a, b);
     t.sort_by(f64::total_cmp);
     t.get(t.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// Each frame's corrections from `recorded` to `previous` (the last round's), where the next
+/// solve starts.
+fn frame_starts(recorded: &[Pose], previous: &[Pose]) -> Vec<FrameStart> {
+    recorded
+        .iter()
+        .zip(previous)
+        .map(|(r, p)| {
+            let m = p.world_from_camera() * r.world_from_camera().transpose();
+            let w = nalgebra::Rotation3::from_matrix(&m).scaled_axis();
+            FrameStart {
+                rotation: [w.x, w.y, w.z],
+                position: [
+                    p.centre[0] - r.centre[0],
+                    p.centre[1] - r.centre[1],
+                    p.centre[2] - r.centre[2],
+                ],
+            }
+        })
+        .collect()
 }

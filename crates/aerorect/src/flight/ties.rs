@@ -21,6 +21,10 @@ pub struct PairMatch {
     pub inliers: usize,
     /// The pair's tie points (none unless at least 8 matches agree).
     pub ties: Vec<PairTie>,
+    /// Whether they come from features (3-D points anywhere) rather than correlation on the
+    /// level ground.
+    #[serde(default)]
+    pub features: bool,
 }
 
 /// A tie point of a pair: its first guess on the ground, its pixel in each frame and weight.
@@ -33,8 +37,10 @@ pub struct PairTie {
 }
 
 impl PairMatch {
+    /// Whether the pair gives tie points (correlation: at least 8 matches agree; features:
+    /// at least [`super::MIN_FEATURE_INLIERS`]).
     pub(super) fn reliable(&self) -> bool {
-        self.inliers >= 8
+        !self.ties.is_empty()
     }
 }
 
@@ -78,4 +84,20 @@ pub(super) fn tie_gap(t: &TiePoint, poses: &[Pose], cameras: &[&Camera]) -> Opti
     let pa = on_level(&poses[a.frame], cameras[a.frame], a.pixel, t.ground[2])?;
     let pb = on_level(&poses[b.frame], cameras[b.frame], b.pixel, t.ground[2])?;
     Some([pa[0] - pb[0], pa[1] - pb[1]])
+}
+
+/// Where the ray of `pixel` meets the ground (three steps of the height under it).
+pub(super) fn on_ground(
+    pose: &Pose,
+    camera: &Camera,
+    pixel: [f64; 2],
+    ground: &(dyn Fn(f64, f64) -> f64 + Sync),
+) -> Option<[f64; 3]> {
+    let mut z = ground(pose.centre[0], pose.centre[1]);
+    let mut p = on_level(pose, camera, pixel, z)?;
+    for _ in 0..3 {
+        z = ground(p[0], p[1]);
+        p = on_level(pose, camera, pixel, z)?;
+    }
+    Some([p[0], p[1], z])
 }

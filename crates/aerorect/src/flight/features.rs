@@ -1,0 +1,189 @@
+//! The first round's tie points from SIFT features of the photos themselves: they need no
+//! attitude and tolerate rotation, scale and viewpoint, so frames recorded 10-20 degrees off,
+//! with no attitude at all or flown in opposite directions still tie. Candidate pairs come
+//! from the recorded positions and predicted footprints; matches pass the ratio and mutual
+//! tests and a fundamental matrix (RANSAC), so relief does not reject them.
+
+use super::*;
+use crate::features::{FrameFeatures, TieOptions, frame_features, match_frames};
+use aerorect_solve::pairs::candidate_pairs;
+
+/// Where a flight's tie points come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub enum TieSource {
+    /// Features first (no attitude needed), then correlation of the rendered frames refines
+    /// in later rounds, the feature ties kept beside it.
+    #[default]
+    Both,
+    /// Features only: one round (they do not depend on the orientation).
+    Features,
+    /// Correlation of the rendered frames only (the recorded attitudes must be within a few
+    /// degrees).
+    Correlation,
+}
+
+impl TieSource {
+    /// The source named `both`, `features` or `correlation`.
+    pub fn from_name(name: &str) -> Result<Self, Error> {
+        match name {
+            "both" => Ok(Self::Both),
+            "features" => Ok(Self::Features),
+            "correlation" => Ok(Self::Correlation),
+            other => Err(Error::Invalid(format!(
+                "tie points from '{other}': expected both, features or correlation"
+            ))),
+        }
+    }
+}
+
+/// The most tie points one pair gives from its features (spread over its inliers): enough to
+/// hold the pair, few enough that the solve stays small.
+pub const FEATURE_TIES_PER_PAIR: usize = 150;
+
+/// The fewest verified matches that tie a pair by features: eight points fit a fundamental
+/// matrix exactly, and two frames that share nothing give 8-12 chance "inliers" of 20-45
+/// ratio-test matches; a real overlap gives dozens to hundreds.
+pub const MIN_FEATURE_INLIERS: usize = 20;
+
+/// A fundamental matrix lets a wrong match slide along its epipolar line; the matches must
+/// also lie within this fraction of the frame's long side of one homography (flat ground
+/// plus the relief's parallax).
+const HOMOGRAPHY_SLACK: f64 = 0.05;
+
+/// A feature tie's standard deviation, in pixels of the reduced frame (SIFT's sub-pixel
+/// position on the reduced image).
+const FEATURE_SIGMA_REDUCED_PX: f64 = 0.5;
+
+impl FlightPlan {
+    /// How frames are reduced and described for feature matching.
+    pub fn tie_options(&self) -> TieOptions {
+        TieOptions::default()
+    }
+
+    /// Frame `k` decoded, reduced and described.
+    pub fn frame_features(&self, k: usize) -> Result<FrameFeatures, Error> {
+        let f = self.frames.get(k).ok_or_else(|| {
+            Error::Invalid(format!("frame {k} of a flight of {} frames", self.len()))
+        })?;
+        frame_features(&f.input, &self.tie_options())
+    }
+
+    /// The pairs to match by features: the nearest neighbours and Delaunay neighbours of the
+    /// recorded positions, and every pair whose predicted footprints overlap.
+    /// None when the ties come from correlation alone.
+    pub fn feature_pairs(&self) -> Result<Vec<(usize, usize)>, Error> {
+        if self.fo.ties == TieSource::Correlation {
+            return Ok(vec![]);
+        }
+        let centres: Vec<[f64; 2]> = self
+            .rec
+            .poses
+            .iter()
+            .map(|p| [p.centre[0], p.centre[1]])
+            .collect();
+        let footprints: Vec<Vec<[f64; 2]>> = self
+            .frames
+            .iter()
+            .map(|f| f.coarse_plan.footprint.clone())
+            .collect();
+        let usable = footprints.iter().all(|f| f.len() >= 3);
+        let opts = self.tie_options().pairs;
+        candidate_pairs(&centres, usable.then_some(&footprints[..]), &opts)
+            .map_err(|e| Error::Invalid(format!("candidate pairs: {e}")))
+    }
+
+    /// Frames `i` and `j` matched by their features: the pair's tie points, each with its
+    /// first guess on the ground where frame `i`'s recorded ray meets the ground.
+    pub fn feature_match(
+        &self,
+        (i, a): (usize, &FrameFeatures),
+        (j, b): (usize, &FrameFeatures),
+    ) -> Result<PairMatch, Error> {
+        if i.max(j) >= self.len() {
+            return Err(Error::Invalid(format!(
+                "pair ({i}, {j}) of a flight of {} frames",
+                self.len()
+            )));
+        }
+        let m = match_frames(a, b, (i, j), &self.tie_options())?;
+        let inliers = near_one_homography(&m, a.size.width.max(a.size.height));
+        // A relative weight: the adjustment's pixel sigma is a correlation tie's (0.5 px at
+        // full resolution); a feature's is its reduced position's, scaled up.
+        let factor = a.factor.max(b.factor) as f64;
+        let sigma = FEATURE_SIGMA_REDUCED_PX * factor;
+        let weight = (0.5 / sigma).powi(2).min(1.0);
+        let step = inliers.len().div_ceil(FEATURE_TIES_PER_PAIR).max(1);
+        let (pose, camera) = (&self.rec.poses[i], &self.rec.cameras[self.rec.camera_of[i]]);
+        let ties: Vec<PairTie> = inliers
+            .iter()
+            .step_by(step)
+            .filter_map(|&k| {
+                let ground = on_ground(pose, camera, m.first_px[k], self.ground.as_ref())?;
+                Some(PairTie {
+                    ground,
+                    pixel_a: m.first_px[k],
+                    pixel_b: m.second_px[k],
+                    weight,
+                })
+            })
+            .collect();
+        let enough = inliers.len() >= MIN_FEATURE_INLIERS;
+        Ok(PairMatch {
+            a: i,
+            b: j,
+            patches: m.inliers.len(),
+            inliers: if enough { ties.len() } else { 0 },
+            ties: if enough { ties } else { vec![] },
+            features: true,
+        })
+    }
+
+    /// Every frame's features and every candidate pair's matches (the first round's), in
+    /// [`Self::feature_pairs`]' order.
+    pub fn feature_matches(&self) -> Result<Vec<PairMatch>, Error> {
+        let features: Vec<FrameFeatures> = (0..self.len())
+            .into_par_iter()
+            .map(|k| self.frame_features(k))
+            .collect::<Result<_, _>>()?;
+        self.feature_pairs()?
+            .par_iter()
+            .map(|&(i, j)| self.feature_match((i, &features[i]), (j, &features[j])))
+            .collect()
+    }
+
+    /// The first round's matches: [`Self::feature_matches`] unless the ties come from
+    /// correlation alone; none when no pair's features agree (correlation then starts).
+    pub fn first_round_matches(&self) -> Result<Vec<PairMatch>, Error> {
+        Ok(Self::first_round_of(self.feature_matches()?))
+    }
+
+    /// The feature matches of every candidate pair as the first round takes them: all of
+    /// them when any pair is reliable, else none.
+    pub fn first_round_of(matches: Vec<PairMatch>) -> Vec<PairMatch> {
+        if matches.iter().any(PairMatch::reliable) {
+            matches
+        } else {
+            vec![]
+        }
+    }
+}
+
+/// The fundamental matrix's inliers that also lie within [`HOMOGRAPHY_SLACK`] of the long
+/// side (`long_px`) of one homography (none when no homography fits).
+fn near_one_homography(m: &crate::features::PairTies, long_px: usize) -> Vec<usize> {
+    let kept: Vec<usize> = (0..m.inliers.len()).filter(|&k| m.inliers[k]).collect();
+    let from: Vec<[f64; 2]> = kept.iter().map(|&k| m.first_px[k]).collect();
+    let to: Vec<[f64; 2]> = kept.iter().map(|&k| m.second_px[k]).collect();
+    let opts = aerorect_solve::ransac::RansacOptions {
+        threshold: HOMOGRAPHY_SLACK * long_px as f64,
+        ..Default::default()
+    };
+    match ransac_homography(&from, &to, &opts) {
+        Ok(fit) => kept
+            .into_iter()
+            .zip(fit.inliers)
+            .filter_map(|(k, ok)| ok.then_some(k))
+            .collect(),
+        Err(_) => vec![],
+    }
+}
