@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used)]
 
 use aerorect::drone::{DroneOptions, rectify_photo};
-use aerorect::flight::{FlightOptions, adjust_flight};
+use aerorect::flight::{FlightOptions, TieSource, adjust_flight};
 
 #[test]
 fn adjustment_brings_the_nadir_pair_within_a_pixel() {
@@ -56,9 +56,11 @@ fn a_matching_grid_over_its_budget_is_coarsened_not_refused() {
         gsd_m: Some(0.1),
         ..Default::default()
     };
+    // The correlation's grid is what is measured here (features alone give one round).
     let fo = FlightOptions {
         match_gsd_m: Some(0.02),
         passes: 1,
+        ties: TieSource::Correlation,
         ..Default::default()
     };
     let flight = adjust_flight(&[a, b], &opts, &fo).unwrap();

@@ -98,17 +98,6 @@ pub struct AdjustOptions<'a> {
     pub max_iterations: usize,
     /// The stops on the cost's relative decrease, the gradient and the step (Ceres's).
     pub tolerances: Tolerances,
-    /// Where the solve starts, per frame (an earlier solve's corrections); `None`: at the
-    /// recorded orientation. The priors stay on the recorded one either way.
-    pub start: Option<&'a [FrameStart]>,
-}
-
-/// A frame's corrections to start from: the rotation vector (world axes, radians) and the
-/// position offset (m; ignored where positions are held).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FrameStart {
-    pub rotation: [f64; 3],
-    pub position: [f64; 3],
 }
 
 impl Default for AdjustOptions<'_> {
@@ -125,7 +114,6 @@ impl Default for AdjustOptions<'_> {
             terrain: None,
             max_iterations: 50,
             tolerances: Tolerances::default(),
-            start: None,
         }
     }
 }
@@ -226,19 +214,7 @@ pub fn adjust(
     };
     let start: Vec<Vec3> = ties.iter().map(|t| Vec3::from(t.ground)).collect();
     let mut s = State {
-        frames: (0..frames.len())
-            .map(|f| match opts.start.and_then(|s| s.get(f)) {
-                Some(s) => FrameBlock {
-                    rotation: Vec3::from(s.rotation),
-                    position: if positions_free[f] {
-                        Vec3::from(s.position)
-                    } else {
-                        Vec3::zeros()
-                    },
-                },
-                None => FrameBlock::default(),
-            })
-            .collect(),
+        frames: vec![FrameBlock::default(); frames.len()],
         cameras: vec![CameraBlock::default(); cameras.len()],
         points: start.clone(),
     };

@@ -4,6 +4,9 @@
 
 use super::*;
 
+/// The fewest correlation matches one homography must explain for a pair to give ties.
+pub const MIN_CORRELATION_INLIERS: usize = 8;
+
 /// The overlap of two frames' grids in A's pixels: [c0, r0, c1, r1) and B's offset.
 pub(super) fn overlap(ga: &OrthoGrid, gb: &OrthoGrid) -> Option<([i64; 4], [i64; 2])> {
     let g = ga.gsd;
@@ -166,7 +169,7 @@ pub(super) fn pair_ties(
         });
     }
     report.inliers = ties.len();
-    if report.reliable() {
+    if report.inliers >= MIN_CORRELATION_INLIERS {
         report.ties = ties;
     }
     Ok(report)

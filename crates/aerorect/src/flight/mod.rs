@@ -25,6 +25,7 @@ pub use exchange::{exact_json, from_exact_json};
 pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource};
 pub use plan::{FlightPlan, FlightProgress, Orientation};
 pub use render::AdjustedFlight;
+pub use solve::GpsCheck;
 pub use ties::{PairMatch, PairTie, TieVector};
 
 use correlate::*;
@@ -42,9 +43,7 @@ use aerorect_geo::{OrthoGrid, Pose, Projection};
 use aerorect_io::{Crs, PhotoMetadata};
 use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
 use aerorect_raster::{AnyRaster, Interp, Raster, WarpOptions};
-use aerorect_solve::adjust::{
-    AdjustFrame, AdjustOptions, AdjustReport, FrameStart, Observation, TiePoint,
-};
+use aerorect_solve::adjust::{AdjustFrame, AdjustOptions, AdjustReport, Observation, TiePoint};
 use aerorect_solve::ransac::{RansacOptions, ransac_homography};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -235,6 +234,8 @@ pub struct FlightReport {
     pub pairs: Vec<PairReport>,
     /// Frames no reliable pair reaches (left as recorded).
     pub unconnected: Vec<String>,
+    /// Every frame's GPS position against the images (when positions are adjusted).
+    pub gps: Vec<GpsCheck>,
     pub adjustment: AdjustReport,
     pub poses: Vec<AdjustedPose>,
     pub seconds: f64,

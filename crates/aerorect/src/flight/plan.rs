@@ -197,8 +197,18 @@ impl FlightPlan {
         let posed = self.opts.poses.is_some();
         let mode = (self.opts.dem.is_some(), posed);
         let name = |k: usize| self.frames.get(k).map(|f| f.input.display().to_string());
+        // Where correlation ties a pair, its matches (sub-pixel, on frames that now
+        // coincide) replace the pair's features; elsewhere the features hold it.
+        let correlated: std::collections::BTreeSet<(usize, usize)> = matched
+            .iter()
+            .filter(|m| !m.features && m.reliable())
+            .map(|m| (m.a.min(m.b), m.a.max(m.b)))
+            .collect();
         let mut pairs = Vec::with_capacity(matched.len());
-        for m in matched {
+        for m in matched
+            .into_iter()
+            .filter(|m| !(m.features && correlated.contains(&(m.a.min(m.b), m.a.max(m.b)))))
+        {
             let (Some(a), Some(b)) = (name(m.a), name(m.b)) else {
                 return Err(Error::Invalid(format!(
                     "pair ({}, {}) of a flight of {} frames",
@@ -209,7 +219,7 @@ impl FlightPlan {
             };
             pairs.push((m, a, b));
         }
-        let round = match_and_adjust(pairs, self, mode, progress.orientation.as_ref())?;
+        let round = match_and_adjust(pairs, self, mode)?;
         let (poses, cameras) = round.orientation(&self.rec);
         let before = progress
             .orientation
@@ -262,6 +272,7 @@ impl FlightPlan {
             oscillating,
             warnings,
             unconnected: unconnected(&self.frames, &round.reports),
+            gps: round.gps,
             pairs: round.reports,
             adjustment: round.adjusted.report,
             poses: adjusted_poses(&self.frames, &poses, &cameras),

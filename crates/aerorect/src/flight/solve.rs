@@ -9,6 +9,8 @@ pub(super) struct Round {
     pub(super) adjusted: aerorect_solve::adjust::Adjusted,
     pub(super) ties: Vec<TieVector>,
     pub(super) warnings: Vec<String>,
+    /// Every adjusted GPS position against the images.
+    pub(super) gps: Vec<GpsCheck>,
 }
 
 impl Round {
@@ -51,7 +53,6 @@ pub(super) fn match_and_adjust(
     matched: Vec<(PairMatch, String, String)>,
     plan: &FlightPlan,
     (dem, posed): (bool, bool),
-    previous: Option<&Orientation>,
 ) -> Result<Round, Error> {
     let (rec, fo, frames) = (&plan.rec, &plan.fo, &plan.frames);
     let ground = plan.ground.as_ref();
@@ -62,18 +63,7 @@ pub(super) fn match_and_adjust(
     // ground by the relief; correlation ties were matched on it.
     let relief = matched.iter().any(|(m, _, _)| m.features && m.reliable());
     for (m, a, b) in matched {
-        let mut t: Vec<TiePoint> = m.ties.iter().map(|t| t.tie_point(m.a, m.b)).collect();
-        if let (Some(o), true) = (previous, m.features) {
-            // Feature ties' first guesses came from the recorded orientation: the last
-            // round's puts them where the solve starts.
-            for tie in &mut t {
-                let a = tie.observations[0];
-                let cam = &o.cameras[a.frame];
-                if let Some(g) = on_ground(&o.poses[a.frame], cam, a.pixel, ground) {
-                    tie.ground = g;
-                }
-            }
-        }
+        let t: Vec<TiePoint> = m.ties.iter().map(|t| t.tie_point(m.a, m.b)).collect();
         reports.push(PairReport {
             a,
             b,
@@ -110,7 +100,6 @@ pub(super) fn match_and_adjust(
                 .map(|s| s.max(fo.attitude_sigma_deg)),
         })
         .collect();
-    let starts = previous.map(|o| frame_starts(&rec.poses, &o.poses));
     let aopts = AdjustOptions {
         attitude_sigma_deg: fo.attitude_sigma_deg,
         position_sigma_m,
@@ -126,13 +115,22 @@ pub(super) fn match_and_adjust(
                 (false, false) => 0.1,
             },
         )),
-        start: starts.as_deref(),
+        max_iterations: 100,
         ..AdjustOptions::default()
     };
     let adjusted = aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &ties, &aopts)
         .map_err(|e| Error::Invalid(format!("flight adjustment: {e}")))?;
-    let warnings = solve_warnings(frames, &adjusted.report)?;
+    let mut warnings = solve_warnings(frames, &adjusted.report)?;
+    let gps = gps_checks(frames, &adjust_frames, &adjusted.report, position_sigma_m);
+    warnings.extend(contradictions(
+        frames,
+        &adjust_frames,
+        &adjusted.report,
+        fo,
+        &gps,
+    ));
     let mut round = Round {
+        gps,
         reports,
         adjusted,
         ties: Vec::new(),
@@ -340,23 +338,101 @@ pub(super) fn median_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
     t.get(t.len() / 2).copied().unwrap_or(0.0)
 }
 
-/// Each frame's corrections from `recorded` to `previous` (the last round's), where the next
-/// solve starts.
-fn frame_starts(recorded: &[Pose], previous: &[Pose]) -> Vec<FrameStart> {
-    recorded
+/// A GPS fix moved by more than this many of its sigmas is contradicted by the images.
+pub const GPS_CONTRADICTION_SIGMAS: f64 = 3.0;
+
+/// A frame's GPS position against the images: where the adjustment moved it, in metres and
+/// in its prior's sigmas.
+#[derive(Debug, Clone, Serialize)]
+pub struct GpsCheck {
+    pub frame: String,
+    pub offset_m: [f64; 3],
+    pub prior_sigma_m: [f64; 3],
+    /// The offset's whitened norm; above [`GPS_CONTRADICTION_SIGMAS`] the images contradict
+    /// the fix.
+    pub sigmas: f64,
+    pub contradicted: bool,
+}
+
+/// Every frame whose position was adjusted, against its prior (none when positions are held).
+pub(super) fn gps_checks(
+    frames: &[Frame],
+    adjust_frames: &[AdjustFrame],
+    report: &AdjustReport,
+    default_sigma_m: Option<f64>,
+) -> Vec<GpsCheck> {
+    let Some(default) = default_sigma_m else {
+        return vec![];
+    };
+    frames
         .iter()
-        .zip(previous)
-        .map(|(r, p)| {
-            let m = p.world_from_camera() * r.world_from_camera().transpose();
-            let w = nalgebra::Rotation3::from_matrix(&m).scaled_axis();
-            FrameStart {
-                rotation: [w.x, w.y, w.z],
-                position: [
-                    p.centre[0] - r.centre[0],
-                    p.centre[1] - r.centre[1],
-                    p.centre[2] - r.centre[2],
-                ],
+        .zip(adjust_frames)
+        .zip(&report.frames)
+        .map(|((f, a), r)| {
+            let sigma = a.position_sigma_m.unwrap_or([default; 3]);
+            let sigmas = (0..3)
+                .map(|k| (r.position_m[k] / sigma[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            GpsCheck {
+                frame: f.input.display().to_string(),
+                offset_m: r.position_m,
+                prior_sigma_m: sigma,
+                sigmas,
+                contradicted: sigmas > GPS_CONTRADICTION_SIGMAS,
             }
         })
         .collect()
+}
+
+/// Warnings where the images contradict the records by more than their priors allow: GPS
+/// fixes moved beyond three sigmas, attitudes turned beyond three of their prior's sigmas.
+pub(super) fn contradictions(
+    frames: &[Frame],
+    adjust_frames: &[AdjustFrame],
+    report: &AdjustReport,
+    fo: &FlightOptions,
+    gps: &[GpsCheck],
+) -> Vec<String> {
+    let mut out = vec![];
+    let moved: Vec<String> = gps
+        .iter()
+        .filter(|g| g.contradicted)
+        .map(|g| {
+            let d = g.offset_m;
+            let m = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            format!("{} ({m:.1} m, {:.1} sigma)", g.frame, g.sigmas)
+        })
+        .collect();
+    if !moved.is_empty() {
+        out.push(format!(
+            "the images contradict the GPS positions of {} frames (moved beyond {GPS_CONTRADICTION_SIGMAS} sigma): {}",
+            moved.len(),
+            moved.join(", ")
+        ));
+    }
+    let turned: Vec<String> = frames
+        .iter()
+        .zip(adjust_frames)
+        .zip(&report.frames)
+        .filter_map(|((f, a), r)| {
+            let prior = a.attitude_sigma_deg.unwrap_or(fo.attitude_sigma_deg);
+            let w = r.rotation_deg;
+            let turn = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+            (turn > 3.0 * prior).then(|| {
+                format!(
+                    "{} ({turn:.1} deg against a prior of {prior} deg)",
+                    f.input.display()
+                )
+            })
+        })
+        .collect();
+    if !turned.is_empty() {
+        out.push(format!(
+            "the recorded attitudes of {} frames contradict the images by more than three times their prior: {}",
+            turned.len(),
+            turned.join(", ")
+        ));
+    }
+    out
 }

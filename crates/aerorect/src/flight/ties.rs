@@ -37,8 +37,8 @@ pub struct PairTie {
 }
 
 impl PairMatch {
-    /// Whether the pair gives tie points (correlation: at least 8 matches agree; features:
-    /// at least [`super::MIN_FEATURE_INLIERS`]).
+    /// Whether the pair gives tie points (correlation: at least [`super::correlate::MIN_CORRELATION_INLIERS`] matches agree; features:
+    /// at least [`super::MIN_FEATURE_INLIERS`]); a pair gives ties only when it qualifies.
     pub(super) fn reliable(&self) -> bool {
         !self.ties.is_empty()
     }

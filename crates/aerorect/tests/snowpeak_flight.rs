@@ -1,0 +1,138 @@
+//! (extended) The senseFly eBee photos of ../shared/data/flights/snowpeak as a flight: the
+//! consecutive frames (2188/2189, 2212/2213 across strips, 2280/2281/2282) tie by their
+//! features from the XMP angles alone and from the flight's geoinfo.txt alone, and after the
+//! adjustment the overlap correlator on the written frames (an estimator the adjustment does
+//! not use) finds them within a couple of output pixels, where as recorded they are metres
+//! apart. The photos carry no height above ground: the level ground is given (160 m, the
+//! valley under the strips), and the hills rise and fall some 20 m about it, so the frames
+//! still differ by their relief's parallax tile by tile; the median is the measure.
+#![allow(clippy::unwrap_used)]
+
+use aerorect::drone::{DroneOptions, rectify_photo};
+use aerorect::flight::{FlightOptions, MIN_FEATURE_INLIERS, adjust_flight};
+use aerorect_testkit::shared_data as shared;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+const CONSECUTIVE: [(&str, &str); 4] = [
+    ("IMG_2188", "IMG_2189"),
+    ("IMG_2212", "IMG_2213"),
+    ("IMG_2280", "IMG_2281"),
+    ("IMG_2281", "IMG_2282"),
+];
+
+fn photos(names: &[&str]) -> Option<Vec<PathBuf>> {
+    let dir = shared("flights/snowpeak/img")?;
+    Some(names.iter().map(|n| dir.join(format!("{n}.JPG"))).collect())
+}
+
+fn level() -> DroneOptions {
+    DroneOptions {
+        ground_height_m: Some(160.0),
+        gsd_m: Some(0.1),
+        ..Default::default()
+    }
+}
+
+/// The pair (a, b)'s report in the flight.
+fn pair<'a>(
+    r: &'a aerorect::flight::FlightReport,
+    a: &str,
+    b: &str,
+) -> &'a aerorect::flight::PairReport {
+    r.pairs
+        .iter()
+        .find(|p| p.a.contains(a) && p.b.contains(b))
+        .unwrap()
+}
+
+#[test]
+fn snowpeak_frames_tie_from_xmp_and_agree_after_the_adjustment() {
+    let names = [
+        "IMG_2188", "IMG_2189", "IMG_2212", "IMG_2213", "IMG_2280", "IMG_2281", "IMG_2282",
+    ];
+    let Some(paths) = photos(&names) else {
+        return;
+    };
+    let opts = level();
+    let flight = adjust_flight(&paths, &opts, &FlightOptions::default()).unwrap();
+    let r = &flight.report;
+    eprintln!(
+        "rms {:.2} -> {:.2} px, warnings {:?}",
+        r.adjustment.rms_before_px, r.adjustment.rms_after_px, r.warnings
+    );
+    assert!(
+        r.adjustment.rms_after_px < 1.5,
+        "{}",
+        r.adjustment.rms_after_px
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let out = |tag: &str, n: &str| dir.path().join(format!("{tag}{n}.tif"));
+    for (k, (p, n)) in paths.iter().zip(names).enumerate() {
+        rectify_photo(p, &out("raw", n), &opts, None).unwrap();
+        flight.write_frame(k, &out("adj", n), &opts).unwrap();
+    }
+    let norm = |v: [f64; 2]| v[0].hypot(v[1]);
+    for (a, b) in CONSECUTIVE {
+        let p = pair(r, a, b);
+        assert!(
+            p.reliable && p.inliers >= MIN_FEATURE_INLIERS,
+            "{a}/{b}: {p:?}"
+        );
+        let after = aerorect::overlap::overlap_shift(&out("adj", a), &out("adj", b), 256).unwrap();
+        // As recorded the frames are 9-27 m apart: most pairs share no patch that matches.
+        let before = aerorect::overlap::overlap_shift(&out("raw", a), &out("raw", b), 256)
+            .map_or(f64::INFINITY, |s| norm(s.median_m));
+        eprintln!(
+            "{a}/{b}: {} ties, ground gap {:.2} m -> {:.2} m; overlap {before:.2} m -> {:.3} m ({:.2} px, tile rms {:.1} px)",
+            p.inliers,
+            p.misalignment_before_m,
+            p.misalignment_after_m.unwrap(),
+            norm(after.median_m),
+            norm(after.median_px),
+            after.rms_px
+        );
+        assert!(p.misalignment_before_m > 5.0, "{a}/{b}");
+        assert!(before > 2.0, "{a}/{b}: {before}");
+        // Within two output pixels (0.1 m) by the median of the overlap's tiles.
+        assert!(
+            norm(after.median_px) < 2.0,
+            "{a}/{b}: {:?}",
+            after.median_px
+        );
+    }
+}
+
+#[test]
+fn snowpeak_strip_ties_from_geoinfo_alone() {
+    let Some(paths) = photos(&["IMG_2280", "IMG_2281", "IMG_2282"]) else {
+        return;
+    };
+    let dir = shared("flights/snowpeak").unwrap();
+    let geo = aerorect::photo_source::load_geo_file(&dir.join("snowpea1_geoinfo.txt")).unwrap();
+    let opts = DroneOptions {
+        geo: Some(Arc::new(geo)),
+        ..level()
+    };
+    let flight = adjust_flight(&paths, &opts, &FlightOptions::default()).unwrap();
+    let r = &flight.report;
+    for (a, b) in &CONSECUTIVE[2..] {
+        let p = pair(r, a, b);
+        assert!(
+            p.reliable && p.inliers >= MIN_FEATURE_INLIERS,
+            "{a}/{b}: {p:?}"
+        );
+        let after = p.misalignment_after_m.unwrap();
+        eprintln!("{a}/{b}: {:.2} m -> {after:.3} m", p.misalignment_before_m);
+        // Metres apart as geoinfo.txt records them; centimetres after (0.03 m pixels).
+        assert!(
+            p.misalignment_before_m > 5.0 && after < 0.1,
+            "{a}/{b}: {p:?}"
+        );
+    }
+    assert!(
+        r.adjustment.rms_after_px < 1.5,
+        "{}",
+        r.adjustment.rms_after_px
+    );
+}
