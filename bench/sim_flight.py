@@ -5,7 +5,10 @@ then `aerorect batch --adjust` and `aerorect mosaic --adjust` on them. Prints th
 adjustment's time (whole flight and the solve), peak memory, the attitude errors before
 and after against the truth, and the mosaic's time.
 
-    python3 bench/sim_flight.py NX NY [WORK_DIR]      # e.g. 10 10, 40 25
+    python3 bench/sim_flight.py NX NY [WORK_DIR [SIGMA_DEG [TIES]]]   # e.g. 10 10, 40 25
+
+SIGMA_DEG (default 1) is the recorded attitudes' error; TIES is `--ties` (both, features,
+correlation; default both).
 
 Needs only the standard library (and cargo). Run with the machine otherwise quiet.
 """
@@ -59,12 +62,15 @@ def stats(v):
 def main():
     nx, ny = int(sys.argv[1]), int(sys.argv[2])
     work = sys.argv[3] if len(sys.argv) > 3 else os.path.join(ROOT, "out", f"sim-flight-{nx}x{ny}")
+    sigma = sys.argv[4] if len(sys.argv) > 4 else "1"
+    ties = sys.argv[5] if len(sys.argv) > 5 else "both"
     subprocess.run(["cargo", "build", "--release", "-q", "-p", "aerorect-cli"], cwd=ROOT, check=True)
     if not os.path.exists(os.path.join(work, "pert.csv")):
         subprocess.run(["cargo", "run", "--release", "-q", "-p", "aerorect", "--example",
-                        "simulate_flight", "--", str(nx), str(ny), work], cwd=ROOT, check=True)
+                        "simulate_flight", "--", str(nx), str(ny), work, sigma], cwd=ROOT, check=True)
     frames = sorted(os.path.join("frames", f) for f in os.listdir(os.path.join(work, "frames")))
-    common = ["--poses", "pert.csv", "--camera", "cam.toml", "--dem", "dem.tif", "--gsd-m", "0.25", "--adjust"]
+    common = ["--poses", "pert.csv", "--camera", "cam.toml", "--dem", "dem.tif", "--gsd-m", "0.25", "--adjust",
+              "--ties", ties, "--attitude-sigma-deg", str(max(1.0, float(sigma)))]
     secs, peak, _ = timed([BIN, "batch", *frames, "--out-dir", "out", "--force", *common], work)
     rep = json.load(open(os.path.join(work, "out", "adjustment.json")))
     truth, rec = poses(os.path.join(work, "truth.csv")), poses(os.path.join(work, "pert.csv"))
