@@ -8,7 +8,9 @@ and after against the truth, and the mosaic's time.
     python3 bench/sim_flight.py NX NY [WORK_DIR [SIGMA_DEG [TIES]]]   # e.g. 10 10, 40 25
 
 SIGMA_DEG (default 1) is the recorded attitudes' error; TIES is `--ties` (both, features,
-correlation; default both).
+correlation; default both). SIGMA_DEG `gps-only` records no attitude at all: the frames get
+an ODM geo.txt of positions only, each 3 m off (seeded), and start at nadir along their GPS
+track.
 
 Needs only the standard library (and cargo). Run with the machine otherwise quiet.
 """
@@ -16,6 +18,7 @@ import csv
 import json
 import math
 import os
+import random
 import subprocess
 import sys
 import time
@@ -63,6 +66,9 @@ def main():
     nx, ny = int(sys.argv[1]), int(sys.argv[2])
     work = sys.argv[3] if len(sys.argv) > 3 else os.path.join(ROOT, "out", f"sim-flight-{nx}x{ny}")
     sigma = sys.argv[4] if len(sys.argv) > 4 else "1"
+    gps_only = sigma == "gps-only"
+    if gps_only:
+        sigma = "1"
     ties = sys.argv[5] if len(sys.argv) > 5 else "both"
     subprocess.run(["cargo", "build", "--release", "-q", "-p", "aerorect-cli"], cwd=ROOT, check=True)
     if not os.path.exists(os.path.join(work, "pert.csv")):
@@ -71,9 +77,18 @@ def main():
     frames = sorted(os.path.join("frames", f) for f in os.listdir(os.path.join(work, "frames")))
     common = ["--poses", "pert.csv", "--camera", "cam.toml", "--dem", "dem.tif", "--gsd-m", "0.25", "--adjust",
               "--ties", ties, "--attitude-sigma-deg", str(max(1.0, float(sigma)))]
+    if gps_only:
+        rng = random.Random(1)
+        with open(os.path.join(work, "truth.csv")) as f, open(os.path.join(work, "geo.txt"), "w") as g:
+            g.write("EPSG:32633\n")
+            for r in csv.DictReader(f):
+                x, y, z = (float(r[k]) + rng.gauss(0, 3) for k in ("x", "y", "z"))
+                g.write(f"{r['filename']} {x:.3f} {y:.3f} {z:.3f}\n")
+        common[0:2] = ["--geo", "geo.txt"]
     secs, peak, _ = timed([BIN, "batch", *frames, "--out-dir", "out", "--force", *common], work)
     rep = json.load(open(os.path.join(work, "out", "adjustment.json")))
-    truth, rec = poses(os.path.join(work, "truth.csv")), poses(os.path.join(work, "pert.csv"))
+    truth = poses(os.path.join(work, "truth.csv"))
+    rec = truth if gps_only else poses(os.path.join(work, "pert.csv"))
     adj = poses(os.path.join(work, "out", "adjusted_poses.csv"))
     before = [angle_deg(rec[n], truth[n]) for n in truth]
     after = [angle_deg(adj[n], truth[n]) for n in truth]
@@ -84,7 +99,8 @@ def main():
     print(f"  tie rms {a['rms_before_px']:.2f} -> {a['rms_after_px']:.3f} px; "
           f"reliable pairs {sum(p['reliable'] for p in rep['pairs'])} of {len(rep['pairs'])}, "
           f"unconnected {len(rep['unconnected'])}")
-    print(f"  attitude error vs truth, deg: before {stats(before)}; after {stats(after)}")
+    start = "none recorded (nadir along the GPS track)" if gps_only else stats(before)
+    print(f"  attitude error vs truth, deg: before {start}; after {stats(after)}")
     lost = {u.split("/")[-1] for u in rep["unconnected"]}
     if lost:
         tied = [angle_deg(adj[n], truth[n]) for n in truth if n not in lost]

@@ -189,6 +189,8 @@ def test_adjusted_flight_pair_by_pair_is_batch_adjust_to_the_bit(tmp_path, cli, 
     prefixes = [t["key"][0] if isinstance(t["key"], tuple) else t["key"] for t in ts.data]
     pair_tasks = [k for k in prefixes if str(k).startswith("_flight_pair-")]
     frame_tasks = [k for k in prefixes if str(k).startswith("_flight_write-")]
+    feature_tasks = [k for k in prefixes if str(k).startswith("_flight_features-")]
+    feature_pair_tasks = [k for k in prefixes if str(k).startswith("_flight_feature_match-")]
     assert [Path(w).name for w in written] == ["a.tif", "b.tif", "c.tif", "adjustment.json",
                                                "adjusted_poses.csv", "adjusted_poses.prj"]
     assert sorted(os.listdir(ours)) == sorted(os.listdir(theirs))  # no staging folder left
@@ -200,5 +202,7 @@ def test_adjusted_flight_pair_by_pair_is_batch_adjust_to_the_bit(tmp_path, cli, 
     assert without_seconds(mine) == without_seconds(cli_report)
     passes = mine["passes"]
     assert mine["adjustment"]["tie_points"] > 20 and len(mine["pairs"]) == 3
-    # Every round matched its three pairs in three tasks; every frame had its own task.
-    assert len(pair_tasks) == 3 * passes and len(frame_tasks) == 3
+    # The first round: features per frame, matches per pair, each its own task; every later
+    # round matched its three pairs in three tasks; every frame was written by its own task.
+    assert len(feature_tasks) == 3 and len(feature_pair_tasks) == 3
+    assert len(pair_tasks) == 3 * (passes - 1) and len(frame_tasks) == 3

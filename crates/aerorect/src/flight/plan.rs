@@ -43,9 +43,18 @@ impl FlightPlan {
     /// Reads every frame's metadata and plans it on the matching grid.
     pub fn new(inputs: &[PathBuf], opts: &DroneOptions, fo: &FlightOptions) -> Result<Self, Error> {
         let started = std::time::Instant::now();
+        // With `--geo`, its positions, heights and angles stand in for the photos' own here
+        // too: the flight's CRS and matching grid come from them.
         let metas: Vec<(PathBuf, PhotoMetadata)> = inputs
             .iter()
-            .map(|p| Ok((p.clone(), aerorect_io::read_photo_metadata(p)?)))
+            .map(|p| {
+                let own = aerorect_io::read_photo_metadata(p)?;
+                let file = p.display().to_string();
+                Ok((
+                    p.clone(),
+                    crate::photo_source::with_geo_record(&own, opts, &file)?,
+                ))
+            })
             .collect::<Result<_, Error>>()?;
         let (crs, world) = flight_crs(&metas, opts)?;
         let opts = DroneOptions {
