@@ -12,7 +12,8 @@ use aerorect_solve::pairs::candidate_pairs;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub enum TieSource {
     /// Features first (no attitude needed), then correlation of the rendered frames refines
-    /// in later rounds, the feature ties kept beside it.
+    /// in later rounds: where it ties a pair its matches replace the pair's features, which
+    /// hold the pairs it cannot tie.
     #[default]
     Both,
     /// Features only: one round (they do not depend on the orientation).
@@ -141,11 +142,15 @@ impl FlightPlan {
     /// Every frame's features and every candidate pair's matches (the first round's), in
     /// [`Self::feature_pairs`]' order.
     pub fn feature_matches(&self) -> Result<Vec<PairMatch>, Error> {
+        let pairs = self.feature_pairs()?;
+        if pairs.is_empty() {
+            return Ok(vec![]);
+        }
         let features: Vec<FrameFeatures> = (0..self.len())
             .into_par_iter()
             .map(|k| self.frame_features(k))
             .collect::<Result<_, _>>()?;
-        self.feature_pairs()?
+        pairs
             .par_iter()
             .map(|&(i, j)| self.feature_match((i, &features[i]), (j, &features[j])))
             .collect()
