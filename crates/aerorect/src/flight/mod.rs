@@ -1,9 +1,12 @@
-//! A flight made consistent from its own overlaps: each frame is first rectified from its
-//! metadata onto one coarse ground grid; overlapping frames are matched there by phase
+//! A flight made consistent from its own overlaps. The first round ties the photos by SIFT
+//! features (no attitude needed; a fundamental matrix and one loose homography verify each
+//! pair); the adjustment (`aerorect_solve::adjust`) corrects attitudes (and optionally
+//! positions) and the cameras. Later rounds rectify every frame with the last round's
+//! orientation onto one coarse ground grid and match overlapping frames there by phase
 //! correlation of patches (the ortho removes most of the perspective between look
-//! directions); RANSAC keeps the matches one homography explains; every match becomes a tie
-//! point (its frame pixels through each frame's own ortho map), and the joint adjustment
-//! (`aerorect_solve::adjust`) corrects attitudes (and optionally positions) and the cameras.
+//! directions); RANSAC keeps the matches one homography explains, each becomes a tie point
+//! (its frame pixels through each frame's own ortho map), and where correlation ties a pair
+//! its ties replace the pair's features.
 //!
 //! One file per stage: `frames` (the photos and their first orientation), `features` (the
 //! first round's tie points from SIFT features, which need no attitude), `correlate` (the
@@ -32,7 +35,6 @@ use correlate::*;
 use frames::*;
 use render::*;
 use solve::*;
-
 use ties::*;
 
 use crate::Error;
