@@ -383,8 +383,9 @@ pub struct FlightArgs {
     #[arg(long, requires = "adjust", default_value_t = 8)]
     pub adjust_passes: usize,
     /// With --adjust: where tie points come from: `both` (SIFT features first, which need no
-    /// attitude, then correlation of the rendered frames with the features kept), `features`
-    /// (one round) or `correlation` (the recorded attitudes must be within a few degrees).
+    /// attitude, then correlation of the rendered frames, whose ties replace a pair's features
+    /// where it ties the pair), `features` (one round) or `correlation` (the recorded
+    /// attitudes must be within a few degrees).
     #[arg(long, requires = "adjust", default_value = "both")]
     pub ties: String,
 }

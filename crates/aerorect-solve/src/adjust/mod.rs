@@ -173,8 +173,6 @@ pub struct AdjustReport {
 pub struct Adjusted {
     pub frames: Vec<AdjustFrame>,
     pub cameras: Vec<Camera>,
-    /// Every tie point's adjusted ground position, in the ties' order.
-    pub points: Vec<[f64; 3]>,
     pub report: AdjustReport,
 }
 
@@ -213,7 +211,7 @@ pub fn adjust(
         huber: opts.huber,
     };
     let start: Vec<Vec3> = ties.iter().map(|t| Vec3::from(t.ground)).collect();
-    let mut s = State {
+    let s = State {
         frames: vec![FrameBlock::default(); frames.len()],
         cameras: vec![CameraBlock::default(); cameras.len()],
         points: start.clone(),
@@ -225,7 +223,12 @@ pub fn adjust(
     // Frames far from their ties (hundreds of pixels, an attitude recorded degrees off) put
     // every residual in Huber's linear arm, where the steps crawl: the threshold starts wide
     // enough to hold the typical residual and narrows fourfold per stage to its own.
-    let mut out = None;
+    // Each stage starts where the last ended; the report is the last stage's.
+    let mut out = crate::lm::Outcome {
+        state: s,
+        iterations: 0,
+        termination: Termination::MaxIterations,
+    };
     for huber in huber_stages(opts.huber, before.1 / opts.pixel_sigma) {
         p.huber = huber;
         let mut solver = solve::Solver {
@@ -233,16 +236,11 @@ pub fn adjust(
             start: start.clone(),
             linear: None,
         };
-        let o = crate::lm::minimise(&mut solver, s, opts.max_iterations, opts.tolerances);
-        if o.termination == Termination::Failed {
+        out = crate::lm::minimise(&mut solver, out.state, opts.max_iterations, opts.tolerances);
+        if out.termination == Termination::Failed {
             return Err(SolveError::Degenerate);
         }
-        s = o.state.clone();
-        out = Some(o);
     }
-    let Some(out) = out else {
-        return Err(SolveError::Degenerate);
-    };
     let fit = report::Fit {
         before,
         after: p.rms(&out.state),

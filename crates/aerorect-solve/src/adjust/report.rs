@@ -143,7 +143,6 @@ pub(super) fn finish(p: &Problem<'_>, s: &State, fit: Fit) -> Adjusted {
     };
     Adjusted {
         frames,
-        points: s.points.iter().map(|x| [x.x, x.y, x.z]).collect(),
         cameras: (0..p.cameras.len())
             .map(|c| adjusted_camera(p, s, c))
             .collect(),

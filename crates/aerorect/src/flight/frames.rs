@@ -36,6 +36,17 @@ pub(super) fn flight_crs(
     Ok((Crs::Epsg(epsg), p))
 }
 
+/// How frames are rendered on the matching grid: bilinear, prefiltered, NaN where no data.
+pub(super) fn matching_warp() -> WarpOptions {
+    WarpOptions {
+        interp: Interp::Bilinear,
+        nodata: f64::NAN,
+        alpha: false,
+        prefilter: true,
+        ..WarpOptions::default()
+    }
+}
+
 /// Plans a frame on the matching grid with its recorded orientation.
 pub(super) fn plan_frame(
     input: &Path,
@@ -48,13 +59,7 @@ pub(super) fn plan_frame(
     let size = aerorect_io::read_image(input)?.size();
     let coarse_opts = DroneOptions {
         gsd_m: Some(gsd),
-        warp: WarpOptions {
-            interp: Interp::Bilinear,
-            nodata: f64::NAN,
-            alpha: false,
-            prefilter: true,
-            ..WarpOptions::default()
-        },
+        warp: matching_warp(),
         limits: aerorect_core::RectifyLimits { max_output_px },
         occlusion: false,
         ..opts.clone()

@@ -252,25 +252,23 @@ pub fn adjust_flight(
 ) -> Result<AdjustedFlight, Error> {
     fo.validate()?;
     let plan = FlightPlan::new(inputs, opts, fo)?;
+    let render_all = |o: Option<&Orientation>| -> Result<Vec<Rendered>, Error> {
+        (0..plan.len())
+            .into_par_iter()
+            .map(|k| plan.render(k, o))
+            .collect()
+    };
     let features = plan.first_round_matches()?;
     let mut progress = FlightProgress::default();
     if !features.is_empty() {
         let round = plan.adjust_round(&mut progress, features.clone())?;
         if progress.done {
-            let o = progress.orientation.as_ref();
-            let rendered: Vec<Rendered> = (0..plan.len())
-                .into_par_iter()
-                .map(|k| plan.render(k, o))
-                .collect::<Result<_, Error>>()?;
+            let rendered = render_all(progress.orientation.as_ref())?;
             return Ok(plan.finish(progress, round, rendered));
         }
     }
     loop {
-        let o = progress.orientation.as_ref();
-        let rendered: Vec<Rendered> = (0..plan.len())
-            .into_par_iter()
-            .map(|k| plan.render(k, o))
-            .collect::<Result<_, Error>>()?;
+        let rendered = render_all(progress.orientation.as_ref())?;
         let grids: Vec<OrthoGrid> = rendered.iter().map(|r| r.coarse_plan.grid).collect();
         let mut matched: Vec<PairMatch> = overlapping(&grids)
             .par_iter()

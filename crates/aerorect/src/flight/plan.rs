@@ -117,14 +117,8 @@ impl FlightPlan {
             },
             occlusion: false,
         };
-        let warp = WarpOptions {
-            interp: Interp::Bilinear,
-            nodata: f64::NAN,
-            alpha: false,
-            prefilter: true,
-            ..WarpOptions::default()
-        };
-        plan_ortho(&req, warp).map_err(|e| Error::Invalid(format!("{}: {e}", f.input.display())))
+        plan_ortho(&req, matching_warp())
+            .map_err(|e| Error::Invalid(format!("{}: {e}", f.input.display())))
     }
 
     /// Frame `k`'s gray ortho on the matching grid.
@@ -208,15 +202,16 @@ impl FlightPlan {
         let name = |k: usize| self.frames.get(k).map(|f| f.input.display().to_string());
         // Where correlation ties a pair, its matches (sub-pixel, on frames that now
         // coincide) replace the pair's features; elsewhere the features hold it.
+        let key = |m: &PairMatch| (m.a.min(m.b), m.a.max(m.b));
         let correlated: std::collections::BTreeSet<(usize, usize)> = matched
             .iter()
             .filter(|m| !m.features && m.reliable())
-            .map(|m| (m.a.min(m.b), m.a.max(m.b)))
+            .map(key)
             .collect();
         let mut pairs = Vec::with_capacity(matched.len());
         for m in matched
             .into_iter()
-            .filter(|m| !(m.features && correlated.contains(&(m.a.min(m.b), m.a.max(m.b)))))
+            .filter(|m| !(m.features && correlated.contains(&key(m))))
         {
             let (Some(a), Some(b)) = (name(m.a), name(m.b)) else {
                 return Err(Error::Invalid(format!(
