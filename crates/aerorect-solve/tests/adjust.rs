@@ -137,6 +137,7 @@ fn ties_that_name_no_frame_are_refused() {
             pixel: [1.0, 1.0],
             weight: 1.0,
         }],
+        control: None,
     };
     let f = AdjustFrame {
         camera: 0,
@@ -253,6 +254,7 @@ fn hover(seed: u64) -> aerorect_testkit::flight::Flight {
             ties.push(TiePoint {
                 ground: [g.x + 3.0, g.y - 2.0, 0.0],
                 observations,
+                control: None,
             });
         }
     }

@@ -106,6 +106,7 @@ pub fn flight(
             ties.push(TiePoint {
                 ground: [c.x, c.y, c.z],
                 observations,
+                control: None,
             });
         }
     }
@@ -114,4 +115,28 @@ pub fn flight(
         recorded,
         ties,
     }
+}
+
+/// The observations of ground point `g` in every `truth` frame that sees it (camera
+/// `camera(800.0)`), each pixel with Gaussian noise of `sigma_px`.
+pub fn marks(
+    truth: &[AdjustFrame],
+    g: Vec3,
+    sigma_px: f64,
+    rng: &mut ChaCha8Rng,
+) -> Vec<Observation> {
+    let cam = camera(800.0);
+    let pix = Normal::new(0.0, sigma_px).expect("valid");
+    truth
+        .iter()
+        .enumerate()
+        .filter_map(|(k, f)| {
+            let p = project(&cam, f, g)?;
+            Some(Observation {
+                frame: k,
+                pixel: [p[0] + pix.sample(rng), p[1] + pix.sample(rng)],
+                weight: 1.0,
+            })
+        })
+        .collect()
 }

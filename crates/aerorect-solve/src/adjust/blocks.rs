@@ -1,6 +1,7 @@
 //! The adjustment's named parameter blocks: a frame's rotation and position corrections, a
-//! camera's focal scale, principal point shift, radial terms and boresight, and where each
-//! free one sits in the reduced system (frames and cameras; the tie points are eliminated).
+//! camera's focal scale, principal point shift, radial terms and boresight, the datum of the
+//! GPS positions against ground control, and where each free one sits in the reduced system
+//! (frames, cameras and datum; the tie points are eliminated).
 //! A parameter that is held (not refined, or held for a gauge freedom) has no index: it
 //! stays at zero. Nothing outside this file does offset arithmetic into a parameter vector.
 
@@ -45,6 +46,52 @@ pub(super) const CAMERA_PARAMS: [CameraParam; 8] = [
     CameraParam::Boresight(1),
     CameraParam::Boresight(2),
 ];
+
+/// A datum parameter: what the GPS positions' frame is off from the ground control's by, as
+/// a shift (m), a small rotation (rotation vector, radians) and a scale about the frames'
+/// centroid. Only solved with ground control (see [`super::Datum`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum DatumParam {
+    Shift(usize),
+    Rotation(usize),
+    Scale,
+}
+
+/// The datum's parameters in order.
+pub(super) const DATUM_PARAMS: [DatumParam; 7] = [
+    DatumParam::Shift(0),
+    DatumParam::Shift(1),
+    DatumParam::Shift(2),
+    DatumParam::Rotation(0),
+    DatumParam::Rotation(1),
+    DatumParam::Rotation(2),
+    DatumParam::Scale,
+];
+
+/// The datum's values.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct DatumBlock {
+    pub shift: Vec3,
+    pub rotation: Vec3,
+    pub scale: f64,
+}
+
+impl DatumBlock {
+    pub fn get(&self, p: DatumParam) -> f64 {
+        match p {
+            DatumParam::Shift(k) => self.shift[k],
+            DatumParam::Rotation(k) => self.rotation[k],
+            DatumParam::Scale => self.scale,
+        }
+    }
+    pub fn get_mut(&mut self, p: DatumParam) -> &mut f64 {
+        match p {
+            DatumParam::Shift(k) => &mut self.shift[k],
+            DatumParam::Rotation(k) => &mut self.rotation[k],
+            DatumParam::Scale => &mut self.scale,
+        }
+    }
+}
 
 /// One frame's corrections.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -101,6 +148,7 @@ impl CameraBlock {
 pub(super) struct State {
     pub frames: Vec<FrameBlock>,
     pub cameras: Vec<CameraBlock>,
+    pub datum: DatumBlock,
     pub points: Vec<Vec3>,
 }
 
@@ -112,16 +160,19 @@ pub(super) const LOCAL: usize = 14;
 pub(super) struct Layout {
     frames: Vec<[Option<usize>; 6]>,
     cameras: Vec<[Option<usize>; 8]>,
+    datum: [Option<usize>; 7],
     len: usize,
 }
 
 impl Layout {
-    /// `frame_free(f, p)` and `camera_free(c, p)` say which parameters are solved for.
+    /// `frame_free(f, p)`, `camera_free(c, p)` and `datum_free(p)` say which parameters are
+    /// solved for.
     pub fn new(
         frames: usize,
         cameras: usize,
         frame_free: impl Fn(usize, FrameParam) -> bool,
         camera_free: impl Fn(usize, CameraParam) -> bool,
+        datum_free: impl Fn(DatumParam) -> bool,
     ) -> Self {
         let mut len = 0;
         let mut next = |free: bool| {
@@ -136,9 +187,11 @@ impl Layout {
         let cameras = (0..cameras)
             .map(|c| CAMERA_PARAMS.map(|p| next(camera_free(c, p))))
             .collect();
+        let datum = DATUM_PARAMS.map(|p| next(datum_free(p)));
         Self {
             frames,
             cameras,
+            datum,
             len,
         }
     }
@@ -149,19 +202,28 @@ impl Layout {
     }
 
     #[cfg(test)]
-    pub fn frame(&self, f: usize, p: FrameParam) -> Option<usize> {
+    pub fn camera(&self, c: usize, p: CameraParam) -> Option<usize> {
+        CAMERA_PARAMS
+            .iter()
+            .position(|q| *q == p)
+            .and_then(|k| self.cameras[c][k])
+    }
+
+    /// The reduced-system index of a frame parameter (none when it is held).
+    #[cfg(test)]
+    pub fn frame_index(&self, f: usize, p: FrameParam) -> Option<usize> {
         FRAME_PARAMS
             .iter()
             .position(|q| *q == p)
             .and_then(|k| self.frames[f][k])
     }
 
-    #[cfg(test)]
-    pub fn camera(&self, c: usize, p: CameraParam) -> Option<usize> {
-        CAMERA_PARAMS
+    /// The reduced-system index of a datum parameter (none when it is held).
+    pub fn datum(&self, p: DatumParam) -> Option<usize> {
+        DATUM_PARAMS
             .iter()
             .position(|q| *q == p)
-            .and_then(|k| self.cameras[c][k])
+            .and_then(|k| self.datum[k])
     }
 
     /// The reduced-system index of each column of an observation's Jacobian in frame `f` of
@@ -185,7 +247,12 @@ impl Layout {
                 .zip(CAMERA_PARAMS)
                 .filter_map(move |(i, p)| Some((((*i)?), Param::Camera(c, p))))
         });
-        frames.chain(cameras)
+        let datum = self
+            .datum
+            .iter()
+            .zip(DATUM_PARAMS)
+            .filter_map(|(i, p)| Some(((*i)?, Param::Datum(p))));
+        frames.chain(cameras).chain(datum)
     }
 
     /// The free parameters' values in `s`, in index order.
@@ -207,11 +274,12 @@ impl Layout {
     }
 }
 
-/// A parameter by name: frame or camera, with its index.
+/// A parameter by name: frame or camera (with its index), or the datum's.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Param {
     Frame(usize, FrameParam),
     Camera(usize, CameraParam),
+    Datum(DatumParam),
 }
 
 impl Param {
@@ -219,12 +287,14 @@ impl Param {
         match self {
             Param::Frame(f, p) => s.frames[f].get(p),
             Param::Camera(c, p) => s.cameras[c].get(p),
+            Param::Datum(p) => s.datum.get(p),
         }
     }
     pub fn value_mut(self, s: &mut State) -> &mut f64 {
         match self {
             Param::Frame(f, p) => s.frames[f].get_mut(p),
             Param::Camera(c, p) => s.cameras[c].get_mut(p),
+            Param::Datum(p) => s.datum.get_mut(p),
         }
     }
 }
@@ -240,10 +310,13 @@ mod tests {
             1,
             |f, p| f == 1 || matches!(p, FrameParam::Rotation(_)),
             |_, p| p == CameraParam::FocalScale,
+            |p| p == DatumParam::Scale,
         );
-        assert_eq!(l.len(), 3 + 6 + 1);
-        assert_eq!(l.frame(0, FrameParam::Position(0)), None);
-        assert_eq!(l.frame(1, FrameParam::Position(2)), Some(8));
+        assert_eq!(l.len(), 3 + 6 + 1 + 1);
+        assert_eq!(l.frame_index(0, FrameParam::Position(0)), None);
+        assert_eq!(l.frame_index(1, FrameParam::Position(2)), Some(8));
+        assert_eq!(l.datum(DatumParam::Scale), Some(10));
+        assert_eq!(l.datum(DatumParam::Shift(0)), None);
         assert_eq!(l.camera(0, CameraParam::FocalScale), Some(9));
         let mut seen: Vec<usize> = l.free().map(|(i, _)| i).collect();
         seen.sort_unstable();
@@ -251,6 +324,7 @@ mod tests {
         let s = State {
             frames: vec![FrameBlock::default(); 2],
             cameras: vec![CameraBlock::default()],
+            datum: DatumBlock::default(),
             points: vec![],
         };
         let dx: Vec<f64> = (0..l.len()).map(|i| i as f64 + 1.0).collect();
@@ -258,6 +332,7 @@ mod tests {
         assert_eq!(m.frames[1].position[2], 9.0);
         assert_eq!(m.frames[0].position, Vec3::zeros());
         assert_eq!(m.cameras[0].focal_scale, 10.0);
+        assert_eq!(m.datum.scale, 11.0);
         assert_eq!(l.values(&m), dx);
     }
 }

@@ -3,7 +3,9 @@
 //! frames, with priors on the recorded attitude and position and a robust (Huber) loss.
 //!
 //! Tie points' ground positions are unknowns too; with a terrain they are held near it by a
-//! height observation. They are eliminated block by block (Schur complement), and the reduced
+//! height observation. Ground control points are tie points held to their surveyed position
+//! instead (one image mark is enough), and with them the datum of the recorded positions (a
+//! common shift, or a similarity) is solved rather than spread into the attitudes. They are eliminated block by block (Schur complement), and the reduced
 //! system over frames and cameras, sparse because frames only meet their neighbours, is solved
 //! with faer's sparse Cholesky: it scales to thousands of frames.
 //!
@@ -16,7 +18,7 @@
 //!
 //! Files: `blocks` (the named parameter blocks and their indices), `residuals` (the model and
 //! the cost), `jacobian` (analytic derivatives; `oracle` checks them against central
-//! differences), `solve` (normal equations, Schur complement, the loop's steps), `gauge`
+//! differences), `points` (ground points through the adjusted frames), `solve` (normal equations, Schur complement, the loop's steps), `gauge`
 //! (freedoms the ties cannot see), `report` (statistics and the adjusted frames).
 //! The loop is the crate's one Levenberg-Marquardt ([`crate::lm`]), stopped by Ceres's
 //! tolerances ([`AdjustOptions::tolerances`]).
@@ -26,6 +28,7 @@ mod gauge;
 mod jacobian;
 #[cfg(test)]
 mod oracle;
+mod points;
 mod report;
 mod residuals;
 mod solve;
@@ -36,7 +39,7 @@ pub use residuals::radial_refinable;
 
 use crate::SolveError;
 use aerorect_core::{Camera, Mat3, Vec3};
-use blocks::{CameraBlock, FrameBlock, FrameParam, Layout, State};
+use blocks::{CameraBlock, DatumBlock, DatumParam, FrameBlock, FrameParam, Layout, State};
 use residuals::Problem;
 use serde::Serialize;
 
@@ -63,11 +66,37 @@ pub struct Observation {
     pub weight: f64,
 }
 
-/// A point seen in two or more frames, with a first guess of its ground position.
+/// A point seen in two or more frames (one or more for ground control), with a first guess
+/// of its ground position.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TiePoint {
     pub ground: [f64; 3],
     pub observations: Vec<Observation>,
+    /// The surveyed position of a ground control point; `None` for a tie point.
+    pub control: Option<Control>,
+}
+
+/// A ground control point's surveyed position and its standard deviation per world axis (m).
+/// It holds the point instead of the terrain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Control {
+    pub ground: [f64; 3],
+    pub sigma_m: [f64; 3],
+}
+
+/// How the frame of the recorded positions may differ from the ground control's: with ground
+/// control, consumer GPS shares an offset of metres across a block, which must be solved, not
+/// spread into the attitudes. Only used when positions are adjusted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub enum Datum {
+    /// The recorded positions are in the control's frame.
+    #[default]
+    Recorded,
+    /// A common shift of every recorded position.
+    Shift,
+    /// A similarity: shift, a small rotation and a scale about the frames' centroid (three
+    /// or more control points).
+    Similarity,
 }
 
 /// The terrain's height at (x, y) of the world frame.
@@ -98,6 +127,8 @@ pub struct AdjustOptions<'a> {
     pub max_iterations: usize,
     /// The stops on the cost's relative decrease, the gradient and the step (Ceres's).
     pub tolerances: Tolerances,
+    /// What is solved between the recorded positions' frame and the control's.
+    pub datum: Datum,
 }
 
 impl Default for AdjustOptions<'_> {
@@ -114,6 +145,7 @@ impl Default for AdjustOptions<'_> {
             terrain: None,
             max_iterations: 50,
             tolerances: Tolerances::default(),
+            datum: Datum::Recorded,
         }
     }
 }
@@ -163,9 +195,26 @@ pub struct AdjustReport {
     pub termination: Termination,
     /// Gauge freedoms found and held before solving.
     pub gauge: Vec<GaugeHold>,
+    /// The datum solved between the recorded positions and the ground control.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub datum: Option<DatumAdjustment>,
     pub rms_before_px: f64,
     pub rms_after_px: f64,
     pub seconds: f64,
+}
+
+/// The datum between the recorded positions' frame and the ground control's: a recorded
+/// position `c` belongs at `c + shift + rotation x (c - centroid) + scale (c - centroid)`.
+#[derive(Debug, Clone, Serialize)]
+pub struct DatumAdjustment {
+    pub model: Datum,
+    pub centroid: [f64; 3],
+    pub shift_m: [f64; 3],
+    pub shift_sigma_m: [f64; 3],
+    pub rotation_deg: [f64; 3],
+    pub rotation_sigma_deg: [f64; 3],
+    pub scale_ppm: f64,
+    pub scale_sigma_ppm: f64,
 }
 
 /// The adjusted orientation of every frame and camera.
@@ -196,12 +245,25 @@ pub fn adjust(
             positions_free[f] = false;
         }
     }
+    let datum = if positions_free.iter().any(|&f| f) {
+        opts.datum
+    } else {
+        Datum::Recorded
+    };
     let layout = Layout::new(
         frames.len(),
         cameras.len(),
         |f, p| matches!(p, FrameParam::Rotation(_)) || positions_free[f],
         |c, p| Problem::camera_free(opts, &cameras[c], p),
+        |p| match (datum, p) {
+            (Datum::Recorded, _) => false,
+            (Datum::Shift, DatumParam::Shift(_)) => true,
+            (Datum::Shift, _) => false,
+            (Datum::Similarity, _) => true,
+        },
     );
+    let centroid =
+        frames.iter().map(|f| Vec3::from(f.centre)).sum::<Vec3>() / frames.len().max(1) as f64;
     let mut p = Problem {
         frames,
         cameras,
@@ -209,11 +271,13 @@ pub fn adjust(
         layout,
         opts,
         huber: opts.huber,
+        centroid,
     };
     let start: Vec<Vec3> = ties.iter().map(|t| Vec3::from(t.ground)).collect();
     let s = State {
         frames: vec![FrameBlock::default(); frames.len()],
         cameras: vec![CameraBlock::default(); cameras.len()],
+        datum: DatumBlock::default(),
         points: start.clone(),
     };
     let before = p.rms(&s);
@@ -275,7 +339,13 @@ fn check_input(
         return Err(SolveError::Degenerate);
     }
     for (index, t) in ties.iter().enumerate() {
-        let bad = t.observations.len() < 2
+        let control_ok = t.control.is_none_or(|c| {
+            c.ground.iter().all(|v| v.is_finite())
+                && c.sigma_m.iter().all(|s| s.is_finite() && *s > 0.0)
+        });
+        let fewest = if t.control.is_some() { 1 } else { 2 };
+        let bad = t.observations.len() < fewest
+            || !control_ok
             || t.observations.iter().any(|o| {
                 o.frame >= frames.len()
                     || o.weight.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)

@@ -1,10 +1,11 @@
 //! The adjustment's statistics and its adjusted frames and cameras.
 
-use super::blocks::{CameraParam, FrameParam, Param, State};
+use super::blocks::{CameraParam, DatumParam, FrameParam, Param, State};
 use super::residuals::{Problem, world_from_camera};
 use super::solve::factor;
 use super::{
-    AdjustFrame, AdjustReport, Adjusted, CameraAdjustment, FrameAdjustment, GaugeHold, Termination,
+    AdjustFrame, AdjustReport, Adjusted, CameraAdjustment, Datum, DatumAdjustment, FrameAdjustment,
+    GaugeHold, Termination,
 };
 use faer::linalg::solvers::Solve;
 
@@ -86,6 +87,27 @@ fn camera_report(s: &State, fit: &Fit, c: usize) -> CameraAdjustment {
     }
 }
 
+fn datum_report(p: &Problem<'_>, s: &State, fit: &Fit) -> Option<DatumAdjustment> {
+    let free = |q| p.layout.datum(q).is_some();
+    let model = match (free(DatumParam::Shift(0)), free(DatumParam::Scale)) {
+        (false, _) => return None,
+        (true, false) => Datum::Shift,
+        (true, true) => Datum::Similarity,
+    };
+    let sd = |q| sigma_of(fit, Param::Datum(q));
+    let d = &s.datum;
+    Some(DatumAdjustment {
+        model,
+        centroid: p.centroid.into(),
+        shift_m: d.shift.into(),
+        shift_sigma_m: [0, 1, 2].map(|k| sd(DatumParam::Shift(k))),
+        rotation_deg: d.rotation.map(f64::to_degrees).into(),
+        rotation_sigma_deg: [0, 1, 2].map(|k| sd(DatumParam::Rotation(k)).to_degrees()),
+        scale_ppm: d.scale * 1e6,
+        scale_sigma_ppm: sd(DatumParam::Scale) * 1e6,
+    })
+}
+
 /// The adjusted camera `c`.
 fn adjusted_camera(p: &Problem<'_>, s: &State, c: usize) -> aerorect_core::Camera {
     use aerorect_core::distortion::{Distortion, OpenCv};
@@ -139,6 +161,7 @@ pub(super) fn finish(p: &Problem<'_>, s: &State, fit: Fit) -> Adjusted {
         rms_before_px: fit.before.1,
         rms_after_px: fit.after.1,
         seconds: fit.t0.elapsed().as_secs_f64(),
+        datum: datum_report(p, s, &fit),
         gauge: fit.gauge,
     };
     Adjusted {

@@ -1,7 +1,9 @@
 //! The adjustment's model: a tie point's pixel in a frame for the blocks' values, the robust
 //! (Huber) cost with the priors and the terrain, and the residual statistics.
 
-use super::blocks::{CameraBlock, CameraParam, FrameBlock, FrameParam, Layout, State};
+use super::blocks::{
+    CameraBlock, CameraParam, DatumBlock, DatumParam, FrameBlock, FrameParam, Layout, Param, State,
+};
 use super::{AdjustFrame, AdjustOptions, Observation, TiePoint};
 use aerorect_core::{Camera, Mat3, Vec3};
 use nalgebra::{Rotation3, SVector};
@@ -73,6 +75,32 @@ pub(super) struct Problem<'a> {
     /// The Huber threshold of this stage (sigma units): [`AdjustOptions::huber`] at the end,
     /// wider while the frames are far from the ties (see `adjust`).
     pub huber: f64,
+    /// The recorded centres' centroid: the datum rotates and scales about it.
+    pub centroid: Vec3,
+}
+
+/// One prior as a whitened linear row: its residual and its derivative by each free
+/// parameter it involves (reduced-system index, derivative).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct PriorRow {
+    pub r: f64,
+    pub terms: Vec<(usize, f64)>,
+}
+
+/// The datum's weak priors: a shift of a kilometre, a degree, one percent of scale. Ground
+/// control decides it; the priors only keep a datum control cannot see from drifting.
+pub(super) fn datum_sigma(p: DatumParam) -> f64 {
+    match p {
+        DatumParam::Shift(_) => 1000.0,
+        DatumParam::Rotation(_) => 1f64.to_radians(),
+        DatumParam::Scale => 0.01,
+    }
+}
+
+/// The position offset the datum gives a frame recorded `d` from the centroid:
+/// `shift + rotation x d + scale d`.
+pub(super) fn datum_offset(datum: &DatumBlock, d: &Vec3) -> Vec3 {
+    datum.shift + datum.rotation.cross(d) + d * datum.scale
 }
 
 impl Problem<'_> {
@@ -98,18 +126,28 @@ impl Problem<'_> {
 
     /// Robust cost of the whole problem (priors included); `None` if a point leaves a view.
     pub fn cost(&self, s: &State) -> Option<f64> {
-        let mut c = self.prior_cost(s);
+        let mut c: f64 = self.prior_rows(s).iter().map(|row| row.r * row.r).sum();
         for (tie, x) in self.ties.iter().zip(&s.points) {
             for o in &tie.observations {
                 let r = self.residual(s, o, x)?;
                 let (n, k) = (r.norm(), self.huber);
                 c += o.weight * if n <= k { n * n } else { 2.0 * k * n - k * k };
             }
-            if let Some((h, sigma)) = self.opts.terrain {
-                c += ((x.z - h(x.x, x.y)) / sigma).powi(2);
-            }
+            c += self.point_prior(tie, x).norm_squared();
         }
         Some(c)
+    }
+
+    /// A tie point's whitened ground residual: against its surveyed position for ground
+    /// control, else its height against the terrain (zero where there is none).
+    pub fn point_prior(&self, tie: &TiePoint, x: &Vec3) -> Vec3 {
+        if let Some(c) = &tie.control {
+            return Vec3::from_fn(|k, _| (x[k] - c.ground[k]) / c.sigma_m[k]);
+        }
+        match self.opts.terrain {
+            Some((h, sigma)) => Vec3::new(0.0, 0.0, (x.z - h(x.x, x.y)) / sigma),
+            None => Vec3::zeros(),
+        }
     }
 
     /// Whether camera `c`'s parameter `p` is solved for.
@@ -146,19 +184,56 @@ impl Problem<'_> {
         }
     }
 
-    /// Each free parameter's prior: (index, value, sigma).
-    pub fn priors<'s>(&'s self, s: &'s State) -> impl Iterator<Item = (usize, f64, f64)> + 's {
-        self.layout.free().map(move |(i, p)| {
-            let sigma = match p {
-                super::blocks::Param::Frame(f, q) => self.frame_sigma(f, q),
-                super::blocks::Param::Camera(_, q) => Self::camera_sigma(q),
-            };
-            (i, p.value(s), sigma)
-        })
+    /// Whether the datum is solved (then the position priors are relative to it).
+    fn datum_free(&self) -> bool {
+        self.layout.datum(DatumParam::Shift(0)).is_some()
     }
 
-    fn prior_cost(&self, s: &State) -> f64 {
-        self.priors(s).map(|(_, v, sig)| (v / sig).powi(2)).sum()
+    /// Every free parameter's prior as a whitened row: each parameter held near zero, except
+    /// a frame's position correction, which with a datum is held near the datum's offset for
+    /// that frame.
+    pub fn prior_rows(&self, s: &State) -> Vec<PriorRow> {
+        let datum = self.datum_free();
+        self.layout
+            .free()
+            .map(|(i, p)| match p {
+                Param::Frame(f, FrameParam::Position(k)) if datum => self.position_row(s, f, k, i),
+                Param::Frame(f, q) => Self::row(i, p.value(s), self.frame_sigma(f, q)),
+                Param::Camera(_, q) => Self::row(i, p.value(s), Self::camera_sigma(q)),
+                Param::Datum(q) => Self::row(i, p.value(s), datum_sigma(q)),
+            })
+            .collect()
+    }
+
+    fn row(i: usize, v: f64, sigma: f64) -> PriorRow {
+        PriorRow {
+            r: v / sigma,
+            terms: vec![(i, 1.0 / sigma)],
+        }
+    }
+
+    /// Frame `f`'s position prior on axis `k` (index `i`) against the datum's offset.
+    fn position_row(&self, s: &State, f: usize, k: usize, i: usize) -> PriorRow {
+        let sigma = self.frame_sigma(f, FrameParam::Position(k));
+        let d = Vec3::from(self.frames[f].centre) - self.centroid;
+        let offset = datum_offset(&s.datum, &d);
+        let mut terms = vec![(i, 1.0 / sigma)];
+        // d offset_k / d shift_k = 1; d (w x d)_k / d w_j = -[d]x_kj; d offset_k / d scale = d_k.
+        let cross = d.cross_matrix();
+        let mut add = |q: DatumParam, v: f64| {
+            if let Some(j) = self.layout.datum(q) {
+                terms.push((j, -v / sigma));
+            }
+        };
+        add(DatumParam::Shift(k), 1.0);
+        for j in 0..3 {
+            add(DatumParam::Rotation(j), -cross[(k, j)]);
+        }
+        add(DatumParam::Scale, d[k]);
+        PriorRow {
+            r: (s.frames[f].position[k] - offset[k]) / sigma,
+            terms,
+        }
     }
 
     /// Root mean square of the observations' pixel residuals per frame (with the count and

@@ -87,7 +87,12 @@ impl Problem<'_> {
                 }
             }
         }
-        if let Some((h, sigma)) = self.opts.terrain {
+        if let Some(c) = &tie.control {
+            // (x - surveyed) / sigma, axis by axis.
+            let j = Matrix3::from_diagonal(&Vec3::from(c.sigma_m.map(|s| 1.0 / s)));
+            hpp += j.transpose() * j;
+            bp -= j.transpose() * self.point_prior(tie, x);
+        } else if let Some((h, sigma)) = self.opts.terrain {
             // d/dx of (z - h(x, y)) / sigma (the terrain by central differences).
             let e = 1e-2;
             let gx = (h(x.x + e, x.y) - h(x.x - e, x.y)) / (2.0 * e);
@@ -115,10 +120,13 @@ impl Problem<'_> {
             let p = self.point_lin(s, tie, x, &mut lin)?;
             lin.points.push(p);
         }
-        for (i, v, sigma) in self.priors(s) {
-            let w = 1.0 / (sigma * sigma);
-            *lin.entries.entry((i, i)).or_insert(0.0) += w;
-            lin.rhs[i] -= w * v;
+        for row in self.prior_rows(s) {
+            for &(i, a) in &row.terms {
+                lin.rhs[i] -= a * row.r;
+                for &(j, b) in &row.terms {
+                    *lin.entries.entry((i, j)).or_insert(0.0) += a * b;
+                }
+            }
         }
         Some(lin)
     }

@@ -54,6 +54,7 @@ impl PairTie {
         TiePoint {
             ground: self.ground,
             observations: vec![obs(a, self.pixel_a), obs(b, self.pixel_b)],
+            control: None,
         }
     }
 }

@@ -1,0 +1,231 @@
+//! Ground control in the adjustment, on a simulated flight with known truth: 100 frames over
+//! hills, GPS off by a common 3 m plus 1 m of noise per axis, attitudes off 1 degree per axis,
+//! tie points at 0.3 px noise; five ground control points marked at 0.5 px noise and ten check
+//! points kept out of the solve. The check points' positions, intersected from their marks
+//! through the adjusted frames, are compared with their surveyed ones.
+#![allow(clippy::unwrap_used)]
+
+use aerorect_core::Vec3;
+use aerorect_solve::adjust::{
+    AdjustFrame, AdjustOptions, Adjusted, Control, Datum, Observation, TiePoint, adjust,
+};
+use aerorect_testkit::flight::{camera, flight, marks};
+use nalgebra::Rotation3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+fn hills(x: f64, y: f64) -> f64 {
+    25.0 + 20.0 * (x / 140.0).sin() * (y / 120.0).cos() + 6.0 * (x / 47.0 + y / 61.0).sin()
+}
+
+/// The common GPS offset of the block (3 m).
+const GPS_OFFSET: [f64; 3] = [2.0, -2.0, 1.0];
+
+/// Frames of a 10 x 10 block with their recorded positions off, and the surveyed points with
+/// their marks: (ground control, check points).
+struct Scene {
+    truth: Vec<AdjustFrame>,
+    recorded: Vec<AdjustFrame>,
+    ties: Vec<TiePoint>,
+    gcps: Vec<(Vec3, Vec<Observation>)>,
+    checks: Vec<(Vec3, Vec<Observation>)>,
+}
+
+fn scene(seed: u64) -> Scene {
+    let fl = flight(10, 10, 1.0, &hills, seed);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed + 100);
+    let gps = Normal::new(0.0, 1.0).unwrap();
+    let mut recorded = fl.recorded.clone();
+    for f in &mut recorded {
+        for k in 0..3 {
+            f.centre[k] += GPS_OFFSET[k] + gps.sample(&mut rng);
+        }
+    }
+    let point = |x: f64, y: f64, rng: &mut ChaCha8Rng| {
+        let g = Vec3::new(x, y, hills(x, y));
+        (g, marks(&fl.truth, g, 0.5, rng))
+    };
+    // The block spans 0..450 m by 0..360 m: control at the corners and the centre.
+    let gcps = [
+        (20.0, 20.0),
+        (430.0, 20.0),
+        (20.0, 340.0),
+        (430.0, 340.0),
+        (225.0, 180.0),
+    ]
+    .map(|(x, y)| point(x, y, &mut rng))
+    .to_vec();
+    // Check points anywhere inside the block, each seen in three frames or more.
+    let mut checks = Vec::new();
+    while checks.len() < 10 {
+        let (x, y) = (rng.random_range(40.0..410.0), rng.random_range(40.0..320.0));
+        let p = point(x, y, &mut rng);
+        if p.1.len() >= 3 {
+            checks.push(p);
+        }
+    }
+    Scene {
+        truth: fl.truth,
+        recorded,
+        ties: fl.ties,
+        gcps,
+        checks,
+    }
+}
+
+/// The control points as the adjustment takes them: marks at 1 px (the default), surveyed
+/// at 2 cm horizontally and 5 cm vertically.
+fn control(gcps: &[(Vec3, Vec<Observation>)]) -> Vec<TiePoint> {
+    gcps.iter()
+        .map(|(g, obs)| TiePoint {
+            ground: [g.x, g.y, g.z],
+            observations: obs
+                .iter()
+                .map(|o| Observation { weight: 0.25, ..*o })
+                .collect(),
+            control: Some(Control {
+                ground: [g.x, g.y, g.z],
+                sigma_m: [0.02, 0.02, 0.05],
+            }),
+        })
+        .collect()
+}
+
+/// The check points' root mean square errors (XY, Z) in metres, each intersected from its
+/// marks through `frames`.
+fn check_rmse(frames: &Adjusted, checks: &[(Vec3, Vec<Observation>)]) -> (f64, f64) {
+    let (mut xy, mut z) = (0.0, 0.0);
+    for (g, obs) in checks {
+        let got = frames
+            .intersect(obs, [g.x, g.y, g.z])
+            .unwrap_or_else(|| panic!("{g} {obs:?} {:?}", frames.report.termination));
+        xy += (got[0] - g.x).powi(2) + (got[1] - g.y).powi(2);
+        z += (got[2] - g.z).powi(2);
+    }
+    let n = checks.len() as f64;
+    ((xy / n).sqrt(), (z / n).sqrt())
+}
+
+fn as_recorded(s: &Scene) -> Adjusted {
+    let opts = AdjustOptions {
+        max_iterations: 0,
+        ..Default::default()
+    };
+    let mut out = adjust(&s.recorded, &[camera(800.0)], &s.ties, &opts).unwrap();
+    out.frames = s.recorded.clone();
+    out
+}
+
+fn solve(s: &Scene, gcps: &[(Vec3, Vec<Observation>)], datum: Datum) -> Adjusted {
+    let mut ties = s.ties.clone();
+    ties.extend(control(gcps));
+    let opts = AdjustOptions {
+        refine_focal: false,
+        refine_principal_point: false,
+        position_sigma_m: Some(5.0),
+        datum,
+        max_iterations: 100,
+        ..Default::default()
+    };
+    adjust(&s.recorded, &[camera(800.0)], &ties, &opts).unwrap()
+}
+
+/// The frames' attitude errors against the truth, degrees: (median, worst).
+fn turns_deg(truth: &[AdjustFrame], got: &[AdjustFrame]) -> (f64, f64) {
+    let mut t: Vec<f64> = truth
+        .iter()
+        .zip(got)
+        .map(|(t, g)| {
+            Rotation3::from_matrix_unchecked(g.world_from_camera * t.world_from_camera.transpose())
+                .angle()
+                .to_degrees()
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    (t[t.len() / 2], t[t.len() - 1])
+}
+
+/// The ground sample distance of the simulated frames over their hills (m): 100 m above
+/// ground of about 25 m at 800 px focal length.
+const GSD_M: f64 = 75.0 / 800.0;
+
+#[test]
+fn five_control_points_bring_the_check_points_within_a_ground_sample_distance() {
+    let s = scene(7);
+    let before = check_rmse(&as_recorded(&s), &s.checks);
+    let free = solve(&s, &[], Datum::Recorded);
+    let without = check_rmse(&free, &s.checks);
+    let out = solve(&s, &s.gcps, Datum::Similarity);
+    let after = check_rmse(&out, &s.checks);
+    let d = out.report.datum.as_ref().unwrap();
+    eprintln!(
+        "check points RMSE XY / Z: recorded {:.3} / {:.3} m, adjusted without control {:.3} / {:.3} m, with five GCPs {:.3} / {:.3} m (GSD {GSD_M:.3} m); datum shift {:?} m, rotation {:?} deg, scale {:.0} ppm; attitude error median / worst {:?} deg",
+        before.0,
+        before.1,
+        without.0,
+        without.1,
+        after.0,
+        after.1,
+        d.shift_m,
+        d.rotation_deg,
+        d.scale_ppm,
+        turns_deg(&s.truth, &out.frames)
+    );
+    // The recorded block is metres off; its own overlaps cannot move it back.
+    assert!(before.0 > 1.0, "{before:?}");
+    assert!(without.0 > 1.0, "{without:?}");
+    // ODM documents about 2.5 GSD horizontally and 4 vertically with control.
+    assert!(after.0 < 1.5 * GSD_M, "{after:?}");
+    assert!(after.1 < 3.0 * GSD_M, "{after:?}");
+    // The datum takes the common offset (a recorded position belongs at c + shift), not the
+    // attitudes.
+    for k in 0..3 {
+        assert!((d.shift_m[k] + GPS_OFFSET[k]).abs() < 0.5, "{d:?}");
+    }
+    // Frames at the block's edge trade a little attitude for their 1 m of GPS noise.
+    let (median, worst) = turns_deg(&s.truth, &out.frames);
+    assert!(median < 0.1 && worst < 0.5, "{median} {worst}");
+}
+
+#[test]
+fn with_two_control_points_the_datum_is_a_shift() {
+    let s = scene(8);
+    let out = solve(&s, &s.gcps[..2], Datum::Shift);
+    let d = out.report.datum.as_ref().unwrap();
+    assert_eq!(d.model, Datum::Shift);
+    assert_eq!(d.scale_ppm, 0.0);
+    let after = check_rmse(&out, &s.checks);
+    assert!(after.0 < 3.0 * GSD_M, "{after:?}");
+    for k in 0..3 {
+        assert!((d.shift_m[k] + GPS_OFFSET[k]).abs() < 0.5, "{d:?}");
+    }
+}
+
+#[test]
+fn a_control_point_projects_where_it_was_marked_and_marks_intersect_at_it() {
+    let s = scene(9);
+    let mut truth = as_recorded(&s);
+    truth.frames = s.truth.clone();
+    for (g, obs) in &s.gcps {
+        // Marks have 0.5 px noise: the true frames put the point within 2 px of each.
+        for o in obs {
+            let p = truth.pixel_of(o.frame, [g.x, g.y, g.z]).unwrap();
+            assert!(
+                (p[0] - o.pixel[0]).hypot(p[1] - o.pixel[1]) < 2.5,
+                "{p:?} {o:?}"
+            );
+        }
+        let x = truth
+            .intersect(obs, [g.x + 5.0, g.y - 5.0, g.z + 10.0])
+            .unwrap();
+        assert!((Vec3::from(x) - g).norm() < 0.3, "{x:?} {g}");
+        // The ray of a mark meets the surveyed height near the point.
+        let r = truth
+            .ray_at_height(obs[0].frame, obs[0].pixel, g.z)
+            .unwrap();
+        assert!((r[0] - g.x).hypot(r[1] - g.y) < 0.3, "{r:?}");
+    }
+    // One mark gives no intersection.
+    assert!(truth.intersect(&s.gcps[0].1[..1], [0.0; 3]).is_none());
+}
