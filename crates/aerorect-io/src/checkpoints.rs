@@ -11,7 +11,7 @@ const HEADER: [&str; 4] = ["u_oblique", "v_oblique", "u_standard", "v_standard"]
 pub const MAX_TABLE_VALUE: f64 = 1e9;
 
 /// Why a table's number is refused, if it is.
-fn bad_number(v: f64) -> Option<String> {
+pub(crate) fn bad_number(v: f64) -> Option<String> {
     let shown = aerorect_core::error::Num(v);
     if !v.is_finite() {
         Some(format!("{shown} is not a finite number"))

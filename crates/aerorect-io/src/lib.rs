@@ -1,4 +1,4 @@
-//! File adapters: images (PNG, JPEG, TIFF), camera and attitude files, check-point tables.
+//! File adapters: images (PNG, JPEG, TIFF), camera and attitude files, check-point tables, GCP files.
 //!
 //! Every error names the file (or the command-line argument), the field and the value.
 //! Outputs are written to a temporary file beside the target and renamed into place, so a
@@ -15,6 +15,7 @@ pub mod dem;
 pub mod duplicates;
 pub mod eo;
 pub mod error;
+pub mod gcp_file;
 mod geokeys;
 pub mod geotiff;
 pub mod image_file;
@@ -41,6 +42,9 @@ pub use dem::{Dem, read_dem};
 pub use duplicates::{first_duplicate, refuse_duplicate_photos};
 pub use eo::{EoFormat, EoRecord, EoTable, read_eo_file};
 pub use error::IoError;
+pub use gcp_file::{
+    GcpFile, GcpFormat, ImageMark, SurveyPoint, gcp_from_text, read_gcp_file, read_gcp_files,
+};
 pub use geotiff::{GeoReference, read_georeference, write_world_file};
 pub use image_file::{
     DEFAULT_MAX_IMAGE_PIXELS, decode_image_bytes, image_files, max_image_pixels, read_image,

@@ -1,0 +1,109 @@
+//! Our own GCP CSV: a header naming the columns, required first, in any order,
+//! `name,image,u,v,x,y,z`, optional `sigma_xy_m,sigma_z_m,check`; one row per observation of
+//! a point in an image. A row with image, u and v empty defines a point no image marks.
+//! u, v are the project's pixel coordinates (pixel centres at integers, u right, v down): the
+//! mark's corner-origin pixel is (u + 0.5, v + 0.5). x, y, z are in the flight's CRS (the file
+//! names none). sigma_xy_m, sigma_z_m: horizontal and vertical standard deviations (m), both or
+//! neither; check: `true/false/1/0/yes/no` (empty: false). Rows of one name are one point.
+//! `#` starts a comment line.
+
+use super::Row;
+use super::fields::{boolean, number, repeated, sigma, split_fields};
+
+/// The header's columns: required, then optional.
+pub(super) const REQUIRED: [&str; 7] = ["name", "image", "u", "v", "x", "y", "z"];
+pub(super) const OPTIONAL: [&str; 3] = ["sigma_xy_m", "sigma_z_m", "check"];
+
+/// Whether a line is our header: it names every required column.
+pub(super) fn is_header(line: &str) -> bool {
+    let names: Vec<String> = split_fields(line, ',')
+        .into_iter()
+        .map(|s| s.to_ascii_lowercase())
+        .collect();
+    REQUIRED.iter().all(|r| names.iter().any(|n| n == r))
+}
+
+pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
+    let mut cols: Option<Vec<Option<usize>>> = None;
+    let mut rows = vec![];
+    for (i, l) in text.lines().enumerate() {
+        let n = i + 1;
+        let l = l.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let f = split_fields(l, ',');
+        let Some(c) = &cols else {
+            cols = Some(header(n, &f)?);
+            continue;
+        };
+        let get = |k: usize| c[k].and_then(|i| f.get(i)).map_or("", String::as_str);
+        let name = get(0);
+        if name.is_empty() {
+            return Err(format!("line {n}: the name is empty"));
+        }
+        let xyz = [
+            number(n, "x", get(4))?,
+            number(n, "y", get(5))?,
+            number(n, "z", get(6))?,
+        ];
+        let mut row = Row::point(n, name.to_string(), xyz);
+        let (image, u, v) = (get(1), get(2), get(3));
+        if !(image.is_empty() && u.is_empty() && v.is_empty()) {
+            if image.is_empty() {
+                return Err(format!("line {n}: u, v are given without an image"));
+            }
+            let px = [number(n, "u", u)? + 0.5, number(n, "v", v)? + 0.5];
+            row.mark = Some((image.to_string(), px));
+        }
+        row.sigma_m = match (get(7), get(8)) {
+            ("", "") => None,
+            (h, "") => return Err(format!("line {n}: sigma_xy_m '{h}' without sigma_z_m")),
+            ("", z) => return Err(format!("line {n}: sigma_z_m '{z}' without sigma_xy_m")),
+            (h, z) => Some([sigma(n, "sigma_xy_m", h)?, sigma(n, "sigma_z_m", z)?]),
+        };
+        row.check = match get(9) {
+            "" => false,
+            s => boolean(n, "check", s)?,
+        };
+        rows.push(row);
+    }
+    if cols.is_none() {
+        return Err(format!(
+            "no header: the first line must be {}",
+            REQUIRED.join(",")
+        ));
+    }
+    Ok(rows)
+}
+
+/// Each known column's index in the header (required, then optional); an unknown or repeated
+/// column, or a missing required one, is an error.
+fn header(n: usize, f: &[String]) -> Result<Vec<Option<usize>>, String> {
+    let names: Vec<String> = f.iter().map(|s| s.to_ascii_lowercase()).collect();
+    if let Some(r) = repeated(names.iter().map(String::as_str)) {
+        return Err(format!("line {n}: the header names column '{r}' twice"));
+    }
+    if let Some(u) = names
+        .iter()
+        .find(|c| !REQUIRED.contains(&c.as_str()) && !OPTIONAL.contains(&c.as_str()))
+    {
+        return Err(format!(
+            "line {n}: unknown column '{u}' (the columns are {},{})",
+            REQUIRED.join(","),
+            OPTIONAL.join(",")
+        ));
+    }
+    let at = |c: &str| names.iter().position(|x| x == c);
+    let mut out = vec![];
+    for c in REQUIRED {
+        out.push(Some(at(c).ok_or_else(|| {
+            format!(
+                "line {n}: the header has no column '{c}' (it needs {})",
+                REQUIRED.join(",")
+            )
+        })?));
+    }
+    out.extend(OPTIONAL.iter().map(|c| at(c)));
+    Ok(out)
+}
