@@ -388,6 +388,28 @@ pub struct FlightArgs {
     /// attitudes must be within a few degrees).
     #[arg(long, requires = "adjust", default_value = "both")]
     pub ties: String,
+    /// With --adjust: ground control points: ODM's gcp_list.txt, a Pix4D or Metashape marker
+    /// CSV, or ours (see CONVENTIONS.md); a Pix4D coordinates file and its image-marks file as
+    /// two files, comma-separated. Their marks hold the solve, the datum of the GPS positions
+    /// is solved, and OUT_DIR/accuracy.json reports every point.
+    #[arg(long, requires = "adjust", value_delimiter = ',')]
+    pub gcps: Vec<PathBuf>,
+    /// With --gcps: points kept out of the solve and reported as check points (names,
+    /// comma-separated; the file may also mark them).
+    #[arg(long, requires = "gcps", value_delimiter = ',')]
+    pub checkpoints: Vec<String>,
+    /// With --gcps: an image mark's standard deviation (px).
+    #[arg(long, requires = "gcps", default_value_t = aerorect::flight::MARK_SIGMA_PX)]
+    pub gcp_sigma_px: f64,
+    /// With --gcps: added to the points' heights to bring them to the ground's vertical datum
+    /// (the DEM's or --ground-height-m's), as --vertical-offset-m does for the cameras.
+    #[arg(
+        long,
+        requires = "gcps",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    pub gcp_vertical_offset_m: f64,
 }
 
 impl FlightArgs {
@@ -403,6 +425,26 @@ impl FlightArgs {
             .input("--poses (its .prj)", prj.as_deref())
             .input("--geo", self.geo.geo_file.as_deref())
             .input("--dem", self.geo.dem.as_deref())
+            .inputs("--gcps", &self.gcps)
+    }
+
+    /// The ground control these options name (read and checked), if any.
+    pub(crate) fn control(&self) -> Result<Option<aerorect::flight::ControlOptions>> {
+        if self.gcps.is_empty() {
+            return Ok(None);
+        }
+        let file = match self.gcps.as_slice() {
+            [one] => aerorect::io::read_gcp_file(one)?,
+            many => aerorect::io::read_gcp_files(many)?,
+        };
+        let co = aerorect::flight::ControlOptions {
+            checkpoints: self.checkpoints.clone(),
+            mark_sigma_px: self.gcp_sigma_px,
+            vertical_offset_m: self.gcp_vertical_offset_m,
+            ..aerorect::flight::ControlOptions::new(file)
+        };
+        co.validate().map_err(|e| anyhow::anyhow!("--gcps: {e}"))?;
+        Ok(Some(co))
     }
 
     /// The options every frame of `inputs` shares, with the flight's checks: the photos an
@@ -462,6 +504,7 @@ impl FlightArgs {
                 .map_err(|e| anyhow::anyhow!("--ties {}: {e}", self.ties))?,
             refine_radial: self.adjust_lens,
             refine_boresight: self.adjust_boresight,
+            control: self.control()?,
             ..Default::default()
         })
     }
@@ -647,8 +690,10 @@ fn batch_files(a: &BatchArgs) -> Result<Files> {
     let adjustment = a.flight.adjust.then(|| adjustment_json(a));
     let poses = a.flight.adjust.then(|| adjusted_poses_csv(a));
     let prj = poses.as_ref().map(|p| p.with_extension("prj"));
+    let accuracy = (!a.flight.gcps.is_empty()).then(|| a.out_dir.join("accuracy.json"));
     Ok(files
         .output("--report-html", a.report_html.as_deref())
+        .output("--gcps (the accuracy report)", accuracy.as_deref())
         .output("--adjust (its report)", adjustment.as_deref())
         .output("--adjust (the adjusted poses)", poses.as_deref())
         .output("--adjust (the adjusted poses' CRS)", prj.as_deref()))
@@ -859,6 +904,69 @@ pub(crate) fn print_adjustment(r: &aerorect::flight::FlightReport) {
             .unwrap_or_default(),
         adj.seconds
     );
+    if let Some(d) = &adj.datum {
+        outln!(
+            "datum of the recorded positions ({:?}): shift {:.3}, {:.3}, {:.3} m, rotation {:.4}, {:.4}, {:.4} deg, scale {:.0} ppm",
+            d.model,
+            d.shift_m[0],
+            d.shift_m[1],
+            d.shift_m[2],
+            d.rotation_deg[0],
+            d.rotation_deg[1],
+            d.rotation_deg[2],
+            d.scale_ppm
+        );
+    }
+    if let Some(a) = &r.accuracy {
+        print_accuracy(a);
+    }
+}
+
+fn print_accuracy(a: &aerorect::flight::AccuracyReport) {
+    for p in &a.points {
+        let m = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:+.3}"));
+        outln!(
+            "{:?} {}: dX {} dY {} dZ {} m; {} marks",
+            p.role,
+            p.name,
+            m(p.residual_m.map(|r| r[0])),
+            m(p.residual_m.map(|r| r[1])),
+            m(p.residual_z_m),
+            p.images.len()
+        );
+    }
+    for (what, b, r) in [
+        ("control", &a.control_before, &a.control),
+        ("check", &a.check_before, &a.check),
+    ] {
+        if r.count > 0 {
+            outln!(
+                "RMSE over {} {what} points XY / Z: {:.3} / {:.3} m recorded, {:.3} / {:.3} m adjusted (GSD {:.3} m)",
+                r.count,
+                b.xy_m,
+                b.z_m,
+                r.xy_m,
+                r.z_m,
+                a.mean_gsd_m
+            );
+        }
+    }
+    if let Some(c) = &a.asprs_horizontal {
+        outln!(
+            "ASPRS 2014 horizontal accuracy class: {} ({:.3} m at 95 %, {} check points)",
+            c.class_cm
+                .map_or("beyond 10 m".into(), |c| format!("{c} cm")),
+            c.accuracy_95_m,
+            c.check_points
+        );
+    }
+    if !a.unreached.is_empty() {
+        eprintln!(
+            "warning: {} frames in blocks no ground control point reaches: {}",
+            a.unreached.len(),
+            a.unreached.join(", ")
+        );
+    }
 }
 
 fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
@@ -893,6 +1001,12 @@ fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
         );
     }
     staged.text(&adjustment_json(a), &json)?;
+    if let Some(acc) = &r.accuracy {
+        staged.text(
+            &a.out_dir.join("accuracy.json"),
+            &serde_json::to_string_pretty(acc)?,
+        )?;
+    }
     let poses = adjusted_poses_csv(a);
     staged.text(&poses, &r.poses_csv())?;
     staged.text(&poses.with_extension("prj"), &flight.crs().to_wkt()?)?;

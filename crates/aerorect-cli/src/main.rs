@@ -10,6 +10,7 @@ mod calib_cmds;
 mod camera_cmds;
 mod commands;
 mod drone_cmds;
+mod gcp_cmds;
 mod mosaic_cmds;
 mod motion_cmds;
 mod outputs;
@@ -79,6 +80,9 @@ enum Command {
     Overlap(drone_cmds::OverlapArgs),
     /// One mosaic of a flight's photos on one grid (optionally after --adjust), tile by tile.
     Mosaic(mosaic_cmds::MosaicArgs),
+    /// Where each ground control point falls in each photo by the current orientation, with a
+    /// chip of the photo around it (marking help for --gcps).
+    GcpPredict(gcp_cmds::GcpPredictArgs),
 }
 
 /// `--threads n`, at most four times the cores (more only adds start-up time: 100 000 threads
@@ -119,6 +123,7 @@ fn main() -> ExitCode {
         Command::Batch(a) => drone_cmds::batch(a),
         Command::Overlap(a) => drone_cmds::overlap(a),
         Command::Mosaic(a) => mosaic_cmds::mosaic_cmd(a),
+        Command::GcpPredict(a) => gcp_cmds::gcp_predict(a),
         Command::Demo(a) => commands::demo(a),
         Command::Shift(a) => motion_cmds::shift(a),
         Command::MotionSim(a) => motion_cmds::motion_sim_cmd(a),

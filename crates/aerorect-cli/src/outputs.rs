@@ -28,6 +28,11 @@ impl Files {
         self
     }
 
+    /// Every path of a list argument.
+    pub(crate) fn inputs(self, flag: &str, paths: &[PathBuf]) -> Self {
+        paths.iter().fold(self, |f, p| f.input(flag, Some(p)))
+    }
+
     /// An attitude (or other) argument that is either inline text or a file: a file when one
     /// exists by that name.
     pub(crate) fn input_if_file(self, flag: &str, text: Option<&str>) -> Self {

@@ -187,9 +187,13 @@ impl StagedOutputs {
 
     /// Stages a text file.
     pub fn text(&mut self, path: &Path, text: &str) -> Result<(), IoError> {
+        self.bytes(path, text.as_bytes())
+    }
+
+    /// Stages a file of these bytes (an encoded image, say).
+    pub fn bytes(&mut self, path: &Path, bytes: &[u8]) -> Result<(), IoError> {
         self.file(path, |w| {
-            w.write_all(text.as_bytes())
-                .map_err(|e| IoError::io(path, e))
+            w.write_all(bytes).map_err(|e| IoError::io(path, e))
         })
     }
 

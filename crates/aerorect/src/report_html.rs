@@ -116,7 +116,7 @@ fn flight_section(f: &FlightSection) -> String {
         })
         .collect();
     format!(
-        "<h2>Flight adjustment</h2><p>{} frames, {} tie points, {} observations; residual RMS {:.2} &rarr; {:.3} px; {} matching rounds; {:.1} s.</p><ul>{unconnected}</ul>         <table><tr><th>round</th><th>tie points</th><th>reliable pairs</th><th>RMS after (px)</th><th>median turn (&deg;)</th><th>largest turn (&deg;)</th><th>s</th></tr>{rounds}</table>         <h3>Tie points and their gaps between frames</h3>{}         <h3>Pairs: misalignment on the ground (median over the tie points, m)</h3>         <table><tr><th>a</th><th>b</th><th>patches</th><th>tie points</th><th>reliable</th><th>before</th><th>after</th></tr>{pairs}</table>{overview}",
+        "<h2>Flight adjustment</h2><p>{} frames, {} tie points, {} observations; residual RMS {:.2} &rarr; {:.3} px; {} matching rounds; {:.1} s.</p><ul>{unconnected}</ul>         <table><tr><th>round</th><th>tie points</th><th>reliable pairs</th><th>RMS after (px)</th><th>median turn (&deg;)</th><th>largest turn (&deg;)</th><th>s</th></tr>{rounds}</table>         <h3>Tie points and their gaps between frames</h3>{}         <h3>Pairs: misalignment on the ground (median over the tie points, m)</h3>         <table><tr><th>a</th><th>b</th><th>patches</th><th>tie points</th><th>reliable</th><th>before</th><th>after</th></tr>{pairs}</table>{}{overview}",
         r.frames.len(),
         a.tie_points,
         a.observations,
@@ -125,6 +125,71 @@ fn flight_section(f: &FlightSection) -> String {
         r.passes,
         r.seconds,
         tie_map(f.ties),
+        r.accuracy.as_ref().map_or(String::new(), accuracy_section),
+    )
+}
+
+fn metres(v: Option<f64>) -> String {
+    v.map_or("-".into(), |v| format!("{v:.3}"))
+}
+
+/// The accuracy report against the ground control and check points.
+fn accuracy_section(a: &crate::flight::AccuracyReport) -> String {
+    let rows: String = a
+        .points
+        .iter()
+        .map(|p| {
+            let px: Vec<String> = p
+                .images
+                .iter()
+                .map(|m| format!("{} {}", esc(&name(&m.image)), metres(m.residual_px)))
+                .collect();
+            format!(
+                "<tr><td>{}</td><td>{:?}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                esc(&p.name),
+                p.role,
+                metres(p.residual_m.map(|r| r[0])),
+                metres(p.residual_m.map(|r| r[1])),
+                metres(p.residual_z_m),
+                px.join("; ")
+            )
+        })
+        .collect();
+    let rmse = |what: &str, b: &crate::flight::Rmse, r: &crate::flight::Rmse| {
+        format!(
+            "<tr><td>{what}</td><td>{}</td><td>{:.3} / {:.3}</td><td>{:.3} / {:.3}</td></tr>",
+            r.count, b.xy_m, b.z_m, r.xy_m, r.z_m
+        )
+    };
+    let class = a.asprs_horizontal.as_ref().map_or(
+        "<p>No check points: the horizontal accuracy class is not assessed.</p>".into(),
+        |c| {
+            format!(
+                "<p>ASPRS (2014) horizontal accuracy class: {} (RMSE<sub>x</sub> and RMSE<sub>y</sub> within it); {:.3} m at 95 % confidence; from {} check points (the standard asks for at least 20).</p>",
+                c.class_cm.map_or("beyond 10 m".into(), |c| format!("{c} cm")),
+                c.accuracy_95_m,
+                c.check_points
+            )
+        },
+    );
+    let unreached = match a.unreached.len() {
+        0 => String::new(),
+        n => format!(
+            "<p>{n} frames in blocks no control point reaches: {}</p>",
+            esc(&a
+                .unreached
+                .iter()
+                .map(|u| name(u))
+                .collect::<Vec<_>>()
+                .join(", "))
+        ),
+    };
+    format!(
+        "<h3>Accuracy against ground control ({})</h3><p>Mean GSD {:.3} m.</p>{class}{unreached}<table><tr><th>points</th><th>count</th><th>RMSE XY / Z recorded (m)</th><th>RMSE XY / Z adjusted (m)</th></tr>{}{}</table><table><tr><th>point</th><th>role</th><th>dX (m)</th><th>dY (m)</th><th>dZ (m)</th><th>per image (px)</th></tr>{rows}</table>",
+        esc(&a.file),
+        a.mean_gsd_m,
+        rmse("control", &a.control_before, &a.control),
+        rmse("check", &a.check_before, &a.check),
     )
 }
 

@@ -1,8 +1,8 @@
 //! Our own GCP CSV: a header naming the columns, required first, in any order,
 //! `name,image,u,v,x,y,z`, optional `sigma_xy_m,sigma_z_m,check`; one row per observation of
 //! a point in an image. A row with image, u and v empty defines a point no image marks.
-//! u, v are the project's pixel coordinates (pixel centres at integers, u right, v down): the
-//! mark's corner-origin pixel is (u + 0.5, v + 0.5). x, y, z are in the flight's CRS (the file
+//! u, v are the project's pixel coordinates (pixel centres at integers, u right, v down), read
+//! as they are. x, y, z are in the flight's CRS (the file
 //! names none). sigma_xy_m, sigma_z_m: horizontal and vertical standard deviations (m), both or
 //! neither; check: `true/false/1/0/yes/no` (empty: false). Rows of one name are one point.
 //! `#` starts a comment line.
@@ -53,7 +53,7 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
             if image.is_empty() {
                 return Err(format!("line {n}: u, v are given without an image"));
             }
-            let px = [number(n, "u", u)? + 0.5, number(n, "v", v)? + 0.5];
+            let px = [number(n, "u", u)?, number(n, "v", v)?];
             row.mark = Some((image.to_string(), px));
         }
         row.sigma_m = match (get(7), get(8)) {

@@ -3,9 +3,11 @@
 //! reference CSV (metashape.rs) and our own CSV (aerorect.rs). The format is found from the
 //! content; every error names the file, the line and the value.
 //!
-//! Marks are in pixels with x right, y down and the origin at the top-left **corner** of the
-//! top-left pixel (ODM's and Pix4D's image coordinates); our own CSV's `u, v` follow the
-//! project's convention (pixel centres at integers) and are read as `u + 0.5, v + 0.5`.
+//! Marks are read into the project's pixel convention (x right, y down, pixel centres at
+//! integers): ODM's `im_x, im_y` are OpenSfM's pixel coordinates, which are that convention
+//! already (OpenSfM's doc/source/geometry.rst: "the origin is at the center of the top-left
+//! pixel"), as are our CSV's `u, v`; Pix4D counts from the image's upper-left corner, so its
+//! marks are read as `x - 0.5, y - 0.5`.
 //!
 //! Rows naming one point must agree on its coordinates within 1 mm (1e-8 degrees, about
 //! 1.1 mm, horizontally when the coordinates are degrees); one image may mark a point once.
@@ -49,8 +51,8 @@ pub struct SurveyPoint {
     pub line: usize,
 }
 
-/// One observation of a point in a photo. `pixel` is x right, y down, with the origin at the
-/// top-left corner of the top-left pixel (as ODM uses): the centre of pixel (0, 0) is (0.5, 0.5).
+/// One observation of a point in a photo. `pixel` is x right, y down, pixel centres at
+/// integers (the project's convention, OpenCV's and OpenSfM's).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImageMark {
     pub point: String,

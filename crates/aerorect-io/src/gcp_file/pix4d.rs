@@ -6,7 +6,8 @@
 //! swapped before it is read. The file names no CRS and no check points.
 //!
 //! Pix4D's image-marks file (PIX4Dmapper's GCP/MTP marks export, "imagename,gcplabel,x,y"):
-//! `image,label,x,y` with x right, y down in pixels from the image's upper-left corner;
+//! `image,label,x,y` with x right, y down in pixels from the image's upper-left corner (read as
+//! `x - 0.5, y - 0.5`: the project's pixel centres are at integers);
 //! PIX4Dmatic adds a fifth column, the mark's accuracy in pixels, which is ignored here. A
 //! marks file gives marks of points its coordinates file defines: read both with
 //! [`super::read_gcp_files`]. A file is a marks file when its first line's second field is not
@@ -39,7 +40,7 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
             if f.len() < 4 {
                 return Err(format!("line {n}: '{l}' needs image,label,x,y"));
             }
-            let pixel = [number(n, "x", &f[2])?, number(n, "y", &f[3])?];
+            let pixel = [number(n, "x", &f[2])? - 0.5, number(n, "y", &f[3])? - 0.5];
             rows.push(Row {
                 line: n,
                 name: Some(label(n, &f[1])?),

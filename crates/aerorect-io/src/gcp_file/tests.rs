@@ -177,7 +177,8 @@ fn pix4d_coordinates_and_marks_read_together() {
     assert_eq!(g.marks.len(), 3);
     assert_eq!(g.marks[0].point, "GCP0");
     assert_eq!(g.marks[0].image, "IMG_0001.JPG");
-    assert_eq!(g.marks[0].pixel, [1520.25, 980.5]);
+    // Pix4D counts from the corner: the project's pixel centres are half a pixel less.
+    assert_eq!(g.marks[0].pixel, [1519.75, 980.0]);
     assert_eq!(g.marks[2].point, "100", "a numeric label in a marks file");
     // The order of the paths does not matter.
     let h = read_gcp_files(&[marks.clone(), coords.clone()]).unwrap();
@@ -275,15 +276,14 @@ fn aerorect_csv_rows_are_observations_and_points() {
     assert!(!g.points[0].check && g.points[1].check);
     assert_eq!(g.points[1].sigma_m, None);
     assert_eq!(g.marks.len(), 2, "B has no mark");
-    // u, v are pixel centres at integers: the centre of pixel (0, 0) is (0.5, 0.5) in the
-    // marks' corner-origin convention.
-    assert_eq!(g.marks[1].pixel, [0.5, 0.5]);
-    assert_eq!(g.marks[0].pixel, [100.0, 10.5]);
+    // u, v are the project's pixel coordinates, read as they are.
+    assert_eq!(g.marks[1].pixel, [0.0, 0.0]);
+    assert_eq!(g.marks[0].pixel, [99.5, 10.0]);
     // Only the required columns, in another order.
     let g = gcp_from_text("x,y,z,name,image,u,v\n1,2,3,P,a.jpg,4,5\n", "g.csv").unwrap();
     assert_eq!(
         (g.points[0].xyz, g.marks[0].pixel),
-        ([1.0, 2.0, 3.0], [4.5, 5.5])
+        ([1.0, 2.0, 3.0], [4.0, 5.0])
     );
     let e = err("name,image,u,v,x,y,z,colour\n", "g.csv");
     names_all(&e, "g.csv", "line 1", "'colour'");

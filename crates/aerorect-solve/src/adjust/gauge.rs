@@ -29,7 +29,7 @@ pub struct GaugeHold {
 
 /// The sets of frames the ties join (union-find over the tie points' observations), each
 /// sorted, the frames no tie reaches left out.
-pub(super) fn connected(frames: usize, ties: &[TiePoint]) -> Vec<Vec<usize>> {
+pub fn connected(frames: usize, ties: &[TiePoint]) -> Vec<Vec<usize>> {
     let mut parent: Vec<usize> = (0..frames).collect();
     fn root(p: &mut [usize], mut i: usize) -> usize {
         while p[i] != i {

@@ -34,7 +34,8 @@ mod residuals;
 mod solve;
 
 pub use crate::lm::{Termination, Tolerances};
-pub use gauge::{GaugeHold, ONE_POINT_RATIO};
+pub use gauge::{GaugeHold, ONE_POINT_RATIO, connected};
+pub use points::OrientedFrames;
 pub use residuals::radial_refinable;
 
 use crate::SolveError;

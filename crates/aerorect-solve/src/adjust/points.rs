@@ -5,11 +5,28 @@
 use super::blocks::{CameraBlock, FrameBlock};
 use super::jacobian::pixel_jacobian;
 use super::residuals::project;
-use super::{Adjusted, Observation};
-use aerorect_core::Vec3;
+use super::{AdjustFrame, Adjusted, Observation};
+use aerorect_core::{Camera, Vec3};
 use nalgebra::{Matrix3, Vector2};
 
+/// Frames and their cameras, oriented (recorded or adjusted).
+#[derive(Debug, Clone, Copy)]
+pub struct OrientedFrames<'a> {
+    pub frames: &'a [AdjustFrame],
+    pub cameras: &'a [Camera],
+}
+
 impl Adjusted {
+    /// The adjusted frames.
+    pub fn oriented(&self) -> OrientedFrames<'_> {
+        OrientedFrames {
+            frames: &self.frames,
+            cameras: &self.cameras,
+        }
+    }
+}
+
+impl OrientedFrames<'_> {
     /// The pixel of ground point `x` in frame `f` (`None` behind the camera or beyond the
     /// lens's domain).
     pub fn pixel_of(&self, f: usize, x: [f64; 3]) -> Option<[f64; 2]> {

@@ -13,20 +13,30 @@
 //! later rounds' tie points, by correlation of the frames rendered on one grid), `ties` (a
 //! pair's tie points as the adjustment takes them), `solve` (a round's adjustment), `plan`
 //! (the steps as pure functions, for Dask), `exchange` (what travels between processes),
-//! `render` (the adjusted frames onto the output grid).
+//! `render` (the adjusted frames onto the output grid), `control` (ground control points as
+//! tie points held to their surveyed positions) and `accuracy` (the report against them).
 
+mod accuracy;
+mod control;
 mod correlate;
 mod exchange;
 mod features;
 mod frames;
 mod plan;
+mod predict;
 mod render;
 mod solve;
 mod ties;
 
+pub use accuracy::{
+    ASPRS_HORIZONTAL_CLASSES_CM, AccuracyReport, AsprsClass, MarkResidual, PointAccuracy, Rmse,
+    asprs_class,
+};
+pub use control::{ControlOptions, MARK_SIGMA_PX, Role, SURVEY_SIGMA_M};
 pub use exchange::{exact_json, from_exact_json};
 pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource};
 pub use plan::{FlightPlan, FlightProgress, Orientation};
+pub use predict::{MarkPrediction, chip};
 pub use render::AdjustedFlight;
 pub use solve::GpsCheck;
 pub use ties::{PairMatch, PairTie, TieVector};
@@ -45,7 +55,9 @@ use aerorect_geo::{OrthoGrid, Pose, Projection};
 use aerorect_io::{Crs, PhotoMetadata};
 use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
 use aerorect_raster::{AnyRaster, Interp, Raster, WarpOptions};
-use aerorect_solve::adjust::{AdjustFrame, AdjustOptions, AdjustReport, Observation, TiePoint};
+use aerorect_solve::adjust::{
+    AdjustFrame, AdjustOptions, AdjustReport, Datum, Observation, TiePoint,
+};
 use aerorect_solve::ransac::{RansacOptions, ransac_homography};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -77,6 +89,8 @@ pub struct FlightOptions {
     pub settled_deg: f64,
     /// Where the tie points come from (features first, then correlation, by default).
     pub ties: TieSource,
+    /// Ground control points and check points.
+    pub control: Option<ControlOptions>,
 }
 
 /// The largest standard deviation of a recorded attitude, degrees (half a turn).
@@ -120,6 +134,7 @@ impl Default for FlightOptions {
             passes: 8,
             settled_deg: 0.005,
             ties: TieSource::Both,
+            control: None,
         }
     }
 }
@@ -238,6 +253,9 @@ pub struct FlightReport {
     pub unconnected: Vec<String>,
     /// Every frame's GPS position against the images (when positions are adjusted).
     pub gps: Vec<GpsCheck>,
+    /// The flight against its ground control and check points (with `control`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accuracy: Option<AccuracyReport>,
     pub adjustment: AdjustReport,
     pub poses: Vec<AdjustedPose>,
     pub seconds: f64,

@@ -17,8 +17,10 @@ pub struct FlightPlan {
     pub(super) world: Projection,
     pub(super) crs: Crs,
     pub(super) started: std::time::Instant,
-    /// The plan's warnings (the matching grid coarsened).
+    /// The plan's warnings (the matching grid coarsened, marks left out).
     pub(super) warnings: Vec<String>,
+    /// The ground control in the flight's CRS, on its frames.
+    pub(super) control: Option<control::Resolved>,
 }
 
 /// Every frame's pose and camera (a round's adjusted orientation).
@@ -69,10 +71,17 @@ impl FlightPlan {
                 g * (short_side as f64 / 600.0).clamp(1.0, 4.0)
             }
         };
-        let (gsd, frames, warnings) = plan_matching(&metas, &opts, gsd)?;
+        let (gsd, frames, mut warnings) = plan_matching(&metas, &opts, gsd)?;
+        let rec = recorded(&frames);
+        let control = match &fo.control {
+            Some(co) => Some(control::resolve(co, &frames, &rec, &world)?),
+            None => None,
+        };
+        warnings.extend(control.iter().flat_map(|c| c.warnings.iter().cloned()));
         Ok(Self {
             ground: ground_fn(&opts, &world),
-            rec: recorded(&frames),
+            control,
+            rec,
             frames,
             opts,
             fo: fo.clone(),
@@ -277,6 +286,7 @@ impl FlightPlan {
             warnings,
             unconnected: unconnected(&self.frames, &round.reports),
             gps: round.gps,
+            accuracy: round.accuracy,
             pairs: round.reports,
             adjustment: round.adjusted.report,
             poses: adjusted_poses(&self.frames, &poses, &cameras),
@@ -303,6 +313,11 @@ impl FlightPlan {
             world: self.world,
             crs: self.crs,
         }
+    }
+
+    /// What planning found (the matching grid coarsened, ground control marks left out).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
     }
 
     /// The output CRS of every frame.
