@@ -187,3 +187,228 @@ fn ground_control_brings_perturbed_ngi_poses_back_and_checks_within_a_pixel() {
     );
     assert!(!tmp.path().join("out2/adjustment.json").exists());
 }
+
+/// The NGI flight's inputs in `dir` (published poses, camera) and the batch arguments over them.
+struct Ngi {
+    frames: Vec<String>,
+    dem: String,
+    truth: BTreeMap<String, [f64; 6]>,
+    ground: aerorect::geo::Dem,
+}
+
+fn ngi(tmp: &std::path::Path) -> Option<Ngi> {
+    let dir = aerorect_testkit::shared_data("ngi")?;
+    let dem = dir.join("dem.tif");
+    let truth = published(&std::fs::read_to_string(dir.join("ngi_xyz_opk.csv")).unwrap());
+    std::fs::copy(dir.join("ngi_xyz_opk.csv"), tmp.join("poses.csv")).unwrap();
+    std::fs::copy(dir.join("ngi_xyz_opk.prj"), tmp.join("poses.prj")).unwrap();
+    std::fs::write(
+        tmp.join("cam.toml"),
+        "focal_length_mm = 120.0\npixel_pitch_um = [144.0, 144.0]\nimage_size_px = [640, 1152]\n",
+    )
+    .unwrap();
+    Some(Ngi {
+        frames: truth
+            .keys()
+            .map(|n| dir.join(format!("{n}.tif")).display().to_string())
+            .collect(),
+        ground: aerorect::georef::load_dem(&dem).unwrap(),
+        dem: dem.display().to_string(),
+        truth,
+    })
+}
+
+impl Ngi {
+    fn batch(&self, tmp: &std::path::Path, gcps: &str, extra: &[&str]) -> std::process::Output {
+        let mut args: Vec<&str> = vec!["batch"];
+        args.extend(self.frames.iter().map(String::as_str));
+        args.extend([
+            "--out-dir",
+            "out",
+            "--poses",
+            "poses.csv",
+            "--camera",
+            "cam.toml",
+            "--dem",
+            &self.dem,
+            "--gsd-m",
+            "10",
+            "--adjust",
+            "--ties",
+            "features",
+            "--gcps",
+            gcps,
+        ]);
+        args.extend(extra);
+        aerorect(&args, tmp)
+    }
+
+    /// Our CSV rows of the ground point under pixel (u, v) of frame `k`, marked in every frame
+    /// that sees it.
+    fn rows(&self, name: &str, k: usize, (u, v): (f64, f64), check: bool) -> String {
+        let p = self.truth.values().nth(k).unwrap();
+        let g = ground(p, (u, v), &self.ground);
+        let mut out = String::new();
+        for (n, q) in &self.truth {
+            if let Some(px) = pixel(q, g) {
+                out += &format!(
+                    "{name},{n}.tif,{},{},{},{},{},{check}\n",
+                    px[0], px[1], g.x, g.y, g.z
+                );
+            }
+        }
+        out
+    }
+}
+
+const HEADER: &str = "name,image,u,v,x,y,z,check\n";
+
+#[test]
+fn bad_ground_control_is_named_with_its_file_line_and_value() {
+    let tmp = tempfile::tempdir().unwrap();
+    let Some(n) = ngi(tmp.path()) else {
+        return;
+    };
+    let t = tmp.path();
+    // Two control points: solved as a shift, and said so.
+    let two = format!(
+        "{HEADER}{}{}",
+        n.rows("A", 0, (200.0, 300.0), false),
+        n.rows("B", 2, (400.0, 800.0), false)
+    );
+    std::fs::write(t.join("two.csv"), &two).unwrap();
+    let out = n.batch(t, "two.csv", &[]);
+    ok(&out);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("two.csv: 2 ground control point(s), fewer than 3")
+            && err.contains("shift only"),
+        "{err}"
+    );
+    // A mark in a photo that cannot see the point: left out with its line, predicted position
+    // and distance. A corner of frame 0 that some frame does not see.
+    let (a, far) = [(20.0, 20.0), (620.0, 20.0), (20.0, 1130.0), (620.0, 1130.0)]
+        .iter()
+        .find_map(|&uv| {
+            let a = n.rows("A", 0, uv, false);
+            let far = n.truth.keys().find(|k| !a.contains(&format!("{k}.tif")))?;
+            Some((a, far.clone()))
+        })
+        .unwrap();
+    let g = a
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .skip(4)
+        .collect::<Vec<_>>()
+        .join(",");
+    let wrong = format!(
+        "{HEADER}{a}A,{far}.tif,320,576,{g}\n{}{}",
+        n.rows("B", 2, (400.0, 800.0), false),
+        n.rows("C", 1, (300.0, 500.0), false)
+    );
+    let line = wrong
+        .lines()
+        .position(|l| l.contains(&format!("{far}.tif,320,576")))
+        .unwrap()
+        + 1;
+    std::fs::write(t.join("wrong.csv"), &wrong).unwrap();
+    std::fs::remove_dir_all(t.join("out")).unwrap();
+    let out = n.batch(t, "wrong.csv", &[]);
+    ok(&out);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!(
+            "wrong.csv line {line}: 'A' is marked in {far}.tif at (320.0, 576.0) px"
+        )) && err.contains("outside the photo: the mark is left out"),
+        "{err}"
+    );
+    // A check point that is a control point under another name checks nothing.
+    let same = format!(
+        "{HEADER}{}{}",
+        n.rows("A", 0, (200.0, 300.0), false),
+        n.rows("A2", 0, (200.0, 300.0), true)
+    );
+    std::fs::write(t.join("same.csv"), &same).unwrap();
+    fails(
+        &n.batch(t, "same.csv", &["--gcp-sigma-px", "0.5"]),
+        &["same.csv", "check point 'A2'", "'A'"],
+    );
+    // One name at two places.
+    let twice = format!("{HEADER}A,x.tif,1,2,500,600,10,false\nA,y.tif,1,2,500,700,10,false\n");
+    std::fs::write(t.join("twice.csv"), &twice).unwrap();
+    fails(
+        &n.batch(t, "twice.csv", &[]),
+        &["twice.csv", "line 2", "line 3", "'A'"],
+    );
+    // An ODM file whose CRS line does not parse.
+    std::fs::write(t.join("gcp_list.txt"), "WGS84 UTM 99Q\n1 2 3 4 5 a.tif A\n").unwrap();
+    fails(
+        &n.batch(t, "gcp_list.txt", &[]),
+        &["gcp_list.txt", "line 1", "WGS84 UTM 99Q"],
+    );
+    // A negative mark deviation.
+    fails(
+        &n.batch(t, "two.csv", &["--gcp-sigma-px=-1"]),
+        &["mark standard deviation", "-1"],
+    );
+}
+
+#[test]
+fn gcp_predict_puts_points_where_the_published_poses_see_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let Some(n) = ngi(tmp.path()) else {
+        return;
+    };
+    let t = tmp.path();
+    let rows = format!(
+        "{HEADER}{}{}",
+        n.rows("A", 0, (200.0, 300.0), false),
+        n.rows("B", 3, (400.0, 800.0), false)
+    );
+    std::fs::write(t.join("g.csv"), &rows).unwrap();
+    let mut args = vec!["gcp-predict", "g.csv", "--photos"];
+    args.extend(n.frames.iter().map(String::as_str));
+    args.extend([
+        "--poses",
+        "poses.csv",
+        "--camera",
+        "cam.toml",
+        "--dem",
+        &n.dem,
+    ]);
+    args.extend(["--out-dir", "chips", "--chip-px", "65"]);
+    let stdout = ok(&aerorect(&args, t));
+    // Every mark (projected through the published poses) is predicted within 0.01 px, and
+    // nothing else is predicted.
+    let predicted: Vec<&str> = stdout
+        .lines()
+        .skip(1)
+        .filter(|l| l.contains(".tif,"))
+        .collect();
+    let marks: Vec<&str> = rows.lines().skip(1).collect();
+    assert_eq!(predicted.len(), marks.len(), "{stdout}");
+    for m in marks {
+        let f: Vec<&str> = m.split(',').collect();
+        let (u, v): (f64, f64) = (f[2].parse().unwrap(), f[3].parse().unwrap());
+        let p = predicted
+            .iter()
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .find(|p| p[0] == f[0] && p[1] == f[1])
+            .unwrap_or_else(|| panic!("{m} not predicted: {stdout}"));
+        let (pu, pv): (f64, f64) = (p[2].parse().unwrap(), p[3].parse().unwrap());
+        assert!((pu - u).hypot(pv - v) < 0.01, "{m}: {pu} {pv}");
+        assert_eq!(p[4], "true", "marked in the file");
+        let stem = f[1].trim_end_matches(".tif");
+        let chip = aerorect::io::read_image(&t.join(format!("chips/{}_{stem}.png", f[0]))).unwrap();
+        assert_eq!((chip.size().width, chip.size().height), (65, 65));
+    }
+    // The predictions as ODM's gcp_list.txt: the poses' CRS, then one line per mark.
+    let listed = std::fs::read_to_string(t.join("chips/gcp_predicted.txt")).unwrap();
+    assert!(
+        listed.lines().next().unwrap().contains("+proj=tmerc"),
+        "{listed}"
+    );
+    assert_eq!(listed.lines().count(), predicted.len() + 1);
+}
