@@ -10,7 +10,10 @@ and after against the truth, and the mosaic's time.
 SIGMA_DEG (default 1) is the recorded attitudes' error; TIES is `--ties` (both, features,
 correlation; default both). SIGMA_DEG `gps-only` records no attitude at all: the frames get
 an ODM geo.txt of positions only, each 3 m off (seeded), and start at nadir along their GPS
-track.
+track. SIGMA_DEG `gcp` keeps the 1 degree errors, puts every position 3 m off in common plus
+1 m of noise (`pert_gps.csv`) and adds the simulation's ground control (`gcp_list.txt`: five
+GCPs and ten check points `C0`..`C9`, marks at 0.5 px of noise): `batch --adjust --gcps`,
+then the check points' RMSE before and after (accuracy.json).
 
 Needs only the standard library (and cargo). Run with the machine otherwise quiet.
 """
@@ -66,8 +69,8 @@ def main():
     nx, ny = int(sys.argv[1]), int(sys.argv[2])
     work = sys.argv[3] if len(sys.argv) > 3 else os.path.join(ROOT, "out", f"sim-flight-{nx}x{ny}")
     sigma = sys.argv[4] if len(sys.argv) > 4 else "1"
-    gps_only = sigma == "gps-only"
-    if gps_only:
+    gps_only, gcp = sigma == "gps-only", sigma == "gcp"
+    if gps_only or gcp:
         sigma = "1"
     ties = sys.argv[5] if len(sys.argv) > 5 else "both"
     subprocess.run(["cargo", "build", "--release", "-q", "-p", "aerorect-cli"], cwd=ROOT, check=True)
@@ -85,7 +88,20 @@ def main():
                 x, y, z = (float(r[k]) + rng.gauss(0, 3) for k in ("x", "y", "z"))
                 g.write(f"{r['filename']} {x:.3f} {y:.3f} {z:.3f}\n")
         common[0:2] = ["--geo", "geo.txt"]
+    if gcp:
+        checks = open(os.path.join(work, "checkpoints.txt")).read().strip()
+        common[1] = "pert_gps.csv"
+        common += ["--gcps", "gcp_list.txt", "--checkpoints", checks]
     secs, peak, _ = timed([BIN, "batch", *frames, "--out-dir", "out", "--force", *common], work)
+    if gcp:
+        acc = json.load(open(os.path.join(work, "out", "accuracy.json")))
+        gsd = acc["mean_gsd_m"]
+        for what in ("control", "check"):
+            b, r = acc[f"{what}_before"], acc[what]
+            print(f"  {what} points ({r['count']}): RMSE XY / Z {b['xy_m']:.3f} / {b['z_m']:.3f} m recorded -> "
+                  f"{r['xy_m']:.3f} / {r['z_m']:.3f} m adjusted = {r['xy_m'] / gsd:.2f} / {r['z_m'] / gsd:.2f} GSD "
+                  f"(GSD {gsd:.3f} m)")
+        print(f"  ASPRS 2014 horizontal: {acc['asprs_horizontal']}")
     rep = json.load(open(os.path.join(work, "out", "adjustment.json")))
     truth = poses(os.path.join(work, "truth.csv"))
     rec = truth if gps_only else poses(os.path.join(work, "pert.csv"))

@@ -250,17 +250,9 @@ impl FlightPlan {
     }
 }
 
-/// The files `batch --adjust` writes beside the frames in `out_dir`: the report, the adjusted
-/// poses (as `--poses` reads them) and their CRS.
-pub const ADJUSTMENT_FILES: [&str; 3] = [
-    "adjustment.json",
-    "adjusted_poses.csv",
-    "adjusted_poses.prj",
-];
-
 /// `batch --adjust` without the printing: the flight adjusted, every frame written with its
-/// adjusted orientation to `out_paths` and [`ADJUSTMENT_FILES`] to `out_dir`, all landing
-/// together (none when a frame fails). Returns the adjustment report.
+/// adjusted orientation to `out_paths` and `aerorect::flight::adjustment_files` to
+/// `out_dir`, all landing together (none when a frame fails). Returns the adjustment report.
 #[pyfunction]
 #[pyo3(signature = (paths, out_paths, out_dir, opts=None))]
 pub fn write_adjusted_batch<'py>(
@@ -282,26 +274,8 @@ pub fn write_adjusted_batch<'py>(
         .detach(|| -> Result<_> {
             let o = args.options(None)?;
             let flight = aerorect::flight::adjust_flight(&paths, &o, &args.flight_options()?)?;
-            let json = serde_json::to_string_pretty(&flight.report)?;
             let mut staged = StagedOutputs::new();
-            let mut failed = vec![];
-            for (k, out) in out_paths.iter().enumerate() {
-                if let Err(e) = flight.write_frame_staged(k, out, &o, &mut staged) {
-                    failed.push(format!("{}: {e:#}", paths[k].display()));
-                }
-            }
-            if !failed.is_empty() {
-                bail!(
-                    "{} of {} frames failed ({}); nothing written: the adjusted frames and adjustment.json land together",
-                    failed.len(),
-                    paths.len(),
-                    failed.join("; ")
-                );
-            }
-            let [report, poses, prj] = ADJUSTMENT_FILES.map(|f| out_dir.join(f));
-            staged.text(&report, &json)?;
-            staged.text(&poses, &flight.report.poses_csv())?;
-            staged.text(&prj, &flight.crs().to_wkt()?)?;
+            flight.stage_batch(&out_paths, &out_dir, &o, &mut staged, |_, _| {})?;
             staged.commit()?;
             Ok(flight.report)
         })

@@ -56,6 +56,16 @@ pub struct PhotoArgs {
     pub adjust_passes: Option<usize>,
     /// With `adjust`: where tie points come from (`both`, `features`, `correlation`).
     pub ties: Option<String>,
+    /// With `adjust`: ground control points (one file, or Pix4D's coordinates and marks files).
+    #[serde(default)]
+    pub gcps: Vec<std::path::PathBuf>,
+    /// With `gcps`: points kept out of the solve and reported as check points.
+    #[serde(default)]
+    pub checkpoints: Vec<String>,
+    /// With `gcps`: an image mark's standard deviation (px).
+    pub gcp_sigma_px: Option<f64>,
+    /// With `gcps`: added to the points' heights (the ground's vertical datum).
+    pub gcp_vertical_offset_m: Option<f64>,
 }
 
 impl PhotoArgs {
@@ -200,8 +210,26 @@ impl PhotoArgs {
                     .map_err(|e| anyhow::anyhow!("ties={t:?}: {e}"))?,
                 None => d.ties,
             },
+            control: self.control()?,
             ..d
         })
+    }
+
+    /// The ground control `gcps` names (read and checked), if any.
+    fn control(&self) -> Result<Option<aerorect::flight::ControlOptions>> {
+        use aerorect::flight::ControlOptions;
+        if self.gcps.is_empty() {
+            return Ok(None);
+        }
+        let read = ControlOptions::read(&self.gcps)?;
+        let co = ControlOptions {
+            checkpoints: self.checkpoints.clone(),
+            mark_sigma_px: self.gcp_sigma_px.unwrap_or(read.mark_sigma_px),
+            vertical_offset_m: self.gcp_vertical_offset_m.unwrap_or(0.0),
+            ..read
+        };
+        co.validate().map_err(|e| anyhow::anyhow!("gcps: {e}"))?;
+        Ok(Some(co))
     }
 }
 

@@ -433,15 +433,11 @@ impl FlightArgs {
         if self.gcps.is_empty() {
             return Ok(None);
         }
-        let file = match self.gcps.as_slice() {
-            [one] => aerorect::io::read_gcp_file(one)?,
-            many => aerorect::io::read_gcp_files(many)?,
-        };
         let co = aerorect::flight::ControlOptions {
             checkpoints: self.checkpoints.clone(),
             mark_sigma_px: self.gcp_sigma_px,
             vertical_offset_m: self.gcp_vertical_offset_m,
-            ..aerorect::flight::ControlOptions::new(file)
+            ..aerorect::flight::ControlOptions::read(&self.gcps)?
         };
         co.validate().map_err(|e| anyhow::anyhow!("--gcps: {e}"))?;
         Ok(Some(co))
@@ -690,7 +686,8 @@ fn batch_files(a: &BatchArgs) -> Result<Files> {
     let adjustment = a.flight.adjust.then(|| adjustment_json(a));
     let poses = a.flight.adjust.then(|| adjusted_poses_csv(a));
     let prj = poses.as_ref().map(|p| p.with_extension("prj"));
-    let accuracy = (!a.flight.gcps.is_empty()).then(|| a.out_dir.join("accuracy.json"));
+    let accuracy =
+        (!a.flight.gcps.is_empty()).then(|| a.out_dir.join(aerorect::flight::ACCURACY_FILE));
     Ok(files
         .output("--report-html", a.report_html.as_deref())
         .output("--gcps (the accuracy report)", accuracy.as_deref())
@@ -974,42 +971,25 @@ fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
     let flight = aerorect::flight::adjust_flight(&a.inputs, opts, &fo)?;
     let r = &flight.report;
     print_adjustment(r);
-    let json = serde_json::to_string_pretty(r)?;
     // Every frame depends on the whole adjustment: the frames and adjustment.json land
     // together, or (when a frame fails) none of them does.
+    let outputs: Vec<PathBuf> = a
+        .inputs
+        .iter()
+        .map(|input| output_for(a, input))
+        .collect::<Result<_>>()?;
     let mut staged = StagedOutputs::new();
-    let mut failed = 0;
-    let mut done = Vec::with_capacity(a.inputs.len());
-    for (k, input) in a.inputs.iter().enumerate() {
-        let res = output_for(a, input)
-            .and_then(|out| Ok(flight.write_frame_staged(k, &out, opts, &mut staged)?));
-        match res {
-            Ok(p) => {
-                outln!("{}", result_line(&p));
-                done.push(p);
-            }
-            Err(e) => {
-                failed += 1;
-                eprintln!("failed: {}: {e:#}", input.display());
-            }
-        }
-    }
-    if failed > 0 {
-        bail!(
-            "{failed} of {} frames failed (listed above); nothing written: the adjusted frames and adjustment.json land together",
-            a.inputs.len()
-        );
-    }
-    staged.text(&adjustment_json(a), &json)?;
-    if let Some(acc) = &r.accuracy {
-        staged.text(
-            &a.out_dir.join("accuracy.json"),
-            &serde_json::to_string_pretty(acc)?,
-        )?;
-    }
+    let done = flight.stage_batch(
+        &outputs,
+        &a.out_dir,
+        opts,
+        &mut staged,
+        |k, res| match res {
+            Ok(p) => outln!("{}", result_line(p)),
+            Err(e) => eprintln!("failed: {}: {e:#}", a.inputs[k].display()),
+        },
+    )?;
     let poses = adjusted_poses_csv(a);
-    staged.text(&poses, &r.poses_csv())?;
-    staged.text(&poses.with_extension("prj"), &flight.crs().to_wkt()?)?;
     if let Some(p) = &a.report_html {
         let overview = flight.overview()?;
         let section = aerorect::report_html::FlightSection {

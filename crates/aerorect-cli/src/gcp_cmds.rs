@@ -45,15 +45,12 @@ pub fn gcp_predict(a: GcpPredictArgs) -> Result<()> {
         .output("--out-dir (gcp_predicted.txt)", listed.as_deref());
     files.check()?;
     aerorect::io::refuse_duplicate_photos(&a.photos)?;
-    let file = match a.gcps.as_slice() {
-        [one] => aerorect::io::read_gcp_file(one)?,
-        many => aerorect::io::read_gcp_files(many)?,
-    };
+    let control = ControlOptions::read(&a.gcps)?;
     let opts = a
         .flight
         .options(&a.photos, RectifyLimits::default(), WarpOptions::default())?;
     let fo = FlightOptions {
-        control: Some(ControlOptions::new(file)),
+        control: Some(control),
         ..FlightOptions::default()
     };
     let plan = FlightPlan::new(&a.photos, &opts, &fo)?;

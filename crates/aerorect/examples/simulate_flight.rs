@@ -7,6 +7,12 @@
 //! poses as recorded, every angle off by N(0, SIGMA_DEG); `filename,x,y,z,omega,phi,kappa`
 //! with a `.prj` each), `cam.toml` and `dem.tif` (the hills on a 5 m grid).
 //!
+//! Ground control as well: `pert_gps.csv` (`.prj`), the recorded poses with every position off
+//! by a common (2, -2, 1) m (3 m) plus N(0, 1 m) per axis, and `gcp_list.txt` (ODM's format,
+//! EPSG:32633): 15 points on the hills, each marked in every frame that sees it with N(0,
+//! 0.5 px) of noise per axis, five spread over the block (`G0`..`G4`) and ten at random
+//! (`C0`..`C9`, listed in `checkpoints.txt` to keep out of the solve).
+//!
 //! `cargo run --release -p aerorect --example simulate_flight -- NX NY OUT_DIR [SIGMA_DEG]`
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -120,6 +126,62 @@ fn write_dem(path: &Path, nx: usize, ny: usize) {
     aerorect::io::write_image_geo(path, &AnyRaster::F32(raster), Some(&geo)).unwrap();
 }
 
+/// The common GPS offset of `pert_gps.csv` (3 m).
+const GPS_OFFSET_M: [f64; 3] = [2.0, -2.0, 1.0];
+
+/// `gcp_list.txt` and `checkpoints.txt` (see the file's doc).
+fn write_gcps(
+    out: &Path,
+    camera: &Camera,
+    poses: &[(String, Pose)],
+    (nx, ny): (usize, usize),
+    rng: &mut ChaCha8Rng,
+) {
+    use rand::Rng;
+    let noise = Normal::new(0.0, 0.5).unwrap();
+    let (w, h) = ((nx - 1) as f64 * FORWARD_M, (ny - 1) as f64 * STRIP_M);
+    let spread = [
+        (0.15, 0.15),
+        (0.85, 0.15),
+        (0.15, 0.85),
+        (0.85, 0.85),
+        (0.5, 0.5),
+    ];
+    let mut points: Vec<(String, f64, f64)> = spread
+        .iter()
+        .enumerate()
+        .map(|(k, (a, b))| (format!("G{k}"), a * w, b * h))
+        .collect();
+    points.extend((0..10).map(|k| {
+        let (a, b): (f64, f64) = (rng.random_range(0.1..0.9), rng.random_range(0.1..0.9));
+        (format!("C{k}"), a * w, b * h)
+    }));
+    let mut list = String::from("EPSG:32633\n");
+    for (name, dx, dy) in &points {
+        let (x, y) = (ORIGIN[0] + dx, ORIGIN[1] + dy);
+        let g = aerorect::core::Vec3::new(x, y, hills(x, y));
+        for (image, pose) in poses {
+            let d = pose.world_from_camera().transpose()
+                * (g - aerorect::core::Vec3::from(pose.centre));
+            let Some(p) = camera.pixel_from_camera_point(d) else {
+                continue;
+            };
+            let inside = p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= 479.0 && p[1] <= 359.0;
+            if inside {
+                list += &format!(
+                    "{x:.3} {y:.3} {:.3} {:.2} {:.2} {image} {name}\n",
+                    g.z,
+                    p[0] + noise.sample(rng),
+                    p[1] + noise.sample(rng)
+                );
+            }
+        }
+    }
+    std::fs::write(out.join("gcp_list.txt"), list).unwrap();
+    let checks: Vec<&str> = points[5..].iter().map(|p| p.0.as_str()).collect();
+    std::fs::write(out.join("checkpoints.txt"), checks.join(",")).unwrap();
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let nx: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(10);
@@ -135,7 +197,9 @@ fn main() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let err = Normal::new(0.0, sigma).unwrap();
     let tilt = Normal::new(0.0, 0.5).unwrap();
-    let (mut truth, mut pert) = (String::new(), String::new());
+    let (mut truth, mut pert, mut pert_gps) = (String::new(), String::new(), String::new());
+    let mut poses = Vec::new();
+    let gps = Normal::new(0.0, 1.0).unwrap();
     let header = "filename,x,y,z,omega,phi,kappa\n";
     let t0 = std::time::Instant::now();
     for j in 0..ny {
@@ -171,10 +235,21 @@ fn main() {
             };
             truth += &row(opk);
             pert += &row(rec);
+            let d = [0, 1, 2].map(|k| GPS_OFFSET_M[k] + gps.sample(&mut rng));
+            pert_gps += &format!(
+                "{name},{:.3},{:.3},{:.3},{:.6},{:.6},{:.6}\n",
+                c[0] + d[0],
+                c[1] + d[1],
+                c[2] + d[2],
+                rec[0],
+                rec[1],
+                rec[2]
+            );
+            poses.push((name.clone(), pose));
         }
     }
     let wkt = Crs::Epsg(32633).to_wkt().unwrap();
-    for (name, rows) in [("truth", truth), ("pert", pert)] {
+    for (name, rows) in [("truth", truth), ("pert", pert), ("pert_gps", pert_gps)] {
         std::fs::write(out.join(format!("{name}.csv")), format!("{header}{rows}")).unwrap();
         std::fs::write(out.join(format!("{name}.prj")), &wkt).unwrap();
     }
@@ -184,6 +259,7 @@ fn main() {
     )
     .unwrap();
     write_dem(&out.join("dem.tif"), nx, ny);
+    write_gcps(&out, &camera, &poses, (nx, ny), &mut rng);
     eprintln!(
         "{} frames rendered into {} in {:.1} s",
         nx * ny,

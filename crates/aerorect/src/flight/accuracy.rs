@@ -224,3 +224,59 @@ fn unreached(frames: usize, ties: &[TiePoint], marked: &[usize]) -> Vec<usize> {
     out.sort_unstable();
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(role: Role, xy: Option<[f64; 2]>, z: Option<f64>) -> PointAccuracy {
+        PointAccuracy {
+            name: "p".into(),
+            role,
+            surveyed: [0.0; 3],
+            estimated: None,
+            residual_m: xy,
+            residual_z_m: z,
+            images: vec![],
+        }
+    }
+
+    #[test]
+    fn rmse_counts_z_only_where_measured_and_keeps_roles_apart() {
+        let pts = [
+            point(Role::Check, Some([0.3, 0.0]), Some(0.2)),
+            point(Role::Check, Some([0.0, 0.4]), None),
+            point(Role::Control, Some([10.0, 10.0]), Some(10.0)),
+        ];
+        let r = rmse(&pts, Role::Check);
+        assert_eq!((r.count, r.z_count), (2, 1));
+        assert!((r.x_m - (0.09f64 / 2.0).sqrt()).abs() < 1e-12);
+        assert!((r.y_m - (0.16f64 / 2.0).sqrt()).abs() < 1e-12);
+        assert!((r.xy_m - (0.25f64 / 2.0).sqrt()).abs() < 1e-12);
+        assert!((r.z_m - 0.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_asprs_class_is_the_smallest_that_holds_the_larger_axis() {
+        let at = |x: f64, y: f64| {
+            asprs_class(&Rmse {
+                count: 20,
+                x_m: x,
+                y_m: y,
+                xy_m: x.hypot(y),
+                ..Rmse::default()
+            })
+        };
+        assert_eq!(at(0.04, 0.03).class_cm, Some(5.0));
+        assert_eq!(
+            at(0.03, 0.05).class_cm,
+            Some(5.0),
+            "a class holds its own value"
+        );
+        assert_eq!(at(0.051, 0.0).class_cm, Some(7.5));
+        assert_eq!(at(0.005, 0.006).class_cm, Some(0.63));
+        assert_eq!(at(12.0, 1.0).class_cm, None, "beyond 10 m");
+        // NSSDA: 95 % is 1.7308 RMSE_r (ASPRS 2014, Annex D).
+        assert!((at(0.3, 0.4).accuracy_95_m - 1.7308 * 0.5).abs() < 1e-12);
+    }
+}

@@ -37,6 +37,16 @@ impl ControlOptions {
         }
     }
 
+    /// The points of a GCP file (or of a Pix4D coordinates file and its marks file), with
+    /// the defaults.
+    pub fn read(paths: &[PathBuf]) -> Result<Self, Error> {
+        let file = match paths {
+            [one] => aerorect_io::read_gcp_file(one)?,
+            many => aerorect_io::read_gcp_files(many)?,
+        };
+        Ok(Self::new(file))
+    }
+
     /// Refuses standard deviations that are not finite and positive, and an absurd offset.
     pub fn validate(&self) -> Result<(), Error> {
         let bad = |what: &str, v: f64| {

@@ -17,6 +17,7 @@
 //! tie points held to their surveyed positions) and `accuracy` (the report against them).
 
 mod accuracy;
+mod batch;
 mod control;
 mod correlate;
 mod exchange;
@@ -32,6 +33,7 @@ pub use accuracy::{
     ASPRS_HORIZONTAL_CLASSES_CM, AccuracyReport, AsprsClass, MarkResidual, PointAccuracy, Rmse,
     asprs_class,
 };
+pub use batch::{ACCURACY_FILE, ADJUSTMENT_FILES, adjustment_files};
 pub use control::{ControlOptions, MARK_SIGMA_PX, Role, SURVEY_SIGMA_M};
 pub use exchange::{exact_json, from_exact_json};
 pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource};
