@@ -388,6 +388,11 @@ pub struct FlightArgs {
     /// attitudes must be within a few degrees).
     #[arg(long, requires = "adjust", default_value = "both")]
     pub ties: String,
+    /// With --adjust and no --gcps: take each GPS fix robustly (Huber at three sigmas) about
+    /// the block's common shift, so that a fix the images contradict is down-weighted (see
+    /// adjustment.json's gps[].weight).
+    #[arg(long, requires = "adjust")]
+    pub robust_gps: bool,
     /// With --adjust: ground control points: ODM's gcp_list.txt, a Pix4D or Metashape marker
     /// CSV, or ours (see CONVENTIONS.md); a Pix4D coordinates file and its image-marks file as
     /// two files, comma-separated. Their marks hold the solve, the datum of the GPS positions
@@ -501,6 +506,7 @@ impl FlightArgs {
             refine_radial: self.adjust_lens,
             refine_boresight: self.adjust_boresight,
             control: self.control()?,
+            robust_gps: self.robust_gps,
             ..Default::default()
         })
     }

@@ -130,6 +130,13 @@ pub struct AdjustOptions<'a> {
     pub tolerances: Tolerances,
     /// What is solved between the recorded positions' frame and the control's.
     pub datum: Datum,
+    /// The datum shift's prior standard deviation (m): weak (1 km) where ground control
+    /// decides it; without control, about a GPS fix's over the root of the frames' count, so
+    /// that the block stays where its GPS puts it while single fixes are taken robustly.
+    pub datum_shift_sigma_m: f64,
+    /// GPS fixes the images contradict: each frame's position prior (relative to the datum)
+    /// takes Huber's loss at this many of its sigmas; `None` keeps it quadratic.
+    pub position_huber: Option<f64>,
 }
 
 impl Default for AdjustOptions<'_> {
@@ -147,6 +154,8 @@ impl Default for AdjustOptions<'_> {
             max_iterations: 50,
             tolerances: Tolerances::default(),
             datum: Datum::Recorded,
+            datum_shift_sigma_m: 1000.0,
+            position_huber: None,
         }
     }
 }
@@ -164,6 +173,9 @@ pub struct FrameAdjustment {
     pub rms_after_px: f64,
     /// Observations the robust loss down-weighted (residual above the Huber threshold).
     pub outliers: usize,
+    /// The weight the robust position prior left this frame's recorded position (1: held in
+    /// full; below: the images contradict it).
+    pub position_weight: f64,
 }
 
 /// The corrections of one camera.
@@ -314,6 +326,14 @@ pub fn adjust(
         termination: out.termination,
         gauge,
         t0,
+        position_weights: (0..frames.len())
+            .map(
+                |f| match positions_free[f] && opts.position_huber.is_some() {
+                    true => p.position_weight(&out.state, f).0,
+                    false => 1.0,
+                },
+            )
+            .collect(),
     };
     Ok(report::finish(&p, &out.state, fit))
 }

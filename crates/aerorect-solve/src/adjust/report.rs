@@ -22,6 +22,8 @@ pub(super) struct Fit {
     pub termination: Termination,
     pub gauge: Vec<GaugeHold>,
     pub t0: std::time::Instant,
+    /// Each frame's robust position weight at the end.
+    pub position_weights: Vec<f64>,
 }
 
 /// Standard deviations of the free parameters: the diagonal of the reduced system's inverse
@@ -69,6 +71,7 @@ fn frame_report(s: &State, fit: &Fit, f: usize) -> FrameAdjustment {
         rms_before_px: fit.before.0[f].0,
         rms_after_px: fit.after.0[f].0,
         outliers: fit.after.0[f].2,
+        position_weight: fit.position_weights.get(f).copied().unwrap_or(1.0),
     }
 }
 

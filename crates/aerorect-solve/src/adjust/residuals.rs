@@ -79,19 +79,25 @@ pub(super) struct Problem<'a> {
     pub centroid: Vec3,
 }
 
-/// One prior as a whitened linear row: its residual and its derivative by each free
-/// parameter it involves (reduced-system index, derivative).
+/// One prior as a linear row: its residual `value` with standard deviation `sigma`, its
+/// derivative by each free parameter it involves (reduced-system index, derivative), its
+/// robust weight and its share of the cost ((value / sigma)^2, or Huber's for a position
+/// prior taken robustly).
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct PriorRow {
-    pub r: f64,
+    pub value: f64,
+    pub sigma: f64,
     pub terms: Vec<(usize, f64)>,
+    pub weight: f64,
+    pub cost: f64,
 }
 
-/// The datum's weak priors: a shift of a kilometre, a degree, one percent of scale. Ground
-/// control decides it; the priors only keep a datum control cannot see from drifting.
-pub(super) fn datum_sigma(p: DatumParam) -> f64 {
+/// The datum's weak priors: a shift of [`AdjustOptions::datum_shift_sigma_m`], a degree, one
+/// percent of scale. Ground control decides it; the priors keep a datum control cannot see
+/// from drifting (and without control, the shift's prior holds the block where its GPS is).
+pub(super) fn datum_sigma(opts: &AdjustOptions<'_>, p: DatumParam) -> f64 {
     match p {
-        DatumParam::Shift(_) => 1000.0,
+        DatumParam::Shift(_) => opts.datum_shift_sigma_m,
         DatumParam::Rotation(_) => 1f64.to_radians(),
         DatumParam::Scale => 0.01,
     }
@@ -126,7 +132,7 @@ impl Problem<'_> {
 
     /// Robust cost of the whole problem (priors included); `None` if a point leaves a view.
     pub fn cost(&self, s: &State) -> Option<f64> {
-        let mut c: f64 = self.prior_rows(s).iter().map(|row| row.r * row.r).sum();
+        let mut c: f64 = self.prior_rows(s).iter().map(|row| row.cost).sum();
         for (tie, x) in self.ties.iter().zip(&s.points) {
             for o in &tie.observations {
                 let r = self.residual(s, o, x)?;
@@ -193,22 +199,45 @@ impl Problem<'_> {
     /// a frame's position correction, which with a datum is held near the datum's offset for
     /// that frame.
     pub fn prior_rows(&self, s: &State) -> Vec<PriorRow> {
-        let datum = self.datum_free();
+        let datum = self.datum_free() || self.opts.position_huber.is_some();
         self.layout
             .free()
             .map(|(i, p)| match p {
                 Param::Frame(f, FrameParam::Position(k)) if datum => self.position_row(s, f, k, i),
                 Param::Frame(f, q) => Self::row(i, p.value(s), self.frame_sigma(f, q)),
                 Param::Camera(_, q) => Self::row(i, p.value(s), Self::camera_sigma(q)),
-                Param::Datum(q) => Self::row(i, p.value(s), datum_sigma(q)),
+                Param::Datum(q) => Self::row(i, p.value(s), datum_sigma(self.opts, q)),
             })
             .collect()
     }
 
     fn row(i: usize, v: f64, sigma: f64) -> PriorRow {
         PriorRow {
-            r: v / sigma,
-            terms: vec![(i, 1.0 / sigma)],
+            value: v,
+            sigma,
+            terms: vec![(i, 1.0)],
+            weight: 1.0,
+            cost: (v / sigma).powi(2),
+        }
+    }
+
+    /// Frame `f`'s whitened position residual against the datum's offset (all three axes).
+    pub fn position_residual(&self, s: &State, f: usize) -> Vec3 {
+        let d = Vec3::from(self.frames[f].centre) - self.centroid;
+        let offset = datum_offset(&s.datum, &d);
+        Vec3::from_fn(|k, _| {
+            (s.frames[f].position[k] - offset[k]) / self.frame_sigma(f, FrameParam::Position(k))
+        })
+    }
+
+    /// The robust weight of frame `f`'s position prior (1 unless
+    /// [`AdjustOptions::position_huber`] down-weights a fix the images contradict) and the
+    /// prior's whole cost.
+    pub fn position_weight(&self, s: &State, f: usize) -> (f64, f64) {
+        let n = self.position_residual(s, f).norm();
+        match self.opts.position_huber {
+            Some(k) if n > k => (k / n, 2.0 * k * n - k * k),
+            _ => (1.0, n * n),
         }
     }
 
@@ -217,12 +246,12 @@ impl Problem<'_> {
         let sigma = self.frame_sigma(f, FrameParam::Position(k));
         let d = Vec3::from(self.frames[f].centre) - self.centroid;
         let offset = datum_offset(&s.datum, &d);
-        let mut terms = vec![(i, 1.0 / sigma)];
+        let mut terms = vec![(i, 1.0)];
         // d offset_k / d shift_k = 1; d (w x d)_k / d w_j = -[d]x_kj; d offset_k / d scale = d_k.
         let cross = d.cross_matrix();
         let mut add = |q: DatumParam, v: f64| {
             if let Some(j) = self.layout.datum(q) {
-                terms.push((j, -v / sigma));
+                terms.push((j, -v));
             }
         };
         add(DatumParam::Shift(k), 1.0);
@@ -230,9 +259,17 @@ impl Problem<'_> {
             add(DatumParam::Rotation(j), -cross[(k, j)]);
         }
         add(DatumParam::Scale, d[k]);
+        let value = s.frames[f].position[k] - offset[k];
+        let r = value / sigma;
+        // The frame's Huber cost shared among its axes by their squares.
+        let (weight, whole) = self.position_weight(s, f);
+        let n2 = self.position_residual(s, f).norm_squared();
         PriorRow {
-            r: (s.frames[f].position[k] - offset[k]) / sigma,
+            value,
+            sigma,
             terms,
+            weight,
+            cost: if n2 > 0.0 { whole * r * r / n2 } else { 0.0 },
         }
     }
 

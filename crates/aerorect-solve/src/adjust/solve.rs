@@ -121,10 +121,11 @@ impl Problem<'_> {
             lin.points.push(p);
         }
         for row in self.prior_rows(s) {
+            let w = row.weight / (row.sigma * row.sigma);
             for &(i, a) in &row.terms {
-                lin.rhs[i] -= a * row.r;
+                lin.rhs[i] -= w * a * row.value;
                 for &(j, b) in &row.terms {
-                    *lin.entries.entry((i, j)).or_insert(0.0) += a * b;
+                    *lin.entries.entry((i, j)).or_insert(0.0) += w * a * b;
                 }
             }
         }

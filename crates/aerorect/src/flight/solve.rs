@@ -126,9 +126,14 @@ pub(super) fn match_and_adjust(
             },
         )),
         max_iterations: 100,
-        datum: control.map_or(Datum::Recorded, |c| c.datum()),
         ..AdjustOptions::default()
     };
+    let aopts = robust_gps(
+        control,
+        (position_sigma_m, fo.robust_gps),
+        frames.len(),
+        aopts,
+    );
     let mut all = ties.clone();
     if let (Some(c), Some(co)) = (control, &fo.control) {
         all.extend(c.tie_points(co.mark_sigma_px, aopts.pixel_sigma));
@@ -173,6 +178,33 @@ pub(super) fn match_and_adjust(
         })
         .collect();
     Ok(round)
+}
+
+/// The datum and the robustness of the GPS priors: with ground control, the datum the control
+/// fixes (its shift free); without, with [`FlightOptions::robust_gps`] and three frames or more,
+/// a shift held at a GPS fix's sigma
+/// over the root of the frames' count (the block stays where its GPS puts it) and each fix
+/// taken robustly about it (Huber at [`GPS_CONTRADICTION_SIGMAS`]): a fix the images
+/// contradict is down-weighted and the images win.
+fn robust_gps<'a>(
+    control: Option<&control::Resolved>,
+    (position_sigma_m, robust): (Option<f64>, bool),
+    frames: usize,
+    aopts: AdjustOptions<'a>,
+) -> AdjustOptions<'a> {
+    match (control, position_sigma_m) {
+        (Some(c), _) => AdjustOptions {
+            datum: c.datum(),
+            ..aopts
+        },
+        (None, Some(sigma)) if frames >= 3 && robust => AdjustOptions {
+            datum: Datum::Shift,
+            datum_shift_sigma_m: sigma / (frames as f64).sqrt(),
+            position_huber: Some(GPS_CONTRADICTION_SIGMAS),
+            ..aopts
+        },
+        _ => aopts,
+    }
 }
 
 /// The warnings of a solve (gauge freedoms held, an iteration limit met with a sub-pixel
@@ -371,10 +403,12 @@ pub struct GpsCheck {
     pub frame: String,
     pub offset_m: [f64; 3],
     pub prior_sigma_m: [f64; 3],
-    /// The offset's whitened norm; above [`GPS_CONTRADICTION_SIGMAS`] the images contradict
-    /// the fix.
+    /// The offset's whitened norm (less the block's common shift, where one was solved);
+    /// above [`GPS_CONTRADICTION_SIGMAS`] the images contradict the fix.
     pub sigmas: f64,
     pub contradicted: bool,
+    /// The weight the solve left the fix (below 1: down-weighted, the images won).
+    pub weight: f64,
 }
 
 /// Every frame whose position was adjusted, against its prior (none when positions are held).
@@ -393,8 +427,10 @@ pub(super) fn gps_checks(
         .zip(&report.frames)
         .map(|((f, a), r)| {
             let sigma = a.position_sigma_m.unwrap_or([default; 3]);
+            // Against the block's common shift where one was solved.
+            let shift = report.datum.as_ref().map_or([0.0; 3], |d| d.shift_m);
             let sigmas = (0..3)
-                .map(|k| (r.position_m[k] / sigma[k]).powi(2))
+                .map(|k| ((r.position_m[k] - shift[k]) / sigma[k]).powi(2))
                 .sum::<f64>()
                 .sqrt();
             GpsCheck {
@@ -403,6 +439,7 @@ pub(super) fn gps_checks(
                 prior_sigma_m: sigma,
                 sigmas,
                 contradicted: sigmas > GPS_CONTRADICTION_SIGMAS,
+                weight: r.position_weight,
             }
         })
         .collect()
@@ -424,12 +461,15 @@ pub(super) fn contradictions(
         .map(|g| {
             let d = g.offset_m;
             let m = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            format!("{} ({m:.1} m, {:.1} sigma)", g.frame, g.sigmas)
+            format!(
+                "{} ({m:.1} m, {:.1} sigma, weight {:.2})",
+                g.frame, g.sigmas, g.weight
+            )
         })
         .collect();
     if !moved.is_empty() {
         out.push(format!(
-            "the images contradict the GPS positions of {} frames (moved beyond {GPS_CONTRADICTION_SIGMAS} sigma): {}",
+            "the images contradict the GPS positions of {} frames (moved beyond {GPS_CONTRADICTION_SIGMAS} sigma from the block's common shift; down-weighted where the weight is below 1): {}",
             moved.len(),
             moved.join(", ")
         ));
