@@ -55,7 +55,7 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
 ) {
     let width = dst.width();
     let rows_per_task = (PIXELS_PER_TASK / width).max(1);
-    super::row_strips(dst, rows_per_task)
+    super::types::row_strips(dst, rows_per_task)
         .into_par_iter()
         .enumerate()
         .for_each_init(

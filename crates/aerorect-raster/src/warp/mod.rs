@@ -6,118 +6,33 @@
 //! -0.5 <= x < W - 0.5 and -0.5 <= y < H - 0.5 (the pixel footprints); inside, neighbours past
 //! the edge repeat the edge pixel. Outside, the destination gets the nodata value and, when asked,
 //! a zero in the alpha band (which is OPAQUE where valid).
+//!
+//! Layout: the public API here and in `options`; `dispatch` picks the kernel and shares rows
+//! out; `types` holds what the dispatcher and the kernels share; `portable` is the portable
+//! build, one file per kernel; `simd` picks the build for each row and holds the AVX2 and
+//! AVX-512 builds, one file per kernel (its docs, `SIMD.md`, are the SIMD notes).
 
 mod area;
-#[cfg(target_arch = "x86_64")]
-mod avx2;
-mod kernel;
+mod block;
+mod dispatch;
+mod options;
+mod portable;
 mod prefilter;
 mod relative;
+mod scratch;
+mod simd;
+mod types;
 
 use crate::error::RasterError;
 use crate::map::PixelMap;
 use crate::raster::{Raster, Sample};
 use aerorect_core::ImageSize;
-use rayon::prelude::*;
+use dispatch::dispatch;
+use types::Build;
 
-pub use kernel::keys_weights;
+pub use options::{Coordinates, Interp, WarpOptions};
+pub use portable::keys_weights;
 pub use relative::FAST_MAX_ERROR;
-
-/// How the destination pixels' source positions are evaluated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub enum Coordinates {
-    /// Every position in f64, as the map gives it.
-    Exact,
-    /// For projective maps (`PixelMap::projective`): per block of a row (1024 pixels, or 512
-    /// or 256 where a longer block's bound is too large), the first position in f64 and the
-    /// others as f32 offsets from it, where the block's own error bound is at most
-    /// `FAST_MAX_ERROR` (5e-4 px; see `relative`); other blocks, other maps, and the average
-    /// kernel (an area, not positions) are exact.
-    #[default]
-    Fast,
-}
-
-/// The interpolation kernel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub enum Interp {
-    Nearest,
-    #[default]
-    Bilinear,
-    /// Keys' cubic convolution with a = -0.5.
-    Bicubic,
-    /// The mean of the source pixels under the destination pixel's footprint, weighted by the
-    /// area they share with it (GDAL's `-r average`, OpenCV's `INTER_AREA`); see `area`.
-    Average,
-}
-
-impl Interp {
-    pub fn name(&self) -> &'static str {
-        match self {
-            Interp::Nearest => "nearest",
-            Interp::Bilinear => "bilinear",
-            Interp::Bicubic => "bicubic",
-            Interp::Average => "average",
-        }
-    }
-}
-
-impl std::str::FromStr for Interp {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "nearest" => Ok(Interp::Nearest),
-            "bilinear" => Ok(Interp::Bilinear),
-            "bicubic" => Ok(Interp::Bicubic),
-            "average" => Ok(Interp::Average),
-            _ => Err(format!(
-                "unknown interpolation '{s}': expected nearest, bilinear, bicubic or average"
-            )),
-        }
-    }
-}
-
-/// How to warp.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct WarpOptions {
-    pub interp: Interp,
-    /// The value written where the source has no pixel (must fit the sample type).
-    pub nodata: f64,
-    /// Append an alpha band: OPAQUE where the source had the pixel, 0 elsewhere.
-    pub alpha: bool,
-    /// Bilinear and bicubic read a 2 x 2 box-reduced pyramid level where the destination is more
-    /// than twice coarser than the source, so they do not alias (see `prefilter`); false keeps
-    /// the plain kernels everywhere. No effect at scales below 2 (bit for bit).
-    pub prefilter: bool,
-    /// Exact or fast source positions (see `Coordinates`).
-    pub coordinates: Coordinates,
-}
-
-impl Default for WarpOptions {
-    fn default() -> Self {
-        Self {
-            interp: Interp::Bilinear,
-            nodata: 0.0,
-            alpha: false,
-            prefilter: true,
-            coordinates: Coordinates::default(),
-        }
-    }
-}
-
-impl WarpOptions {
-    /// The nodata value in the sample type, or an error when it does not fit.
-    pub fn nodata_as<T: Sample>(&self) -> Result<T, RasterError> {
-        T::from_f64_exact(self.nodata).ok_or(RasterError::InvalidNodata {
-            value: self.nodata,
-            sample: T::NAME,
-        })
-    }
-
-    /// Bands of the destination for a source of `bands` bands.
-    pub fn output_bands(&self, bands: usize) -> usize {
-        bands + usize::from(self.alpha)
-    }
-}
 
 /// Warps `src` into a new `size` raster; `map` gives each destination pixel's source position.
 pub fn warp<T: Sample, M: PixelMap>(
@@ -138,7 +53,7 @@ pub fn warp_into<T: Sample, M: PixelMap>(
     opts: &WarpOptions,
     dst: &mut Raster<T>,
 ) -> Result<(), RasterError> {
-    warp_into_impl(src, map, opts, dst, kernel::Build::Best)
+    warp_into_impl(src, map, opts, dst, Build::Best)
 }
 
 /// [`warp_into`] with the portable (non-SIMD) build of the kernels, for agreement tests.
@@ -149,7 +64,7 @@ pub fn warp_into_portable<T: Sample, M: PixelMap>(
     opts: &WarpOptions,
     dst: &mut Raster<T>,
 ) -> Result<(), RasterError> {
-    warp_into_impl(src, map, opts, dst, kernel::Build::Portable)
+    warp_into_impl(src, map, opts, dst, Build::Portable)
 }
 
 /// [`warp_into`] with the AVX2 build alone (no AVX-512 even where the CPU has it), for
@@ -161,7 +76,7 @@ pub fn warp_into_avx2<T: Sample, M: PixelMap>(
     opts: &WarpOptions,
     dst: &mut Raster<T>,
 ) -> Result<(), RasterError> {
-    warp_into_impl(src, map, opts, dst, kernel::Build::Avx2)
+    warp_into_impl(src, map, opts, dst, Build::Avx2)
 }
 
 fn warp_into_impl<T: Sample, M: PixelMap>(
@@ -169,7 +84,7 @@ fn warp_into_impl<T: Sample, M: PixelMap>(
     map: &M,
     opts: &WarpOptions,
     dst: &mut Raster<T>,
-    build: kernel::Build,
+    build: Build,
 ) -> Result<(), RasterError> {
     let want = opts.output_bands(src.bands());
     if dst.bands() != want {
@@ -197,96 +112,4 @@ fn warp_into_impl<T: Sample, M: PixelMap>(
     }
     dispatch(src, map, opts, nodata, dst, build);
     Ok(())
-}
-
-/// Runs `interp`'s kernel over the whole destination (no prefilter; arguments checked).
-fn dispatch<T: Sample, M: PixelMap>(
-    src: &Raster<T>,
-    map: &M,
-    opts: &WarpOptions,
-    nodata: T,
-    dst: &mut Raster<T>,
-    build: kernel::Build,
-) {
-    let g = kernel::SourceGeometry::of(src, build);
-    // The AVX2 build moves the image's limits by the origin in f32: exact below 2^22 pixels.
-    let small = src.width().max(src.height()) < 1 << 22;
-    let fast = match opts.coordinates {
-        Coordinates::Fast if small => map.projective(),
-        _ => None,
-    };
-    let plan = kernel::RowPlan {
-        map,
-        fast: fast.as_ref(),
-        nodata,
-        alpha: opts.alpha,
-    };
-    match opts.interp {
-        Interp::Nearest => run::<T, M, kernel::Nearest>(src, &g, &plan, dst),
-        Interp::Bilinear => run::<T, M, kernel::Bilinear>(src, &g, &plan, dst),
-        Interp::Bicubic => run::<T, M, kernel::Bicubic>(src, &g, &plan, dst),
-        Interp::Average => area::run(src, map, nodata, opts.alpha, dst),
-    }
-}
-
-/// About this many destination pixels per rayon task ...
-const PIXELS_PER_TASK: usize = 32 * 1024;
-/// ... and at least this many rows: a task walks its rows tile by tile (`TILE_COLS` columns),
-/// so that the source pixels of a tile stay in cache from one row to the next even when the
-/// destination rows cross the source at an angle (as OpenCV's warp blocks do).
-const MIN_ROWS_PER_TASK: usize = 16;
-const TILE_COLS: usize = 1024;
-
-/// The destination cut into strips of `rows` rows, one task each: per strip, its part of every
-/// band (alpha last).
-pub(crate) fn row_strips<T: Sample>(dst: &mut Raster<T>, rows: usize) -> Vec<Vec<&mut [T]>> {
-    let width = dst.width();
-    let n_tasks = dst.height().div_ceil(rows);
-    let mut tasks: Vec<Vec<&mut [T]>> = (0..n_tasks).map(|_| Vec::new()).collect();
-    for plane in dst.planes_mut() {
-        for (task, chunk) in tasks.iter_mut().zip(plane.chunks_mut(rows * width)) {
-            task.push(chunk);
-        }
-    }
-    tasks
-}
-
-fn run<T: Sample, M: PixelMap, K: kernel::Kernel>(
-    src: &Raster<T>,
-    g: &kernel::SourceGeometry,
-    plan: &kernel::RowPlan<'_, M, T>,
-    dst: &mut Raster<T>,
-) {
-    let width = dst.width();
-    let rows_per_task = (PIXELS_PER_TASK / width).max(MIN_ROWS_PER_TASK);
-    row_strips(dst, rows_per_task)
-        .into_par_iter()
-        .enumerate()
-        .for_each_init(kernel::Scratch::<K>::new, |scratch, (t, mut chunks)| {
-            let first_row = t * rows_per_task;
-            let rows = chunks[0].len() / width;
-            for c0 in (0..width).step_by(TILE_COLS) {
-                for r in 0..rows {
-                    let out = kernel::RowOut {
-                        chunks: &mut chunks,
-                        start: r * width,
-                        row: first_row + r,
-                        cols: c0..(c0 + TILE_COLS).min(width),
-                        alpha: plan.alpha,
-                    };
-                    kernel::row::<T, K, M>(src, plan, g, scratch, out);
-                }
-            }
-        });
-}
-
-impl WarpOptions {
-    /// Checks the nodata value fits the sample type of `img`.
-    pub fn nodata_as_for(&self, img: &crate::AnyRaster) -> Result<(), RasterError> {
-        match img {
-            crate::AnyRaster::U8(_) => self.nodata_as::<u8>().map(|_| ()),
-            crate::AnyRaster::U16(_) => self.nodata_as::<u16>().map(|_| ()),
-            crate::AnyRaster::F32(_) => self.nodata_as::<f32>().map(|_| ()),
-        }
-    }
 }

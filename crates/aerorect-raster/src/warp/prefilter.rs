@@ -15,7 +15,7 @@
 //! as for the plain warp. Neighbouring tiles at different levels differ in sharpness: a visible
 //! seam where the scale crosses a power of two (no blending between levels).
 
-use super::WarpOptions;
+use super::options::WarpOptions;
 use crate::error::RasterError;
 use crate::map::PixelMap;
 use crate::raster::{Raster, Sample};
@@ -168,7 +168,7 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
     opts: &WarpOptions,
     dst: &mut Raster<T>,
     plan: &Plan,
-    build: super::kernel::Build,
+    build: super::types::Build,
 ) -> Result<(), RasterError> {
     let crop = crop_of(map, plan, dst.size(), src.size());
     let cropped_src = crop.map(|c| cropped(src, c)).transpose()?;
@@ -209,7 +209,7 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
                     origin: origin(k),
                 };
                 let mut tile = Raster::new(ImageSize::new(cols, rows), bands)?;
-                super::dispatch(level(k), &tmap, opts, nodata, &mut tile, build);
+                super::dispatch::dispatch(level(k), &tmap, opts, nodata, &mut tile, build);
                 if k > 0 {
                     outside_level0(src.size(), &tmap, nodata, opts.alpha, &mut tile);
                 }

@@ -32,7 +32,7 @@ const ORIGIN_LIMIT: f64 = (1u64 << 22) as f64;
 /// 1 + 1 / (k (1 + c (k + 1))), and its f32 evaluation (`RelativeBlock::offset`: three
 /// roundings, then the product's) is within 4u of it, so it stays monotonic while that factor
 /// exceeds (1 + 4u) / (1 - 4u), about 1 + 8u = 1 + 2^-21: k (1 + c (k + 1)) < 2^21. With
-/// k < 1024 (`kernel::BLOCK`) and 1 + c (k + 1) <= 1000 that holds twice over; for c < 0 the
+/// k < 1024 (`block::BLOCK`) and 1 + c (k + 1) <= 1000 that holds twice over; for c < 0 the
 /// factor is larger still. The roundings of a k r, then first + a k r keep monotonicity.
 const MAX_W_GROWTH: f64 = 1000.0;
 
@@ -142,7 +142,7 @@ impl RelativeBlock {
 mod tests {
     use super::*;
     use crate::map::PixelMap;
-    use crate::warp::kernel::{BLOCK, MIN_FAST_BLOCK};
+    use crate::warp::block::{BLOCK, MIN_FAST_BLOCK};
     use aerorect_core::Homography;
 
     /// Strong and mild perspectives, rotations and scales from 1/3 to 3 (source_from_destination).
