@@ -16,6 +16,8 @@ GCPs and ten check points `C0`..`C9`, marks at 0.5 px of noise): `batch --adjust
 then the check points' RMSE before and after (accuracy.json).
 
 Needs only the standard library (and cargo). Run with the machine otherwise quiet.
+SIM_FLIGHT_MOSAIC=0 skips the mosaic; AERORECT_FLIGHT_TIMING=1 prints where the adjustment's
+time went (stderr of `batch`).
 """
 import csv
 import json
@@ -56,7 +58,9 @@ def timed(args, cwd):
     p = subprocess.run(["/usr/bin/time", "-f", "%M"] + args, cwd=cwd, capture_output=True, text=True)
     if p.returncode != 0:
         sys.exit(f"failed: {' '.join(args)}\n{p.stderr[-3000:]}")
-    peak_kb = int(p.stderr.strip().splitlines()[-1])
+    lines = p.stderr.strip().splitlines()
+    sys.stderr.write("".join(l + "\n" for l in lines if l.startswith("flight timing:")))
+    peak_kb = int(lines[-1])
     return time.perf_counter() - t, peak_kb / 1024, p.stdout
 
 
@@ -125,6 +129,8 @@ def main():
               f"{', '.join(sorted(lost))}")
     mis = [p["misalignment_after_m"] for p in rep["pairs"] if p["misalignment_after_m"] is not None]
     print(f"  pair misalignment after (m, on the ties): {stats(mis)}")
+    if os.environ.get("SIM_FLIGHT_MOSAIC") == "0":
+        return
     secs, peak, _ = timed([BIN, "mosaic", *frames, "--out", "mosaic.tif", *common], work)
     print(f"  mosaic --adjust: {secs:.1f} s end to end, peak RSS {peak:.0f} MB")
 

@@ -95,6 +95,36 @@ pub fn read_image(path: &Path) -> Result<AnyRaster, IoError> {
     read_with_image_crate(path)
 }
 
+/// The size of the PNG, JPEG or TIFF image at `path` from its header alone (no pixels are
+/// decoded): what [`read_image`] would give as its raster's size, in a fraction of the time
+/// (planning a flight needs every photo's size; decoding a 20 Mpx JPEG for it took 0.2-0.3 s).
+/// A file whose pixels are damaged is not found out here but when it is read.
+pub fn read_image_size(path: &Path) -> Result<ImageSize, IoError> {
+    let mut magic = [0u8; 4];
+    let mut f = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    let n = f.read(&mut magic).map_err(|e| IoError::io(path, e))?;
+    let (w, h) = if n >= 4
+        && (magic == *b"II*\0" || magic == *b"MM\0*" || magic == *b"II+\0" || magic == *b"MM\0+")
+    {
+        let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+        tiff::decoder::Decoder::new(std::io::BufReader::new(file))
+            .and_then(|mut d| d.dimensions())
+            .map_err(|e| IoError::decode(path, e))?
+    } else {
+        let reader = ImageReader::open(path)
+            .and_then(|r| r.with_guessed_format())
+            .map_err(|e| IoError::io(path, e))?;
+        if reader.format().is_none() {
+            return Err(IoError::decode(path, "not a PNG, JPEG or TIFF file"));
+        }
+        reader
+            .into_dimensions()
+            .map_err(|e| IoError::decode(path, e))?
+    };
+    check_image_pixels(path, u64::from(w), u64::from(h))?;
+    Ok(ImageSize::new(w as usize, h as usize))
+}
+
 /// The JPEG decoder fills a cut-off file with gray; refuse one without an end-of-image marker
 /// (FF D9) in its last KiB instead.
 fn check_jpeg_end(path: &Path) -> Result<(), IoError> {

@@ -48,8 +48,8 @@ pub use gcp_file::{
 pub use geotiff::{GeoReference, read_georeference, write_world_file};
 pub use image_file::{
     DEFAULT_MAX_IMAGE_PIXELS, decode_image_bytes, image_files, max_image_pixels, read_image,
-    resolved_path, same_file, set_max_image_pixels, thumbnail_png, write_atomically, write_image,
-    write_image_geo,
+    read_image_size, resolved_path, same_file, set_max_image_pixels, thumbnail_png,
+    write_atomically, write_image, write_image_geo,
 };
 pub use metadata::{BodyAngles, BodySchema, PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};

@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used)]
 
 use aerorect_core::ImageSize;
-use aerorect_io::{read_image, write_image};
+use aerorect_io::{read_image, read_image_size, write_image};
 use aerorect_raster::{AnyRaster, Raster};
 use aerorect_testkit::textured_scene;
 use std::path::{Path, PathBuf};
@@ -54,6 +54,7 @@ fn round_trip(dir: &Path, name: &str, img: AnyRaster) {
     let p = dir.join(name);
     write_image(&p, &img).unwrap();
     assert_eq!(read_image(&p).unwrap(), img, "{name}");
+    assert_eq!(read_image_size(&p).unwrap(), img.size(), "{name}");
 }
 
 #[test]
@@ -96,6 +97,27 @@ fn jpeg_reads_as_rgb8() {
         (img.size(), img.bands(), img.sample_name()),
         (ImageSize::new(640, 480), 3, "u8")
     );
+}
+
+#[test]
+fn header_sizes_equal_the_decoded_sizes() {
+    for name in [
+        "aero1.jpg",
+        "fixtures/tiled_lzw_rgb16.tif",
+        "fixtures/strips_deflate_gray32f.tif",
+    ] {
+        let p = data(name);
+        assert_eq!(
+            read_image_size(&p).unwrap(),
+            read_image(&p).unwrap().size(),
+            "{name}"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("notes.txt");
+    std::fs::write(&p, "hello, not an image").unwrap();
+    let e = read_image_size(&p).unwrap_err().to_string();
+    assert!(e.contains("notes.txt"), "{e}");
 }
 
 #[test]

@@ -41,6 +41,10 @@ pub struct TieOptions {
     pub verification: Verification,
     /// Candidate pairs when frame positions are given.
     pub pairs: PairOptions,
+    /// A pair with fewer matches than this is not verified (none of its matches is an
+    /// inlier): RANSAC on the dozen chance matches of two frames that share nothing ran all
+    /// its iterations, most of the verification's time in a flight. 0 verifies every pair.
+    pub min_matches: usize,
 }
 
 impl Default for TieOptions {
@@ -56,6 +60,7 @@ impl Default for TieOptions {
             },
             verification: Verification::Fundamental,
             pairs: PairOptions::default(),
+            min_matches: 0,
         }
     }
 }
@@ -112,7 +117,8 @@ pub fn raster_features(
 ) -> Result<FrameFeatures, Error> {
     let start = Instant::now();
     let factor = reduction_factor(image.size(), opts.long_side_px);
-    let gray = gray_reduced(image, factor)?;
+    let mut gray = gray_reduced(image, factor)?;
+    stretch_contrast(gray.plane_mut(0));
     let features = sift(&gray, &opts.features)
         .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
     Ok(FrameFeatures {
@@ -124,10 +130,39 @@ pub fn raster_features(
     })
 }
 
+/// The most a frame's contrast is stretched by [`stretch_contrast`].
+pub const MAX_CONTRAST_GAIN: f32 = 8.0;
+
+/// Stretches a gray frame (0..255) so that its 1st to 99th percentile spans the whole range
+/// (gain at least 1, at most [`MAX_CONTRAST_GAIN`]; the median stays): SIFT's contrast
+/// threshold is absolute, so a dull frame (haze, snow, a uniform field) gave a tenth of the
+/// keypoints of the same ground at full contrast: the simulated flight's frames, spanning
+/// 80 of 255 levels, gave 30-90 keypoints each and the pairs of its dullest strips too few
+/// matches to tie. A frame that already spans the range is left as it is.
+pub fn stretch_contrast(gray: &mut [f32]) {
+    let step = (gray.len() / 65_536).max(1);
+    let mut sample: Vec<f32> = gray
+        .iter()
+        .step_by(step)
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
+    if sample.len() < 100 {
+        return;
+    }
+    let n = sample.len();
+    let mut at = |q: usize| *sample.select_nth_unstable_by(q, f32::total_cmp).1;
+    let (lo, mid, hi) = (at(n / 100), at(n / 2), at(n - 1 - n / 100));
+    let gain = (255.0 / (hi - lo).max(1e-3)).clamp(1.0, MAX_CONTRAST_GAIN);
+    if gain > 1.0 {
+        gray.iter_mut().for_each(|v| *v = mid + gain * (*v - mid));
+    }
+}
+
 /// Decodes the photo at `path` and describes it.
 pub fn frame_features(path: &Path, opts: &TieOptions) -> Result<FrameFeatures, Error> {
-    let image = aerorect_io::read_image(path)?;
-    raster_features(path, &image, opts)
+    let image = crate::flight::timing::time("features: decode", || aerorect_io::read_image(path))?;
+    crate::flight::timing::time("features: sift", || raster_features(path, &image, opts))
 }
 
 /// Matches two frames and verifies the matches. Fewer matches than the model needs is no
@@ -138,6 +173,7 @@ pub fn match_frames(
     (first, second): (usize, usize),
     opts: &TieOptions,
 ) -> Result<PairTies, Error> {
+    let t = Instant::now();
     let m = match_float(
         &a.features.descriptors,
         &b.features.descriptors,
@@ -151,13 +187,17 @@ pub fn match_frames(
             b.path.display()
         ))
     })?;
+    crate::flight::timing::add("features: descriptor matching", t.elapsed().as_secs_f64());
+    let t = Instant::now();
     let pa: Vec<[f64; 2]> = m.iter().map(|m| position(a, m.query)).collect();
     let pb: Vec<[f64; 2]> = m.iter().map(|m| position(b, m.train)).collect();
     let verdict = match opts.verification {
+        _ if pa.len() < opts.min_matches => Ok(vec![false; pa.len()]),
         Verification::Homography => ransac_homography(&pa, &pb, &opts.ransac).map(|f| f.inliers),
         Verification::Fundamental => ransac_fundamental(&pa, &pb, &opts.ransac).map(|f| f.inliers),
     };
     let inliers = verdict.unwrap_or_else(|_| vec![false; pa.len()]);
+    crate::flight::timing::add("features: F-RANSAC", t.elapsed().as_secs_f64());
     Ok(PairTies {
         first,
         second,

@@ -56,9 +56,13 @@ const HOMOGRAPHY_SLACK: f64 = 0.05;
 const FEATURE_SIGMA_REDUCED_PX: f64 = 0.5;
 
 impl FlightPlan {
-    /// How frames are reduced and described for feature matching.
+    /// How frames are reduced and described for feature matching: a pair with fewer
+    /// matches than [`MIN_FEATURE_INLIERS`] cannot tie, so it is not verified.
     pub fn tie_options(&self) -> TieOptions {
-        TieOptions::default()
+        TieOptions {
+            min_matches: MIN_FEATURE_INLIERS,
+            ..TieOptions::default()
+        }
     }
 
     /// Frame `k` decoded, reduced and described.
@@ -107,7 +111,9 @@ impl FlightPlan {
             )));
         }
         let m = match_frames(a, b, (i, j), &self.tie_options())?;
-        let inliers = near_one_homography(&m, a.size.width.max(a.size.height));
+        let inliers = timing::time("features: H-RANSAC", || {
+            near_one_homography(&m, a.size.width.max(a.size.height))
+        });
         // A relative weight: the adjustment's pixel sigma is a correlation tie's (0.5 px at
         // full resolution); a feature's is its reduced position's, scaled up.
         let factor = a.factor.max(b.factor) as f64;
@@ -146,14 +152,18 @@ impl FlightPlan {
         if pairs.is_empty() {
             return Ok(vec![]);
         }
-        let features: Vec<FrameFeatures> = (0..self.len())
-            .into_par_iter()
-            .map(|k| self.frame_features(k))
-            .collect::<Result<_, _>>()?;
-        pairs
-            .par_iter()
-            .map(|&(i, j)| self.feature_match((i, &features[i]), (j, &features[j])))
-            .collect()
+        let features: Vec<FrameFeatures> = timing::time("features: frames (wall)", || {
+            (0..self.len())
+                .into_par_iter()
+                .map(|k| self.frame_features(k))
+                .collect::<Result<_, _>>()
+        })?;
+        timing::time("features: pairs (wall)", || {
+            pairs
+                .par_iter()
+                .map(|&(i, j)| self.feature_match((i, &features[i]), (j, &features[j])))
+                .collect()
+        })
     }
 
     /// The first round's matches: [`Self::feature_matches`] unless the ties come from
@@ -174,9 +184,14 @@ impl FlightPlan {
 }
 
 /// The fundamental matrix's inliers that also lie within [`HOMOGRAPHY_SLACK`] of the long
-/// side (`long_px`) of one homography (none when no homography fits).
+/// side (`long_px`) of one homography (none when no homography fits, or when there are fewer
+/// than [`MIN_FEATURE_INLIERS`] to fit).
 fn near_one_homography(m: &crate::features::PairTies, long_px: usize) -> Vec<usize> {
     let kept: Vec<usize> = (0..m.inliers.len()).filter(|&k| m.inliers[k]).collect();
+    if kept.len() < MIN_FEATURE_INLIERS {
+        // Too few to tie the pair whatever the homography keeps.
+        return vec![];
+    }
     let from: Vec<[f64; 2]> = kept.iter().map(|&k| m.first_px[k]).collect();
     let to: Vec<[f64; 2]> = kept.iter().map(|&k| m.second_px[k]).collect();
     let opts = aerorect_solve::ransac::RansacOptions {

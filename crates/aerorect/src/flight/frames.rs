@@ -56,7 +56,7 @@ pub(super) fn plan_frame(
 ) -> Result<Frame, Error> {
     let file = input.display().to_string();
     let rtk_std_m = meta.dji.rtk_std_m;
-    let size = aerorect_io::read_image(input)?.size();
+    let size = timing::time("plan: photo size", || aerorect_io::read_image_size(input))?;
     let coarse_opts = DroneOptions {
         gsd_m: Some(gsd),
         warp: matching_warp(),
@@ -178,13 +178,13 @@ pub(super) fn finest_gsd(
         let cam = match (&opts.camera, m.width, m.height) {
             (Some(c), _, _) => c
                 .camera(None)
-                .or_else(|_| c.camera(Some(aerorect_io::read_image(p)?.size())))?,
+                .or_else(|_| c.camera(Some(aerorect_io::read_image_size(p)?)))?,
             (None, Some(w), Some(h)) => {
                 let size = ImageSize::new(w as usize, h as usize);
                 crate::drone::camera_from_metadata(m, size, &p.display().to_string())?.camera
             }
             (None, _, _) => {
-                let size = aerorect_io::read_image(p)?.size();
+                let size = aerorect_io::read_image_size(p)?;
                 crate::drone::camera_from_metadata(m, size, &p.display().to_string())?.camera
             }
         };

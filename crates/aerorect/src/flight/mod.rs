@@ -28,6 +28,7 @@ mod predict;
 mod render;
 mod solve;
 mod ties;
+pub(crate) mod timing;
 
 pub use accuracy::{
     ASPRS_HORIZONTAL_CLASSES_CM, AccuracyReport, AsprsClass, MarkResidual, PointAccuracy, Rmse,
@@ -279,32 +280,38 @@ pub fn adjust_flight(
     fo: &FlightOptions,
 ) -> Result<AdjustedFlight, Error> {
     fo.validate()?;
-    let plan = FlightPlan::new(inputs, opts, fo)?;
+    let plan = timing::time("plan (wall)", || FlightPlan::new(inputs, opts, fo))?;
     let render_all = |o: Option<&Orientation>| -> Result<Vec<Rendered>, Error> {
-        (0..plan.len())
-            .into_par_iter()
-            .map(|k| plan.render(k, o))
-            .collect()
+        timing::time("render (wall)", || {
+            (0..plan.len())
+                .into_par_iter()
+                .map(|k| plan.render(k, o))
+                .collect()
+        })
     };
-    let features = plan.first_round_matches()?;
+    let features = timing::time("features round (wall)", || plan.first_round_matches())?;
     let mut progress = FlightProgress::default();
     if !features.is_empty() {
         let round = plan.adjust_round(&mut progress, features.clone())?;
         if progress.done {
             let rendered = render_all(progress.orientation.as_ref())?;
+            timing::print();
             return Ok(plan.finish(progress, round, rendered));
         }
     }
     loop {
         let rendered = render_all(progress.orientation.as_ref())?;
         let grids: Vec<OrthoGrid> = rendered.iter().map(|r| r.coarse_plan.grid).collect();
-        let mut matched: Vec<PairMatch> = overlapping(&grids)
-            .par_iter()
-            .map(|&(i, j)| plan.match_rendered((i, &rendered[i]), (j, &rendered[j])))
-            .collect::<Result<_, Error>>()?;
+        let mut matched: Vec<PairMatch> = timing::time("correlate (wall)", || {
+            overlapping(&grids)
+                .par_iter()
+                .map(|&(i, j)| plan.match_rendered((i, &rendered[i]), (j, &rendered[j])))
+                .collect::<Result<_, Error>>()
+        })?;
         matched.extend(features.iter().cloned());
         let round = plan.adjust_round(&mut progress, matched)?;
         if progress.done {
+            timing::print();
             return Ok(plan.finish(progress, round, rendered));
         }
     }

@@ -232,7 +232,7 @@ impl FlightPlan {
             };
             pairs.push((m, a, b));
         }
-        let round = match_and_adjust(pairs, self, mode)?;
+        let round = timing::time("solve round (wall)", || match_and_adjust(pairs, self, mode))?;
         let (poses, cameras) = round.orientation(&self.rec);
         let before = progress
             .orientation
