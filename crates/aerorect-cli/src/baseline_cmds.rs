@@ -11,8 +11,8 @@ use aerorect::io::{CameraFile, StagedOutputs, read_attitude, read_gcps, read_ima
 use aerorect::motion::gray;
 use aerorect::raster::Interp;
 use aerorect::register::{RegisterOptions, Registration, TieModel, register};
+use aerorect::solve::gcp::GcpModel;
 use aerorect::warp_any;
-use aerorect_solve::gcp::GcpModel;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use serde::Serialize;
