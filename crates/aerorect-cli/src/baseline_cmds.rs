@@ -1,7 +1,7 @@
 //! The paper's baselines: `gcp` (polynomial correction), `register` (to a reference image) and
 //! `compare` (Table 1).
 
-use crate::commands::{warp_options, write_image_and_report};
+use crate::args::{warp_options, write_image_and_report};
 use crate::outputs::Files;
 use aerorect::compare::{CompareConfig, CompareResult};
 use aerorect::core::error::Num;

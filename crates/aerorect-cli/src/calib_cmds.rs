@@ -295,7 +295,7 @@ pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
             a.camera.display()
         );
     }
-    let warp = crate::commands::warp_options(a.interp, !a.no_prefilter, a.nodata, a.alpha, &img)?;
+    let warp = crate::args::warp_options(a.interp, !a.no_prefilter, a.nodata, a.alpha, &img)?;
     let plan =
         UndistortPlan::new(&camera, a.fit).with_context(|| a.camera.display().to_string())?;
     let t = std::time::Instant::now();

@@ -160,9 +160,14 @@ impl Camera {
             .collect();
         match (rays, &self.distortion, self.lens_domain()) {
             (Some(rays), _, _) => rays,
-            (None, Some(d), Some(domain)) => {
-                crate::footprint::clipped_border_rays(self, d.model(), &domain, per_side)
-            }
+            (None, Some(d), Some(domain)) => crate::footprint::clipped_border_rays(
+                &self.intrinsics,
+                self.size,
+                d.model(),
+                &domain,
+                per_side,
+                |u, v| self.ray_from_pixel(u, v),
+            ),
             (None, _, _) => border
                 .iter()
                 .filter_map(|p| self.ray_from_pixel(p[0], p[1]))
