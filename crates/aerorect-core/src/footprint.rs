@@ -9,8 +9,8 @@
 //! border and undistorted by the lens's inverse inside the domain.
 
 use crate::Vec3;
-use crate::camera::{ImageSize, Intrinsics};
 use crate::distortion::{Direction, DistortionModel, ValidDomain};
+use crate::intrinsics::{ImageSize, Intrinsics};
 
 /// An outline vertex: its observed pixel and, on the rim, its ideal normalised point.
 #[derive(Debug, Clone, Copy)]

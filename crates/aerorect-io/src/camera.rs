@@ -17,9 +17,9 @@
 //! with the formats (`camera_formats`).
 
 use crate::error::IoError;
-use aerorect_core::camera::FOCAL_RANGE_PX;
+use aerorect_core::camera::MAX_LENS_COEFFICIENT;
 use aerorect_core::error::require_magnitude;
-use aerorect_core::frame_camera::MAX_LENS_COEFFICIENT;
+use aerorect_core::intrinsics::FOCAL_RANGE_PX;
 use aerorect_core::{Camera, GeometryError, ImageSize, Intrinsics};
 use serde::Deserialize;
 
