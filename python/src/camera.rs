@@ -326,7 +326,7 @@ pub fn calibrate<'py>(
     stop_px: f64,
     max_iterations: usize,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    use aerorect_solve::calib::{CalibrationOptions, Observation, calibrate as solve};
+    use aerorect::solve::calib::{CalibrationOptions, Observation, calibrate as solve};
     let obs: Vec<Observation> = if let Ok(p) = points.extract::<PathBuf>() {
         aerorect::calibration::read_observations(&p).map_err(py_err)?
     } else {

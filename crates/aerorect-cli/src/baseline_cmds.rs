@@ -1,7 +1,7 @@
 //! The paper's baselines: `gcp` (polynomial correction), `register` (to a reference image) and
 //! `compare` (Table 1).
 
-use crate::commands::{warp_options, write_image_and_report};
+use crate::args::{warp_options, write_image_and_report};
 use crate::outputs::Files;
 use aerorect::compare::{CompareConfig, CompareResult};
 use aerorect::core::error::Num;
@@ -11,8 +11,8 @@ use aerorect::io::{CameraFile, StagedOutputs, read_attitude, read_gcps, read_ima
 use aerorect::motion::gray;
 use aerorect::raster::Interp;
 use aerorect::register::{RegisterOptions, Registration, TieModel, register};
+use aerorect::solve::gcp::GcpModel;
 use aerorect::warp_any;
-use aerorect_solve::gcp::GcpModel;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use serde::Serialize;

@@ -5,8 +5,8 @@ use aerorect::core::ImageSize;
 use aerorect::core::distortion::Distortion;
 use aerorect::io::{CameraFile, StagedOutputs, camera_toml, read_image, write_image};
 use aerorect::raster::Interp;
+use aerorect::solve::calib::{CalibrationOptions, CalibrationReport, calibrate};
 use aerorect::undistort::UndistortPlan;
-use aerorect_solve::calib::{CalibrationOptions, CalibrationReport, calibrate};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::path::PathBuf;
@@ -295,7 +295,7 @@ pub fn undistort_cmd(a: UndistortArgs) -> Result<()> {
             a.camera.display()
         );
     }
-    let warp = crate::commands::warp_options(a.interp, !a.no_prefilter, a.nodata, a.alpha, &img)?;
+    let warp = crate::args::warp_options(a.interp, !a.no_prefilter, a.nodata, a.alpha, &img)?;
     let plan =
         UndistortPlan::new(&camera, a.fit).with_context(|| a.camera.display().to_string())?;
     let t = std::time::Instant::now();

@@ -1,129 +1,18 @@
 //! One function per subcommand.
 
+use crate::args::{RectifyArgs, coordinates, warp_options, write_image_and_report};
 use crate::outputs::Files;
-use aerorect::core::{
-    AltitudeScale, RectifyLimits, SixAngleAttitude, attitude::SixAngleDegrees,
-    rectify::DEFAULT_MAX_OUTPUT_PX,
-};
+use aerorect::core::{AltitudeScale, RectifyLimits, SixAngleAttitude, attitude::SixAngleDegrees};
 use aerorect::io::{
     CameraFile, StagedOutputs, image_files, read_attitude, read_checkpoints, read_image,
 };
-use aerorect::raster::{AnyRaster, Coordinates, Interp, WarpOptions};
+use aerorect::raster::{Interp, WarpOptions};
 use aerorect::rectify::RectifyPlan;
 use aerorect::sensitivity::{SensitivityConfig, SensitivityRow};
 use aerorect::simulate::SimulatePlan;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use std::path::{Path, PathBuf};
-
-#[derive(Args)]
-pub struct RectifyArgs {
-    /// The oblique frame (PNG, JPEG or TIFF).
-    pub(crate) input: PathBuf,
-    /// The rectified image (.tif or .png; keeps the input's bit depth).
-    pub(crate) output: PathBuf,
-    /// Camera file (TOML); default: from the photo's metadata.
-    #[arg(long)]
-    pub(crate) camera: Option<PathBuf>,
-    /// Attitude: a TOML file, or azimuth=..,elevation=..,image_rotation=..,pitch=..,roll=..,yaw=..
-    /// (degrees). Without it the photo's metadata is used (DJI gimbal angles, GPS, height) and the
-    /// output is georeferenced: a GeoTIFF in the UTM zone, or a PNG with a world file.
-    #[arg(long)]
-    pub(crate) attitude: Option<String>,
-    /// Resampling: nearest, bilinear, bicubic, or average (the area-weighted mean of the source
-    /// pixels under each output pixel, GDAL's -r average, OpenCV's INTER_AREA).
-    #[arg(long, default_value = "bilinear")]
-    pub(crate) interp: Interp,
-    /// Bilinear and bicubic: keep the plain kernel where the output is more than twice coarser
-    /// than the source (by default such regions read a 2 x 2 box-reduced level, which stops aliasing).
-    #[arg(long)]
-    pub(crate) no_prefilter: bool,
-    /// Evaluate every source position in f64 (by default a homography's positions are f32
-    /// offsets from each 256-pixel block's first one, within 5e-4 px of exact).
-    #[arg(long)]
-    pub(crate) exact_coordinates: bool,
-    /// Ground sample distance of the georeferenced output, metres (default: the frame's own at nadir).
-    #[arg(long, conflicts_with = "attitude")]
-    pub(crate) gsd_m: Option<f64>,
-    /// Ground elevation (m above sea level) against the photo's AbsoluteAltitude; default: the
-    /// height above the take-off point (RelativeAltitude).
-    #[arg(long, conflicts_with = "attitude")]
-    pub(crate) ground_height_m: Option<f64>,
-    /// Flying height of this frame, for altitude normalisation (eq. 14); needs --base-altitude-m.
-    #[arg(long)]
-    pub(crate) altitude_m: Option<f64>,
-    /// Base altitude all frames are scaled to.
-    #[arg(long)]
-    pub(crate) base_altitude_m: Option<f64>,
-    /// Value of output pixels with no source.
-    #[arg(long, default_value_t = 0.0)]
-    pub(crate) nodata: f64,
-    /// Add an alpha band (opaque where the frame has data).
-    #[arg(long)]
-    pub(crate) alpha: bool,
-    /// Largest output in pixels; a footprint reaching the horizon is clipped to it.
-    #[arg(long, default_value_t = DEFAULT_MAX_OUTPUT_PX)]
-    pub(crate) max_output_px: u64,
-    /// Write a JSON report (homography, output grid, timing, inputs).
-    #[arg(long)]
-    pub(crate) report: Option<PathBuf>,
-    /// Exterior orientation x,y,z,omega,phi,kappa (world CRS of --crs; degrees, PATB
-    /// omega-phi-kappa about the CRS's axes) instead of the photo's metadata; needs --dem or
-    /// --ground-height-m.
-    #[arg(long, conflicts_with = "attitude", allow_hyphen_values = true)]
-    pub(crate) pose: Option<String>,
-    #[command(flatten)]
-    pub(crate) geo: crate::drone_cmds::GeoArgs,
-    /// Write a cloud-optimised GeoTIFF (tiled, Deflate, internal overviews; an --alpha band
-    /// becomes its internal mask) instead of the strip GeoTIFF; georeferenced output only.
-    #[arg(long, conflicts_with = "attitude")]
-    pub(crate) cog: bool,
-}
-
-/// Writes the image and the JSON report when one is asked for, together: both land or neither
-/// does (the report is serialised by the caller first).
-pub(crate) fn write_image_and_report(
-    output: &Path,
-    image: &AnyRaster,
-    report: Option<&Path>,
-    json: &str,
-) -> Result<()> {
-    let mut staged = StagedOutputs::new();
-    staged.image(output, image, None)?;
-    if let Some(r) = report {
-        staged.text(r, json)?;
-    }
-    staged.commit()?;
-    Ok(())
-}
-
-/// The `Coordinates` that `--exact-coordinates` asks for.
-pub(crate) fn coordinates(exact: bool) -> Coordinates {
-    match exact {
-        true => Coordinates::Exact,
-        false => Coordinates::Fast,
-    }
-}
-
-/// Warp options whose nodata value is checked against the image's sample type.
-pub(crate) fn warp_options(
-    interp: Interp,
-    prefilter: bool,
-    nodata: f64,
-    alpha: bool,
-    image: &AnyRaster,
-) -> Result<WarpOptions> {
-    let warp = WarpOptions {
-        interp,
-        nodata,
-        alpha,
-        prefilter,
-        ..WarpOptions::default()
-    };
-    warp.nodata_as_for(image)
-        .with_context(|| format!("--nodata {nodata}"))?;
-    Ok(warp)
-}
+use std::path::PathBuf;
 
 fn altitude(h1: Option<f64>, h: Option<f64>) -> Result<Option<AltitudeScale>> {
     match (h1, h) {

@@ -1,6 +1,6 @@
 //! Drone photos from their own metadata: `rectify` without --attitude, and `batch`.
 
-use crate::commands::RectifyArgs;
+use crate::args::{GeoArgs, RectifyArgs};
 use crate::outputs::Files;
 use aerorect::core::RectifyLimits;
 use aerorect::core::error::Num;
@@ -10,7 +10,6 @@ use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo, rectify_photo_st
 use aerorect::geo::{Mounting, Projection};
 use aerorect::georef::load_dem;
 use aerorect::io::{CameraFile, CogMask, CogOptions, Crs, PoseRecord, StagedOutputs, image_files};
-use aerorect::photo_source::SenseflyRoll;
 use aerorect::raster::{AnyRaster, Interp, WarpOptions};
 use aerorect::sane;
 use anyhow::{Context, Result, bail};
@@ -20,70 +19,6 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::Mutex;
-
-/// Georeferencing options shared by `rectify` (without --attitude) and `batch`.
-#[derive(Args, Clone, Debug, Default)]
-pub struct GeoArgs {
-    /// DEM or DSM GeoTIFF (any CRS, float or integer, nodata honoured): each output pixel is
-    /// projected at its terrain height; the camera's height is AbsoluteAltitude (or EXIF
-    /// GPSAltitude, or the pose's z) + --vertical-offset-m, in the DEM's vertical datum.
-    #[arg(long)]
-    pub dem: Option<PathBuf>,
-    /// Added to the camera's altitude to bring it to the DEM's vertical datum (e.g. minus the
-    /// geoid undulation for ellipsoidal GNSS heights over an EGM96/EGM2008 DEM).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub vertical_offset_m: f64,
-    /// DEM holes or a DEM that does not cover the frame are errors (default: a warning and the
-    /// level fallback).
-    #[arg(long)]
-    pub strict: bool,
-    /// With --dem: leave ground hidden behind nearer terrain empty (nodata) instead of filling
-    /// it with the terrain in front.
-    #[arg(long, requires = "dem")]
-    pub occlusion: bool,
-    /// Output CRS: EPSG:code, a PROJ string or WKT (default: the position's UTM zone; required
-    /// with poses, or read from the pose table's .prj).
-    #[arg(long, allow_hyphen_values = true)]
-    pub crs: Option<String>,
-    /// Boresight: fixed rotation of the camera in its mount, three angles about the camera's
-    /// x, y, z axes in degrees (Rx Ry Rz), applied after the recorded attitude.
-    #[arg(long, value_name = "RX,RY,RZ", allow_hyphen_values = true)]
-    pub boresight_deg: Option<String>,
-    /// Lever arm: the camera's projection centre from the GNSS antenna, metres, in the
-    /// aircraft body frame (x forward, y right, z down; DJI Flight angles) or the pose's camera
-    /// frame.
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
-    pub lever_arm_m: Option<String>,
-    /// External orientation of the photos, the format found from the content: ODM's geo.txt
-    /// (a CRS line, then `name x y [z] [yaw pitch roll [horz_acc vert_acc]]`), Pix4D's
-    /// geolocation CSV (image,latitude,longitude,altitude[,yaw,pitch,roll[,acc_h,acc_v]]),
-    /// senseFly's geoinfo.txt, or the pose CSV of --poses. Listed photos take their position,
-    /// height and angles from it; a photo it does not list is an error.
-    #[arg(long = "geo", value_name = "FILE")]
-    pub geo_file: Option<PathBuf>,
-    /// How senseFly's roll is read: as recorded (Pix4D's convention; OpenSfM, Orthority) or
-    /// flipped (ODM). The default is the reading the snowpeak eBee flight's own overlaps agree
-    /// with (CONVENTIONS.md, "senseFly roll").
-    #[arg(long, value_enum, default_value_t = RollReading::AsRecorded)]
-    pub sensefly_roll: RollReading,
-}
-
-/// `--sensefly-roll`.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum RollReading {
-    #[default]
-    AsRecorded,
-    Flipped,
-}
-
-impl From<RollReading> for SenseflyRoll {
-    fn from(r: RollReading) -> Self {
-        match r {
-            RollReading::AsRecorded => SenseflyRoll::AsRecorded,
-            RollReading::Flipped => SenseflyRoll::Flipped,
-        }
-    }
-}
 
 /// Three comma-separated finite numbers of a flag.
 fn triple(flag: &str, text: &str) -> Result<[f64; 3]> {
@@ -259,7 +194,7 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
         nodata: a.nodata,
         alpha: a.alpha,
         prefilter: !a.no_prefilter,
-        coordinates: crate::commands::coordinates(a.exact_coordinates),
+        coordinates: crate::args::coordinates(a.exact_coordinates),
     };
     let limits = RectifyLimits {
         max_output_px: a.max_output_px,

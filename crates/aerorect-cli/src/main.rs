@@ -4,6 +4,7 @@
 #[macro_use]
 mod stdout;
 
+mod args;
 mod baseline_cmds;
 mod board_cmds;
 mod calib_cmds;
@@ -42,7 +43,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Rectify an oblique frame to the nadir standard image.
-    Rectify(commands::RectifyArgs),
+    Rectify(args::RectifyArgs),
     /// Render the oblique frame a camera would record of a flat scene (the inverse of rectify).
     Simulate(commands::SimulateArgs),
     /// Check-point accuracy of an attitude (eq. 19-20): du_max, dv_max, urms, vrms, rmse.

@@ -109,7 +109,7 @@ fn draw(path: &Path, rows: &[MotionSimRow], text: &mut String) -> Result<()> {
 /// point count (white = none), the count written in it, the image's 3 x 3 split dashed.
 pub fn coverage_svg(
     path: &Path,
-    cov: &aerorect_solve::calib::Coverage,
+    cov: &aerorect::solve::calib::Coverage,
     size: aerorect::core::ImageSize,
 ) -> Result<String> {
     let err = |e: &dyn std::fmt::Display| anyhow!("{}: {e}", path.display());

@@ -1,286 +1,293 @@
-//! Image size and pinhole intrinsics.
+//! The one frame-camera type: pinhole intrinsics, an optional lens model and the image size it
+//! was calibrated for. Every pipeline (rectify, simulate, evaluate, undistort, drone,
+//! calibration) takes its camera from here; `resized` carries it to another image size.
 //!
-//! Camera frame (the paper's S-Xs Ys Zs): x right, y up on the image plane, the optical axis
-//! along -Z, so an image point is the ray (x, y, -f). Pixel frame: u right, v down, pixel centres
-//! at integer coordinates. In focal units a ray is (x/f, y/f, -1) and
-//! `u = fx x/f - skew y/f + cx`, `v = -fy y/f + cy` (eq. 1 with fx = f/dx, fy = f/dy).
+//! Camera frame as in [`crate::intrinsics`]: x right, y up, z backwards; a point in front of the
+//! camera has z < 0. Distortion works in normalised coordinates (x right, y down).
 
-use crate::error::{GeometryError, require_finite, require_magnitude, require_positive};
-use crate::{Mat3, Vec3};
-use serde::{Deserialize, Serialize};
+use crate::Vec3;
+use crate::distortion::{Distortion, ValidDomain};
+use crate::error::{GeometryError, require_magnitude};
+use crate::intrinsics::{ImageSize, Intrinsics};
+use serde::Serialize;
 
-/// The longest side an image may have, pixels (a camera file's `image_size_px`, `--image-size`).
-pub const MAX_IMAGE_SIDE_PX: u64 = 1_000_000;
-/// The most pixels an image may have, W x H (ten times the largest aerial sensors').
-pub const MAX_IMAGE_PX: u64 = 4_000_000_000;
-/// The range of a focal length in pixels, and the largest |principal point| and |skew|.
-pub const FOCAL_RANGE_PX: (f64, f64) = (1e-3, 1e7);
-const FOCAL_REASON: &str = "outside the sane range 0.001 ..= 1e7 px";
-const OFFSET_REASON: &str = "outside the sane range |value| <= 1e7 px";
+/// The largest |coefficient| a lens model may have.
+pub const MAX_LENS_COEFFICIENT: f64 = 1e4;
 
-/// Width and height of an image in pixels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub struct ImageSize {
-    pub width: usize,
-    pub height: usize,
+/// A frame camera.
+#[derive(Debug, Clone, Serialize)]
+pub struct Camera {
+    pub intrinsics: Intrinsics,
+    /// The lens model, `None` for an ideal pinhole.
+    pub distortion: Option<Distortion>,
+    /// The image size the intrinsics are in pixels of.
+    pub size: ImageSize,
+    /// The lens's valid domain, with the model it was computed for (recomputed on the fly when
+    /// `distortion` has been changed since).
+    #[serde(skip)]
+    domain: (Option<Distortion>, Option<ValidDomain>),
 }
 
-impl ImageSize {
-    pub fn new(width: usize, height: usize) -> Self {
-        Self { width, height }
+impl PartialEq for Camera {
+    fn eq(&self, other: &Self) -> bool {
+        (self.intrinsics, &self.distortion, self.size)
+            == (other.intrinsics, &other.distortion, other.size)
+    }
+}
+
+impl Camera {
+    pub fn new(intrinsics: Intrinsics, distortion: Option<Distortion>, size: ImageSize) -> Self {
+        let domain = distortion.as_ref().map(Distortion::valid_domain);
+        Self {
+            intrinsics,
+            domain: (distortion.clone(), domain),
+            distortion,
+            size,
+        }
     }
 
-    /// Refuses a size of zero, a side over [`MAX_IMAGE_SIDE_PX`] or more than [`MAX_IMAGE_PX`]
-    /// pixels in all.
+    /// Refuses a camera outside the sane ranges: its size ([`ImageSize::validate`]), its
+    /// intrinsics ([`Intrinsics::validate`]) and every lens coefficient within
+    /// +-[`MAX_LENS_COEFFICIENT`] (in normalised coordinates, where 1 is a focal length from
+    /// the centre).
     pub fn validate(&self) -> Result<(), GeometryError> {
-        Self::validate_sides(self.width as u64, self.height as u64)
-    }
-
-    /// [`ImageSize::validate`] for sides not yet known to fit a `usize`.
-    pub fn validate_sides(width: u64, height: u64) -> Result<(), GeometryError> {
-        let reason = if width == 0 || height == 0 {
-            "both sides must be at least 1 px".to_string()
-        } else if width.max(height) > MAX_IMAGE_SIDE_PX {
-            format!("a side over {MAX_IMAGE_SIDE_PX} px")
-        } else if width.saturating_mul(height) > MAX_IMAGE_PX {
-            format!("over {MAX_IMAGE_PX} px in all")
-        } else {
-            return Ok(());
-        };
-        Err(GeometryError::InvalidImageSize {
-            width,
-            height,
-            reason,
-        })
-    }
-
-    /// Number of pixels, width x height.
-    pub fn pixels(&self) -> usize {
-        self.width * self.height
-    }
-
-    /// The image centre ((W-1)/2, (H-1)/2) in the pixel-centre convention.
-    pub fn centre(&self) -> [f64; 2] {
-        [
-            (self.width as f64 - 1.0) / 2.0,
-            (self.height as f64 - 1.0) / 2.0,
-        ]
-    }
-
-    /// The centres of the four corner pixels: top-left, top-right, bottom-right, bottom-left.
-    pub fn corner_pixels(&self) -> [[f64; 2]; 4] {
-        let (w, h) = (self.width as f64 - 1.0, self.height as f64 - 1.0);
-        [[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]]
-    }
-}
-
-/// Pinhole intrinsics in pixels.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Intrinsics {
-    pub fx: f64,
-    pub fy: f64,
-    pub cx: f64,
-    pub cy: f64,
-    pub skew: f64,
-}
-
-impl Intrinsics {
-    /// Intrinsics in pixels; focal lengths must be positive and everything finite.
-    pub fn new(fx: f64, fy: f64, cx: f64, cy: f64) -> Result<Self, GeometryError> {
-        Ok(Self {
-            fx: require_positive("fx_px", fx)?,
-            fy: require_positive("fy_px", fy)?,
-            cx: require_finite("cx_px", cx)?,
-            cy: require_finite("cy_px", cy)?,
-            skew: 0.0,
-        })
-    }
-
-    /// Refuses intrinsics outside the sane ranges: focal lengths within [`FOCAL_RANGE_PX`],
-    /// |principal point| and |skew| at most its upper end.
-    pub fn validate(&self) -> Result<(), GeometryError> {
-        require_magnitude("fx_px", self.fx, FOCAL_RANGE_PX, FOCAL_REASON)?;
-        require_magnitude("fy_px", self.fy, FOCAL_RANGE_PX, FOCAL_REASON)?;
-        let offsets = (0.0, FOCAL_RANGE_PX.1);
-        require_magnitude("cx_px", self.cx, offsets, OFFSET_REASON)?;
-        require_magnitude("cy_px", self.cy, offsets, OFFSET_REASON)?;
-        require_magnitude("skew_px", self.skew, offsets, OFFSET_REASON)?;
+        self.size.validate()?;
+        self.intrinsics.validate()?;
+        if let Some(d) = &self.distortion {
+            let model = d.model();
+            for (name, v) in model.names().iter().zip(model.params()) {
+                require_magnitude(
+                    name,
+                    v,
+                    (0.0, MAX_LENS_COEFFICIENT),
+                    "outside the sane range |value| <= 1e4",
+                )?;
+            }
+        }
         Ok(())
     }
 
-    /// The paper's parameters: focal length f (mm), pixel pitch dx, dy (um), principal point
-    /// (u0, v0) in pixels. fx = f/dx, fy = f/dy.
-    pub fn from_physical(
-        focal_length_mm: f64,
-        pixel_pitch_um: [f64; 2],
-        principal_point_px: [f64; 2],
-    ) -> Result<Self, GeometryError> {
-        let f = require_positive("focal_length_mm", focal_length_mm)?;
-        let dx = require_positive("pixel_pitch_um[0]", pixel_pitch_um[0])? * 1e-3;
-        let dy = require_positive("pixel_pitch_um[1]", pixel_pitch_um[1])? * 1e-3;
-        Self::new(f / dx, f / dy, principal_point_px[0], principal_point_px[1])
+    /// The lens model's valid domain (see [`ValidDomain`]), `None` for an ideal pinhole.
+    /// Cached: cheap while `distortion` is the model the camera was made with.
+    #[inline]
+    pub fn lens_domain(&self) -> Option<ValidDomain> {
+        if self.domain.0 == self.distortion {
+            self.domain.1
+        } else {
+            self.distortion.as_ref().map(Distortion::valid_domain)
+        }
     }
 
-    /// K in focal units: maps a ray (x/f, y/f, -1) of the camera frame to homogeneous pixels.
-    /// It is the paper's K (eq. 1) multiplied by f; a homography K R K^-1 is the same for both.
-    pub fn pixel_from_camera(&self) -> Mat3 {
-        Mat3::new(
-            self.fx, -self.skew, -self.cx, 0.0, -self.fy, -self.cy, 0.0, 0.0, -1.0,
-        )
+    /// The same camera for the image resampled to `size`. Pixel centres sit at integer
+    /// coordinates, so a position u becomes (u + 0.5) s - 0.5 with s = new / old; focal lengths
+    /// and skew scale by s. The lens model works in normalised coordinates and is unchanged.
+    /// Refuses a change of aspect ratio of more than one pixel (the image was cropped, not
+    /// resized).
+    pub fn resized(&self, size: ImageSize) -> Result<Self, GeometryError> {
+        if size == self.size {
+            return Ok(self.clone());
+        }
+        let sx = size.width as f64 / self.size.width as f64;
+        let sy = size.height as f64 / self.size.height as f64;
+        let predicted_h = self.size.height as f64 * sx;
+        if size.width == 0 || size.height == 0 || (predicted_h - size.height as f64).abs() > 1.0 {
+            return Err(GeometryError::AspectMismatch {
+                from: [self.size.width, self.size.height],
+                to: [size.width, size.height],
+            });
+        }
+        let k = &self.intrinsics;
+        let mut intrinsics = Intrinsics::new(
+            k.fx * sx,
+            k.fy * sy,
+            (k.cx + 0.5) * sx - 0.5,
+            (k.cy + 0.5) * sy - 0.5,
+        )?;
+        intrinsics.skew = k.skew * sx;
+        Ok(Self::new(intrinsics, self.distortion.clone(), size))
     }
 
-    /// K^-1: homogeneous pixel (u, v, 1) -> camera ray with z = -1.
-    pub fn camera_from_pixel(&self) -> Mat3 {
-        let (fx, fy, s) = (self.fx, self.fy, self.skew);
-        Mat3::new(
-            1.0 / fx,
-            -s / (fx * fy),
-            -self.cx / fx + s * self.cy / (fx * fy),
-            0.0,
-            -1.0 / fy,
-            self.cy / fy,
-            0.0,
-            0.0,
-            -1.0,
-        )
+    /// The observed pixel of a point in the camera frame; `None` behind the camera, outside the
+    /// lens's valid domain or where the lens model has no answer.
+    #[inline]
+    pub fn pixel_from_camera_point(&self, p: Vec3) -> Option<[f64; 2]> {
+        if p.z >= 0.0 || p.z.is_nan() {
+            return None;
+        }
+        let n = [p.x / -p.z, p.y / p.z];
+        let q = match (&self.distortion, self.lens_domain()) {
+            (Some(d), Some(domain)) => d.model().observed_from_ideal_within(&domain, n)?,
+            _ => n,
+        };
+        Some(self.intrinsics.pixel_from_normalized(q[0], q[1]))
     }
 
-    /// The ray (z = -1) through pixel (u, v).
-    pub fn ray_from_pixel(&self, u: f64, v: f64) -> Vec3 {
-        self.camera_from_pixel() * Vec3::new(u, v, 1.0)
+    /// The ray (camera frame, z = -1) through observed pixel (u, v), the lens removed; `None`
+    /// outside the lens's valid domain or where the lens model's inverse does not converge.
+    pub fn ray_from_pixel(&self, u: f64, v: f64) -> Option<Vec3> {
+        let n = self.intrinsics.normalized_from_pixel(u, v);
+        let q = match (&self.distortion, self.lens_domain()) {
+            (Some(d), Some(domain)) => d.model().ideal_from_observed_within(&domain, n)?,
+            _ => n,
+        };
+        Some(Vec3::new(q[0], -q[1], -1.0))
     }
 
-    /// Normalised image coordinates (x right, y down, skew removed) of pixel (u, v): the
-    /// coordinates the distortion models work in.
-    pub fn normalized_from_pixel(&self, u: f64, v: f64) -> [f64; 2] {
-        let y = (v - self.cy) / self.fy;
-        [(u - self.cx - self.skew * y) / self.fx, y]
+    /// Points along the outline through the corner pixels' centres (the convention of the
+    /// output grid), `per_side` intervals on every side, clockwise from the top-left corner.
+    pub fn border_pixels(&self, per_side: usize) -> Vec<[f64; 2]> {
+        let n = per_side.max(1);
+        let corners = self.size.corner_pixels();
+        let mut out = Vec::with_capacity(4 * n);
+        for s in 0..4 {
+            let (a, b) = (corners[s], corners[(s + 1) % 4]);
+            for i in 0..n {
+                let t = i as f64 / n as f64;
+                out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+            }
+        }
+        out
     }
 
-    /// Pixel of normalised coordinates (x, y): u = fx x + skew y + cx, v = fy y + cy.
-    pub fn pixel_from_normalized(&self, x: f64, y: f64) -> [f64; 2] {
-        [self.fx * x + self.skew * y + self.cx, self.fy * y + self.cy]
-    }
-
-    /// Principal point as an array.
-    pub fn principal_point(&self) -> [f64; 2] {
-        [self.cx, self.cy]
-    }
-
-    /// Horizontal and vertical full field of view in degrees for an image of `size`.
-    pub fn field_of_view_deg(&self, size: ImageSize) -> [f64; 2] {
-        let half =
-            |n: usize, c: f64, f: f64| ((c + 0.5) / f).atan() + ((n as f64 - 0.5 - c) / f).atan();
-        [
-            half(size.width, self.cx, self.fx).to_degrees(),
-            half(size.height, self.cy, self.fy).to_degrees(),
-        ]
+    /// The rays of the outline of what the camera sees: the undistorted rays of
+    /// [`Camera::border_pixels`] when the whole border is inside the lens's valid domain;
+    /// otherwise the border clipped to the domain's rim (the `footprint` module).
+    pub fn border_rays(&self, per_side: usize) -> Vec<Vec3> {
+        let border = self.border_pixels(per_side);
+        let rays: Option<Vec<Vec3>> = border
+            .iter()
+            .map(|p| self.ray_from_pixel(p[0], p[1]))
+            .collect();
+        match (rays, &self.distortion, self.lens_domain()) {
+            (Some(rays), _, _) => rays,
+            (None, Some(d), Some(domain)) => crate::footprint::clipped_border_rays(
+                &self.intrinsics,
+                self.size,
+                d.model(),
+                &domain,
+                per_side,
+                |u, v| self.ray_from_pixel(u, v),
+            ),
+            (None, _, _) => border
+                .iter()
+                .filter_map(|p| self.ray_from_pixel(p[0], p[1]))
+                .collect(),
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use approx::assert_relative_eq;
+    use crate::distortion::OpenCv;
+    use approx::assert_abs_diff_eq;
 
-    /// The paper's K and K^-1 in millimetres, written from the spec.
-    fn paper_k(f: f64, dx: f64, dy: f64, u0: f64, v0: f64) -> (Mat3, Mat3) {
-        let k = Mat3::new(
-            1.0 / dx,
-            0.0,
-            -u0 / f,
-            0.0,
-            -1.0 / dy,
-            -v0 / f,
-            0.0,
-            0.0,
-            -1.0 / f,
+    fn camera(d: Option<Distortion>) -> Camera {
+        let k = Intrinsics::new(3000.0, 3010.0, 2010.0, 1120.0).unwrap();
+        Camera::new(k, d, ImageSize::new(4000, 2250))
+    }
+
+    fn lens() -> Option<Distortion> {
+        Some(Distortion::OpenCv(OpenCv {
+            k1: -0.27,
+            k2: 0.1,
+            p1: 0.001,
+            p2: -0.0005,
+            ..OpenCv::default()
+        }))
+    }
+
+    #[test]
+    fn pixel_and_ray_round_trip_through_the_lens() {
+        let cam = camera(lens());
+        for &(u, v) in &[
+            (0.0, 0.0),
+            (2010.0, 1120.0),
+            (3999.0, 100.0),
+            (1234.5, 2249.0),
+        ] {
+            let r = cam.ray_from_pixel(u, v).unwrap();
+            let p = cam.pixel_from_camera_point(r * 7.5).unwrap();
+            assert_abs_diff_eq!(p[0], u, epsilon = 1e-6);
+            assert_abs_diff_eq!(p[1], v, epsilon = 1e-6);
+        }
+        assert!(
+            cam.pixel_from_camera_point(Vec3::new(0.0, 0.0, 1.0))
+                .is_none()
         );
-        let kinv = Mat3::new(dx, 0.0, -u0 * dx, 0.0, -dy, v0 * dy, 0.0, 0.0, -f);
-        (k, kinv)
     }
 
     #[test]
-    fn k_matches_the_paper_up_to_the_focal_scale() {
-        let (f, dx, dy, u0, v0) = (50.0, 0.0074, 0.0065, 255.5, 250.0);
-        let intr = Intrinsics::from_physical(f, [7.4, 6.5], [u0, v0]).expect("valid");
-        let (k, kinv) = paper_k(f, dx, dy, u0, v0);
-        assert_relative_eq!(intr.pixel_from_camera() / f, k, max_relative = 1e-12);
-        assert_relative_eq!(intr.camera_from_pixel() * f, kinv, max_relative = 1e-12);
-        assert_relative_eq!(k * kinv, Mat3::identity(), epsilon = 1e-12);
+    fn ideal_projection_is_the_pinhole_of_the_camera_module() {
+        // The same point through Intrinsics::pixel_from_camera (the paper's K).
+        let cam = camera(None);
+        let p = Vec3::new(0.3, -0.2, -1.7);
+        let h = cam.intrinsics.pixel_from_camera() * p;
+        let q = cam.pixel_from_camera_point(p).unwrap();
+        assert_abs_diff_eq!(q[0], h.x / h.z, epsilon = 1e-9);
+        assert_abs_diff_eq!(q[1], h.y / h.z, epsilon = 1e-9);
     }
 
     #[test]
-    fn k_inverse_is_inverse_with_skew() {
-        let mut intr = Intrinsics::new(1200.0, 1100.0, 320.0, 240.0).expect("valid");
-        intr.skew = 3.5;
-        let prod = intr.pixel_from_camera() * intr.camera_from_pixel();
-        assert_relative_eq!(prod, Mat3::identity(), epsilon = 1e-12);
-    }
-
-    #[test]
-    fn eq1_pixel_from_image_plane() {
-        // u = x/dx + u0, v = -y/dy + v0 for the image point (x, y) in mm.
-        let (f, u0, v0) = (35.0, 100.0, 80.0);
-        let intr = Intrinsics::from_physical(f, [10.0, 12.0], [u0, v0]).expect("valid");
-        let (x, y) = (0.3, -0.45);
-        let p = intr.pixel_from_camera() * Vec3::new(x / f, y / f, -1.0);
-        assert_relative_eq!(p.x / p.z, x / 0.010 + u0, epsilon = 1e-9);
-        assert_relative_eq!(p.y / p.z, -y / 0.012 + v0, epsilon = 1e-9);
-    }
-
-    #[test]
-    fn refuses_bad_physical_parameters() {
-        let e = Intrinsics::from_physical(0.0, [5.0, 5.0], [0.0, 0.0]).unwrap_err();
+    fn resizing_keeps_every_ray_on_the_same_image_feature() {
+        // A 4x downsample: the outer corners of the image stay the outer corners, so a ray
+        // seen at pixel p in the big image is at (p + 0.5) / 4 - 0.5 in the small one.
+        let big = camera(lens());
+        let small = big.resized(ImageSize::new(1000, 563)).unwrap();
+        for &(u, v) in &[(0.0, 0.0), (1999.5, 1000.0), (3999.0, 2249.0)] {
+            let r = big.ray_from_pixel(u, v).unwrap();
+            let p = small.pixel_from_camera_point(r).unwrap();
+            let sy = 563.0 / 2250.0;
+            assert_abs_diff_eq!(p[0], (u + 0.5) / 4.0 - 0.5, epsilon = 1e-9);
+            assert_abs_diff_eq!(p[1], (v + 0.5) * sy - 0.5, epsilon = 1e-9);
+        }
         assert!(matches!(
-            e,
-            GeometryError::InvalidParameter {
-                field: "focal_length_mm",
-                ..
-            }
-        ));
-        let e = Intrinsics::from_physical(10.0, [-5.0, 5.0], [0.0, 0.0]).unwrap_err();
-        assert!(matches!(
-            e,
-            GeometryError::InvalidParameter {
-                field: "pixel_pitch_um[0]",
-                ..
-            }
-        ));
-        let e = Intrinsics::from_physical(10.0, [5.0, f64::NAN], [0.0, 0.0]).unwrap_err();
-        assert!(matches!(
-            e,
-            GeometryError::InvalidParameter {
-                field: "pixel_pitch_um[1]",
-                ..
-            }
+            big.resized(ImageSize::new(1000, 1000)),
+            Err(GeometryError::AspectMismatch { .. })
         ));
     }
 
     #[test]
-    fn normalised_coordinates_round_trip_with_skew() {
-        let mut k = Intrinsics::new(800.0, 790.0, 320.0, 240.0).expect("valid");
-        k.skew = 1.5;
-        let n = k.normalized_from_pixel(100.0, 400.0);
-        let p = k.pixel_from_normalized(n[0], n[1]);
-        assert!((p[0] - 100.0).abs() < 1e-12 && (p[1] - 400.0).abs() < 1e-12);
-        assert_eq!(k.normalized_from_pixel(320.0, 240.0), [0.0, 0.0]);
+    fn a_camera_outside_the_sane_ranges_is_refused() {
+        assert!(camera(lens()).validate().is_ok());
+        let refused = |c: Camera| c.validate().unwrap_err().to_string();
+        let mut c = camera(None);
+        c.intrinsics.fx = 1e308;
+        assert!(refused(c).contains("fx_px = 1e308"));
+        let mut c = camera(None);
+        c.intrinsics.fy = 1e-4;
+        assert!(refused(c).contains("fy_px = 0.0001"));
+        let mut c = camera(None);
+        c.intrinsics.cy = -2e7;
+        assert!(refused(c).contains("cy_px = -20000000"));
+        let mut c = camera(lens());
+        if let Some(Distortion::OpenCv(m)) = c.distortion.as_mut() {
+            m.k1 = 1e308;
+        }
+        assert!(refused(c).contains("k1 = 1e308"));
+        // Sides up to 1e6 px, at most 4e9 px in all.
+        let sized = |w, h| Camera::new(camera(None).intrinsics, None, ImageSize::new(w, h));
+        assert!(sized(1_000_000, 4_000).validate().is_ok());
+        assert!(refused(sized(1_000_001, 1)).contains("1000001 x 1 px"));
+        assert!(refused(sized(100_000, 50_000)).contains("in all"));
+        assert!(refused(sized(0, 10)).contains("at least 1 px"));
+        assert!(ImageSize::validate_sides(4_000_000_000, 3_000_000_000).is_err());
     }
 
     #[test]
-    fn centre_is_pixel_centre_convention() {
-        assert_eq!(ImageSize::new(512, 480).centre(), [255.5, 239.5]);
-        assert_eq!(ImageSize::new(3, 1).corner_pixels()[2], [2.0, 0.0]);
-    }
-
-    #[test]
-    fn field_of_view_closed_form() {
-        let intr = Intrinsics::new(1000.0, 1000.0, 255.5, 255.5).expect("valid");
-        let fov = intr.field_of_view_deg(ImageSize::new(512, 512));
-        assert_relative_eq!(
-            fov[0],
-            2.0 * (256.0f64 / 1000.0).atan().to_degrees(),
-            epsilon = 1e-12
+    fn border_walks_through_the_corner_pixel_centres_clockwise() {
+        let cam = Camera::new(
+            Intrinsics::new(10.0, 10.0, 1.5, 0.5).unwrap(),
+            None,
+            ImageSize::new(4, 2),
         );
+        let b = cam.border_pixels(2);
+        assert_eq!(b.len(), 8);
+        assert_eq!(b[0], [0.0, 0.0]);
+        assert_eq!(b[1], [1.5, 0.0]);
+        assert_eq!(b[2], [3.0, 0.0]);
+        assert_eq!(b[3], [3.0, 0.5]);
+        assert_eq!(b[4], [3.0, 1.0]);
+        assert_eq!(b[6], [0.0, 1.0]);
     }
 }

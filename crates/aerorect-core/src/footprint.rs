@@ -10,7 +10,7 @@
 
 use crate::Vec3;
 use crate::distortion::{Direction, DistortionModel, ValidDomain};
-use crate::frame_camera::Camera;
+use crate::intrinsics::{ImageSize, Intrinsics};
 
 /// An outline vertex: its observed pixel and, on the rim, its ideal normalised point.
 #[derive(Debug, Clone, Copy)]
@@ -19,15 +19,19 @@ struct Vertex {
     ideal: Option<[f64; 2]>,
 }
 
-/// The rays of the image border clipped to `domain`'s rim, `4 * per_side` rim samples.
+/// The rays of the border of an image of `size` clipped to `domain`'s rim, `4 * per_side` rim
+/// samples: rim vertices through `intrinsics` and `model`, the rectangle's pieces through the
+/// camera's `ray_from_pixel`.
 pub(crate) fn clipped_border_rays(
-    camera: &Camera,
+    intrinsics: &Intrinsics,
+    size: ImageSize,
     model: &dyn DistortionModel,
     domain: &ValidDomain,
     per_side: usize,
+    ray_from_pixel: impl Fn(f64, f64) -> Option<Vec3>,
 ) -> Vec<Vec3> {
     let n = 4 * per_side.max(1);
-    let k = &camera.intrinsics;
+    let k = intrinsics;
     let rim: Vec<Vertex> = (0..n)
         .map(|i| {
             // Clockwise in the image (y down), like the border.
@@ -43,10 +47,7 @@ pub(crate) fn clipped_border_rays(
             }
         })
         .collect();
-    let [w, h] = [
-        camera.size.width as f64 - 1.0,
-        camera.size.height as f64 - 1.0,
-    ];
+    let [w, h] = [size.width as f64 - 1.0, size.height as f64 - 1.0];
     let mut outline = rim;
     for edge in [
         Edge::Left(0.0),
@@ -61,7 +62,7 @@ pub(crate) fn clipped_border_rays(
         .iter()
         .filter_map(|v| match v.ideal {
             Some(q) => Some(Vec3::new(q[0], -q[1], -1.0)),
-            None => camera.ray_from_pixel(v.px[0], v.px[1]),
+            None => ray_from_pixel(v.px[0], v.px[1]),
         })
         .collect()
 }

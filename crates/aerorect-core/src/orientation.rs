@@ -14,9 +14,9 @@
 
 use crate::Mat3;
 use crate::attitude::SixAngleAttitude;
-use crate::camera::Intrinsics;
 use crate::error::GeometryError;
 use crate::homography::Homography;
+use crate::intrinsics::Intrinsics;
 use nalgebra::{Rotation3, Vector3};
 
 /// `ground_from_camera`, a proper rotation.

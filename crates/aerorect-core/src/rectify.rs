@@ -3,9 +3,9 @@
 
 use crate::Mat3;
 use crate::attitude::SixAngleAttitude;
-use crate::camera::{ImageSize, Intrinsics};
 use crate::error::{GeometryError, require_positive};
 use crate::homography::Homography;
+use crate::intrinsics::{ImageSize, Intrinsics};
 
 /// The largest output (in pixels) that rectification produces unless told otherwise: 64 Mpx.
 pub const DEFAULT_MAX_OUTPUT_PX: u64 = 64_000_000;

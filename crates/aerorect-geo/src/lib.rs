@@ -4,7 +4,7 @@
 //!
 //! World frame: a projected CRS's easting, northing and height (metres), treated as Cartesian
 //! (as photogrammetric tools do); local frame: east, north, up at the camera. Camera frame as
-//! in `aerorect_core::camera`: x right, y up, z backwards.
+//! in `aerorect_core::intrinsics`: x right, y up, z backwards.
 
 mod crs;
 mod error;

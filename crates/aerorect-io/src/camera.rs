@@ -12,15 +12,16 @@
 //! Sane ranges (an absurd value is refused naming its key): each side of `image_size_px`
 //! 1 ..= 1,000,000 px and at most 4e9 px in all; focal lengths 0.001 ..= 1e7 px; |principal
 //! point| and |skew| <= 1e7 px; every lens coefficient |k| <= 1e4 (normalised coordinates).
+//!
+//! [`CameraFile::read`] and [`CameraFile::camera`], which reach every other format, are defined
+//! with the formats (`camera_formats`).
 
-use crate::camera_formats::{CameraFormat, camera_from_text};
 use crate::error::IoError;
-use aerorect_core::camera::FOCAL_RANGE_PX;
+use aerorect_core::camera::MAX_LENS_COEFFICIENT;
 use aerorect_core::error::require_magnitude;
-use aerorect_core::frame_camera::MAX_LENS_COEFFICIENT;
+use aerorect_core::intrinsics::FOCAL_RANGE_PX;
 use aerorect_core::{Camera, GeometryError, ImageSize, Intrinsics};
 use serde::Deserialize;
-use std::path::Path;
 
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -45,25 +46,6 @@ pub struct CameraFile {
 }
 
 impl CameraFile {
-    /// Reads a camera file of any format [`CameraFormat::detect`] tells (as `camera convert`
-    /// does); a file it cannot tell is read as TOML.
-    pub fn read(path: &Path) -> Result<Self, IoError> {
-        let text = crate::bounded::read_text(path)?;
-        let name = path.display().to_string();
-        match CameraFormat::detect(path, Some(&text)) {
-            None | Some(CameraFormat::Toml) => Self::parse(&text, &name),
-            Some(CameraFormat::DjiDewarp) => Ok(CameraFile {
-                source_name: name,
-                dewarp_text: Some(text),
-                ..CameraFile::default()
-            }),
-            Some(format) => Ok(Self::from_camera(
-                &camera_from_text(&text, format, None, &name)?,
-                &name,
-            )),
-        }
-    }
-
     /// The file holding `camera` in pixels, with its size (reads back to the same camera).
     pub fn from_camera(camera: &Camera, source_name: &str) -> Self {
         let k = &camera.intrinsics;
@@ -141,13 +123,10 @@ impl CameraFile {
         IoError::field(&self.source_name, message)
     }
 
-    /// The camera for an image of `image` pixels (or, without one, of the file's
-    /// `image_size_px`). A file that states `image_size_px` is carried to an image of another
+    /// [`CameraFile::camera`] from the file's own keys (not a DewarpData text): for an image of
+    /// `image` pixels (or, without one, of the file's `image_size_px`). A file that states `image_size_px` is carried to an image of another
     /// size with the same aspect ratio by [`Camera::resized`]; another aspect ratio is refused.
-    pub fn camera(&self, image: Option<ImageSize>) -> Result<Camera, IoError> {
-        if let Some(text) = &self.dewarp_text {
-            return camera_from_text(text, CameraFormat::DjiDewarp, image, &self.source_name);
-        }
+    pub(crate) fn camera_from_fields(&self, image: Option<ImageSize>) -> Result<Camera, IoError> {
         let stated = self.image_size()?;
         let size = stated
             .or(image)

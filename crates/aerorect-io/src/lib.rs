@@ -19,6 +19,7 @@ pub mod gcp_file;
 mod geokeys;
 pub mod geotiff;
 pub mod image_file;
+mod image_limits;
 pub mod metadata;
 pub mod sensors;
 pub mod staged;

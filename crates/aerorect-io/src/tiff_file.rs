@@ -3,7 +3,7 @@
 //! into RGB). Writing is `strip_tiff`'s (8/16-bit and f32 with Deflate).
 
 use crate::error::IoError;
-use crate::image_file::{MAX_DECODED_BYTES, check_claimed_bytes};
+use crate::image_limits::{MAX_DECODED_BYTES, check_claimed_bytes, check_image_pixels};
 use aerorect_core::ImageSize;
 use aerorect_raster::{AnyRaster, Raster};
 use std::path::Path;
@@ -116,7 +116,7 @@ fn check_claimed_size(
     let claimed = u64::from(w) * u64::from(h) * bands as u64 * bits.div_ceil(8);
     let what = format!("{w} x {h} pixels of {bands} x {bits} bits");
     check_claimed_bytes(path, &what, claimed)?;
-    crate::image_file::check_image_pixels(path, u64::from(w), u64::from(h))
+    check_image_pixels(path, u64::from(w), u64::from(h))
 }
 
 /// JFIF's YCbCr -> RGB (ITU-R BT.601 full range, ReferenceBlackWhite at its default), in place.

@@ -3,7 +3,9 @@
 //! The facade joins the pure geometry (`aerorect-core`), the pixel loops (`aerorect-raster`),
 //! the estimators (`aerorect-solve`) and the file adapters (`aerorect-io`) into pipelines:
 //! [`rectify`], [`simulate`], [`evaluate`], the attitude-error [`sensitivity`] experiment and
-//! the [`demo`].
+//! the [`demo`]. Each layer is also re-exported whole (`aerorect::core`, `aerorect::raster`,
+//! `aerorect::solve`, `aerorect::io`, `aerorect::geo`), so the front ends (the CLI, the Python
+//! package) depend on this crate alone.
 
 pub mod calibration;
 pub mod compare;
@@ -32,6 +34,7 @@ pub use aerorect_core as core;
 pub use aerorect_geo as geo;
 pub use aerorect_io as io;
 pub use aerorect_raster as raster;
+pub use aerorect_solve as solve;
 pub use error::Error;
 
 use aerorect_core::ImageSize;

@@ -109,6 +109,39 @@ impl CameraFormat {
     }
 }
 
+/// The readers of [`CameraFile`] that reach every format: the file in whatever format it is,
+/// and a DewarpData text held until the image size is known.
+impl CameraFile {
+    /// Reads a camera file of any format [`CameraFormat::detect`] tells (as `camera convert`
+    /// does); a file it cannot tell is read as TOML.
+    pub fn read(path: &Path) -> Result<Self, IoError> {
+        let text = crate::bounded::read_text(path)?;
+        let name = path.display().to_string();
+        match CameraFormat::detect(path, Some(&text)) {
+            None | Some(CameraFormat::Toml) => Self::parse(&text, &name),
+            Some(CameraFormat::DjiDewarp) => Ok(CameraFile {
+                source_name: name,
+                dewarp_text: Some(text),
+                ..CameraFile::default()
+            }),
+            Some(format) => Ok(Self::from_camera(
+                &camera_from_text(&text, format, None, &name)?,
+                &name,
+            )),
+        }
+    }
+
+    /// The camera for an image of `image` pixels (or, without one, of the file's
+    /// `image_size_px`). A file that states `image_size_px` is carried to an image of another
+    /// size with the same aspect ratio by [`Camera::resized`]; another aspect ratio is refused.
+    pub fn camera(&self, image: Option<ImageSize>) -> Result<Camera, IoError> {
+        if let Some(text) = &self.dewarp_text {
+            return camera_from_text(text, CameraFormat::DjiDewarp, image, &self.source_name);
+        }
+        self.camera_from_fields(image)
+    }
+}
+
 /// Reads the camera in `path` (format `format`, else detected). `size`: the image size for a
 /// format that does not state one (DJI's DewarpData, a TOML without `image_size_px`), or the
 /// size to carry a file's camera to (same aspect ratio).

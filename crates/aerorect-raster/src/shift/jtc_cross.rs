@@ -6,7 +6,7 @@
 //! `reference` is that same frame (bit for bit) it is reused instead of transformed again.
 
 use super::fft2::Fft2;
-use super::jtc::{JtcOptions, Plane};
+use super::jtc_common::{JtcOptions, Plane, prepared_row};
 use super::pair::PairSpectra;
 use super::{ShiftError, ShiftEstimate};
 use rustfft::num_complex::Complex32;
@@ -156,44 +156,10 @@ impl CrossJtc {
     }
 }
 
-/// Row y of the prepared frame: mean removed, or the 4-neighbour Laplacian (edges repeated).
-pub(super) fn prepared_row(
-    src: &[f32],
-    w: usize,
-    h: usize,
-    y: usize,
-    mean: f32,
-    laplacian: bool,
-    out: &mut [f32],
-) {
-    let row = &src[y * w..(y + 1) * w];
-    if !laplacian {
-        for (o, s) in out.iter_mut().zip(row) {
-            *o = s - mean;
-        }
-        return;
-    }
-    let up = &src[y.saturating_sub(1) * w..][..w];
-    let down = &src[(y + 1).min(h - 1) * w..][..w];
-    let at = |x: usize| {
-        let sum = row[x.saturating_sub(1)] + row[(x + 1).min(w - 1)] + up[x] + down[x];
-        4.0 * row[x] - sum
-    };
-    // The interior as straight runs (the same sums in the same order), the ends repeated.
-    let inner = out[1..w - 1]
-        .iter_mut()
-        .zip(row.iter().zip(&row[1..]).zip(&row[2..]))
-        .zip(up[1..].iter().zip(&down[1..]));
-    for ((o, ((&l, &c), &r)), (&u, &d)) in inner {
-        *o = 4.0 * c - (l + r + u + d);
-    }
-    out[0] = at(0);
-    out[w - 1] = at(w - 1);
-}
-
 #[cfg(test)]
 mod tests {
-    use super::super::jtc::{JointTransformCorrelator, SubPixel};
+    use super::super::JointTransformCorrelator;
+    use super::super::jtc_common::SubPixel;
     use super::super::jtc_oracle::{joint_image_f64, pairs};
     use super::super::{ShiftEstimate, ShiftEstimator};
     use super::*;

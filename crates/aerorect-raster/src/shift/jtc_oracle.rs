@@ -2,7 +2,7 @@
 //! f64 by its definition.
 
 use super::check_frame;
-use super::jtc::{JtcOptions, Plane};
+use super::jtc_common::{JtcOptions, Plane};
 use super::sim::{add_noise, shifted_linear};
 use aerorect_core::ImageSize;
 use rand::SeedableRng;
@@ -51,7 +51,7 @@ pub(super) fn joint_image_f64(
         let prep = |f: &[f32]| {
             let mean = check_frame("f", f, w, h).unwrap();
             let mut out = vec![0.0f32; w * h];
-            super::jtc::prepare(f, mean, w, h, opts.laplacian, &mut out);
+            super::jtc_common::prepare(f, mean, w, h, opts.laplacian, &mut out);
             out
         };
         let (pa, pb) = (prep(a), prep(b));

@@ -22,7 +22,7 @@
 //! both orders the same plane bit for bit, and the antisymmetrised shift exactly 0.
 
 use super::fft2::Plans;
-use super::jtc::{JtcOptions, Plane, SubPixel, prepare};
+use super::jtc_common::{JtcOptions, Plane, SubPixel, prepare};
 use super::{ShiftError, ShiftEstimate, check_frame};
 use rustfft::num_complex::Complex32;
 
@@ -432,7 +432,7 @@ fn gather_columns(
 
 #[cfg(test)]
 mod tests {
-    use super::super::jtc::SubPixel;
+    use super::super::jtc_common::SubPixel;
     use super::super::jtc_oracle::{joint_image_f64, pairs};
     use super::*;
 

@@ -10,6 +10,7 @@
 
 mod fft2;
 mod jtc;
+mod jtc_common;
 mod jtc_cross;
 #[cfg(test)]
 mod jtc_oracle;
@@ -18,7 +19,8 @@ mod pair;
 mod phase;
 pub mod sim;
 
-pub use jtc::{JointTransformCorrelator, JtcOptions, SubPixel};
+pub use jtc::JointTransformCorrelator;
+pub use jtc_common::{JtcOptions, SubPixel};
 pub use phase::{PhaseCorrelator, PhaseOptions, Weighting};
 
 use thiserror::Error;
