@@ -118,9 +118,18 @@ pub fn raster_features(
     let start = Instant::now();
     let factor = reduction_factor(image.size(), opts.long_side_px);
     let mut gray = gray_reduced(image, factor)?;
-    stretch_contrast(gray.plane_mut(0));
-    let features = sift(&gray, &opts.features)
-        .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
+    let describe = |g: &_| {
+        sift(g, &opts.features).map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))
+    };
+    let mut features = describe(&gray)?;
+    if features.len() < FEW_KEYPOINTS {
+        // A dull frame: described again with its contrast stretched.
+        stretch_contrast(gray.plane_mut(0));
+        let stretched = describe(&gray)?;
+        if stretched.len() > features.len() {
+            features = stretched;
+        }
+    }
     Ok(FrameFeatures {
         path: path.to_path_buf(),
         size: image.size(),
@@ -129,6 +138,11 @@ pub fn raster_features(
         seconds: start.elapsed().as_secs_f64(),
     })
 }
+
+/// A frame with fewer SIFT keypoints than this is described again with its contrast
+/// stretched ([`stretch_contrast`]); frames with more (the snowpeak photos at 1152 px) are
+/// described as they are.
+pub const FEW_KEYPOINTS: usize = 500;
 
 /// The most a frame's contrast is stretched by [`stretch_contrast`].
 pub const MAX_CONTRAST_GAIN: f32 = 8.0;
