@@ -39,8 +39,8 @@ fn scene(seed: u64) -> Scene {
     let gps = Normal::new(0.0, 1.0).unwrap();
     let mut recorded = fl.recorded.clone();
     for f in &mut recorded {
-        for k in 0..3 {
-            f.centre[k] += GPS_OFFSET[k] + gps.sample(&mut rng);
+        for (c, o) in f.centre.iter_mut().zip(GPS_OFFSET) {
+            *c += o + gps.sample(&mut rng);
         }
     }
     let point = |x: f64, y: f64, rng: &mut ChaCha8Rng| {
@@ -176,8 +176,8 @@ fn five_control_points_bring_the_check_points_within_a_ground_sample_distance() 
     assert!(after.1 < 3.0 * GSD_M, "{after:?}");
     // The datum takes the common offset (a recorded position belongs at c + shift), not the
     // attitudes.
-    for k in 0..3 {
-        assert!((d.shift_m[k] + GPS_OFFSET[k]).abs() < 0.5, "{d:?}");
+    for (s, o) in d.shift_m.iter().zip(GPS_OFFSET) {
+        assert!((s + o).abs() < 0.5, "{d:?}");
     }
     // Frames at the block's edge trade a little attitude for their 1 m of GPS noise.
     let (median, worst) = turns_deg(&s.truth, &out.frames);
@@ -193,8 +193,8 @@ fn with_two_control_points_the_datum_is_a_shift() {
     assert_eq!(d.scale_ppm, 0.0);
     let after = check_rmse(out.oriented(), &s.checks);
     assert!(after.0 < 3.0 * GSD_M, "{after:?}");
-    for k in 0..3 {
-        assert!((d.shift_m[k] + GPS_OFFSET[k]).abs() < 0.5, "{d:?}");
+    for (s, o) in d.shift_m.iter().zip(GPS_OFFSET) {
+        assert!((s + o).abs() < 0.5, "{d:?}");
     }
 }
 

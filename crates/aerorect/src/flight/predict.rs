@@ -95,10 +95,11 @@ pub fn chip(photo: &AnyRaster, pixel: [f64; 2], side: usize) -> Result<AnyRaster
                 for y in 0..side {
                     for x in 0..side {
                         let (sx, sy) = (origin.0 + x as i64, origin.1 + y as i64);
-                        if sx >= 0 && sy >= 0 {
-                            if let Some(v) = r.get(b, sx as usize, sy as usize) {
-                                out[y * side + x] = v;
-                            }
+                        if sx >= 0
+                            && sy >= 0
+                            && let Some(v) = r.get(b, sx as usize, sy as usize)
+                        {
+                            out[y * side + x] = v;
                         }
                     }
                 }
