@@ -65,6 +65,8 @@ def _opts(**kw: Any) -> dict:
             v = os.fspath(v)
         if isinstance(v, tuple):
             v = list(v)
+        if isinstance(v, list):
+            v = [os.fspath(x) if isinstance(x, os.PathLike) else x for x in v]
         out[k] = v
     return out
 
@@ -150,7 +152,10 @@ def adjust_flight(
     """Match a flight's overlaps and adjust attitudes and cameras jointly (``batch
     --adjust``). The result writes each frame with its adjusted orientation
     (``write_frame(k, out)``), mosaics them (``mosaic(out)``) and holds the ``report``.
-    Keyword arguments as :func:`rectify_photo`."""
+    Keyword arguments as :func:`rectify_photo`, and ``gcps=[FILE]`` (``--gcps``; a Pix4D
+    coordinates file and its marks file as two), ``checkpoints=[NAME, ...]``,
+    ``gcp_sigma_px``, ``gcp_vertical_offset_m``: the report's ``accuracy`` is then
+    ``accuracy.json``'s."""
     o = _opts(gsd_m=gsd_m, dem=dem, adjust_positions_m=adjust_positions_m, **kwargs)
     return _aerorect.adjust_flight([os.fspath(p) for p in paths], o)
 

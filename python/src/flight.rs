@@ -315,10 +315,7 @@ fn write_mosaic(
     cog: bool,
 ) -> Result<aerorect::mosaic::MosaicReport> {
     Ok(if cog {
-        let c = aerorect::io::CogOptions {
-            mask: aerorect::io::CogMask::AlphaBand,
-            ..Default::default()
-        };
+        let c = aerorect::io::CogOptions::masked_by_alpha(mopts.alpha);
         mosaic_cog(frames, crs, out, mopts, &c)?
     } else {
         build(frames, crs, out, mopts)?

@@ -7,7 +7,7 @@ use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
 use aerorect::drone::DroneOptions;
 use aerorect::geo::{Mounting, Projection};
 use aerorect::georef::load_dem;
-use aerorect::io::{CameraFile, CogMask, CogOptions, Crs, PoseRecord};
+use aerorect::io::{CameraFile, Crs, PoseRecord};
 use aerorect::raster::{Interp, WarpOptions};
 use anyhow::{Context, Result, bail};
 use pyo3::prelude::*;
@@ -172,7 +172,9 @@ impl PhotoArgs {
             sensefly_roll: Default::default(),
             limits,
             warp: self.warp()?,
-            cog: self.cog.then(|| cog_options(self.alpha)),
+            cog: self
+                .cog
+                .then(|| aerorect::io::CogOptions::masked_by_alpha(self.alpha)),
         })
     }
 
@@ -271,16 +273,4 @@ fn one_pose(
         kappa,
     };
     Ok([(name, rec)].into_iter().collect())
-}
-
-/// `--cog`'s options: Deflate, overviews, and an alpha band as the internal mask.
-fn cog_options(alpha: bool) -> CogOptions {
-    CogOptions {
-        mask: if alpha {
-            CogMask::AlphaBand
-        } else {
-            CogMask::None
-        },
-        ..CogOptions::default()
-    }
 }

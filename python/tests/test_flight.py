@@ -51,3 +51,26 @@ def test_adjusted_flight(tmp_path, cli, pair):
     assert m["frames"][0]["cells"] > 0 and m["frames"][1]["cells"] > 0
     with pytest.raises(aerorect.AerorectError, match="frame 2: the flight has 2 frames"):
         f.write_frame(2, tmp_path / "x.tif")
+
+
+def test_ground_control_report_is_the_cli(tmp_path, cli, pair):
+    # Points where the recorded metadata puts them (gcp-predict's ODM list of a grid of
+    # lon/lat points), given back as ground control; two kept as check points.
+    lines = ["EPSG:4326"]
+    for k, (dx, dy) in enumerate([(0.0, 0.0), (3e-5, 2e-5), (-2e-5, 3e-5), (4e-5, -3e-5)]):
+        lines.append(f"{27.55 + EAST / 2 + dx} {53.9 + dy} 0 0 0 {pair[0].name} P{k}")
+    raw = tmp_path / "raw.txt"
+    raw.write_text("\n".join(lines) + "\n")
+    run(cli, "gcp-predict", raw, "--photos", *pair, "--out-dir", tmp_path / "pred")
+    gcps = tmp_path / "pred" / "gcp_predicted.txt"
+    assert len(gcps.read_text().splitlines()) > 4
+    f = aerorect.adjust_flight(pair, gsd_m=0.2, gcps=[gcps], checkpoints=["P1", "P3"])
+    acc = f.report["accuracy"]
+    run(cli, "batch", *pair, "--out-dir", tmp_path / "cli", "--gsd-m", "0.2", "--adjust",
+        "--gcps", gcps, "--checkpoints", "P1,P3")
+    import json
+    assert acc == json.loads((tmp_path / "cli" / "accuracy.json").read_text())
+    roles = {p["name"]: p["role"] for p in acc["points"]}
+    assert roles == {"P0": "control", "P1": "check", "P2": "control", "P3": "check"}
+    with pytest.raises(aerorect.AerorectError, match="check point 'Q' is not a point of"):
+        aerorect.adjust_flight(pair, gsd_m=0.2, gcps=[gcps], checkpoints=["Q"])

@@ -9,7 +9,7 @@ use aerorect::demo::write_text;
 use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo, rectify_photo_staged};
 use aerorect::geo::{Mounting, Projection};
 use aerorect::georef::load_dem;
-use aerorect::io::{CameraFile, CogMask, CogOptions, Crs, PoseRecord, StagedOutputs, image_files};
+use aerorect::io::{CameraFile, CogOptions, Crs, PoseRecord, StagedOutputs, image_files};
 use aerorect::raster::{AnyRaster, Interp, WarpOptions};
 use aerorect::sane;
 use anyhow::{Context, Result, bail};
@@ -156,19 +156,6 @@ fn output_crs(geo: &GeoArgs, poses: Option<&Path>) -> Result<Option<(Crs, Projec
     Ok(Some((c, p)))
 }
 
-/// The cloud-optimised GeoTIFF options of `--cog`: Deflate, overviews, the nodata value, and
-/// an alpha band (when there is one) as the internal mask.
-pub(crate) fn cog_options(alpha: bool) -> CogOptions {
-    CogOptions {
-        mask: if alpha {
-            CogMask::AlphaBand
-        } else {
-            CogMask::None
-        },
-        ..CogOptions::default()
-    }
-}
-
 /// `--cog` writes a .tif: refuses another extension.
 pub(crate) fn cog_needs_tif(flag: &str, path: &Path) -> Result<()> {
     let ext = path
@@ -237,7 +224,7 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
     }
     if a.cog {
         cog_needs_tif("OUTPUT", &a.output)?;
-        opts.cog = Some(cog_options(a.alpha));
+        opts.cog = Some(CogOptions::masked_by_alpha(a.alpha));
     }
     let mut staged = StagedOutputs::new();
     let r = rectify_photo_staged(&a.input, &a.output, &opts, None, &mut staged)?;
@@ -535,7 +522,7 @@ pub fn batch(a: BatchArgs) -> Result<()> {
         },
     )?;
     if a.cog {
-        opts.cog = Some(cog_options(false));
+        opts.cog = Some(CogOptions::masked_by_alpha(false));
     }
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("{}: cannot create", a.out_dir.display()))?;

@@ -1,6 +1,6 @@
 //! `mosaic`: many drone photos on one grid, optionally after the flight's joint adjustment.
 
-use crate::drone_cmds::{FlightArgs, cog_options, print_adjustment};
+use crate::drone_cmds::{FlightArgs, print_adjustment};
 use crate::outputs::Files;
 use aerorect::core::RectifyLimits;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
@@ -92,7 +92,13 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
         frames_from_photos(&a.inputs, &opts)?
     };
     let r = if a.cog {
-        mosaic_cog(frames, crs, &a.out, &mopts, &cog_options(mopts.alpha))?
+        mosaic_cog(
+            frames,
+            crs,
+            &a.out,
+            &mopts,
+            &aerorect::io::CogOptions::masked_by_alpha(mopts.alpha),
+        )?
     } else {
         mosaic(frames, crs, &a.out, &mopts)?
     };

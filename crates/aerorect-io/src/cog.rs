@@ -67,6 +67,21 @@ pub struct CogOptions {
     pub bigtiff: Option<bool>,
 }
 
+impl CogOptions {
+    /// The defaults, with an alpha band (when the image has one) as the internal mask: what
+    /// `--cog` writes for every command and front end.
+    pub fn masked_by_alpha(alpha: bool) -> Self {
+        CogOptions {
+            mask: if alpha {
+                CogMask::AlphaBand
+            } else {
+                CogMask::None
+            },
+            ..CogOptions::default()
+        }
+    }
+}
+
 impl Default for CogOptions {
     fn default() -> Self {
         CogOptions {
