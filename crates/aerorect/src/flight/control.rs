@@ -183,7 +183,8 @@ pub(super) fn resolve(
             })?,
             _ => [p.xyz[0], p.xyz[1]],
         };
-        let [h, v] = p.sigma_m.unwrap_or(co.survey_sigma_m);
+        // A file's zero sigma (a point taken as exact) is held to a millimetre.
+        let [h, v] = p.sigma_m.unwrap_or(co.survey_sigma_m).map(|s| s.max(0.001));
         let role = match p.check || co.checkpoints.contains(&p.name) {
             true => Role::Check,
             false => Role::Control,
