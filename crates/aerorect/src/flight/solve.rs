@@ -134,10 +134,16 @@ pub(super) fn match_and_adjust(
         frames.len(),
         aopts,
     );
-    let mut all = ties.clone();
-    if let (Some(c), Some(co)) = (control, &fo.control) {
-        all.extend(c.tie_points(co.mark_sigma_px, aopts.pixel_sigma));
-    }
+    // The control points join the ties for the solve; without control the ties go as they are
+    // (no copy of every tie each round).
+    let all: std::borrow::Cow<[TiePoint]> = match (control, &fo.control) {
+        (Some(c), Some(co)) => {
+            let mut all = ties.clone();
+            all.extend(c.tie_points(co.mark_sigma_px, aopts.pixel_sigma));
+            all.into()
+        }
+        _ => ties.as_slice().into(),
+    };
     let adjusted = aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &all, &aopts)
         .map_err(|e| Error::Invalid(format!("flight adjustment: {e}")))?;
     let accuracy = plan.control.as_ref().map(|c| {
