@@ -82,15 +82,20 @@ fn command(args: &[&str], dir: &Path) -> Command {
     c
 }
 
-/// Runs with stdout a pipe whose reading end is closed at once (`| head -0`).
+/// Runs with stdout a pipe whose reading end is closed before the child starts (`| head -0`).
+///
+/// The reading end is dropped before the spawn, not after: a test thread forking at the same
+/// moment holds a copy of every open descriptor until its exec, and a reading end that lived
+/// through this child's start could be alive in such a fork when a quick command (`camera
+/// convert`) prints, which then succeeds instead of meeting EPIPE.
 fn with_closed_stdout(args: &[&str], dir: &Path) -> (Option<i32>, String) {
-    let mut child = command(args, dir)
-        .stdout(Stdio::piped())
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = command(args, dir)
+        .stdout(writer)
         .stderr(Stdio::piped())
-        .spawn()
+        .output()
         .unwrap();
-    drop(child.stdout.take());
-    let out = child.wait_with_output().unwrap();
     (
         out.status.code(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
