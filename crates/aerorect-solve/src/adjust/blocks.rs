@@ -235,6 +235,15 @@ impl Layout {
         out
     }
 
+    /// The parameter blocks of the reduced system: each frame's free parameters, each
+    /// camera's, the datum's (each block's indices are consecutive).
+    pub fn blocks(&self) -> super::normal::Blocks {
+        let count = |ix: &[Option<usize>]| ix.iter().filter(|i| i.is_some()).count();
+        let frames = self.frames.iter().map(|ix| count(ix));
+        let cameras = self.cameras.iter().map(|ix| count(ix));
+        super::normal::Blocks::new(frames.chain(cameras).chain([count(&self.datum)]))
+    }
+
     /// Every free parameter with its index: frame ones, then camera ones.
     pub fn free(&self) -> impl Iterator<Item = (usize, Param)> + '_ {
         let frames = self.frames.iter().enumerate().flat_map(|(f, ix)| {

@@ -26,6 +26,7 @@
 mod blocks;
 mod gauge;
 mod jacobian;
+mod normal;
 #[cfg(test)]
 mod oracle;
 mod points;

@@ -5,6 +5,7 @@
 
 use super::blocks::{LOCAL, State};
 use super::jacobian::pixel_jacobian;
+use super::normal::SymBlocks;
 use super::residuals::Problem;
 use super::{Observation, TiePoint};
 use aerorect_core::Vec3;
@@ -12,14 +13,11 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMat, Triplet};
 use nalgebra::{Matrix3, SMatrix, SVector};
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
-/// The damped reduced system's entries (row, column), its right-hand side, and each point's
-/// damped H_pp^-1 (none where it is singular).
-type Reduced = (
-    BTreeMap<(usize, usize), f64>,
-    Vec<f64>,
-    Vec<Option<Matrix3<f64>>>,
-);
+/// The damped reduced system, its right-hand side, and each point's damped H_pp^-1 (none
+/// where it is singular).
+type Reduced = (SymBlocks, Vec<f64>, Vec<Option<Matrix3<f64>>>);
 
 /// One tie point's blocks of the (undamped) normal equations.
 pub(super) struct PointLin {
@@ -32,9 +30,8 @@ pub(super) struct PointLin {
 
 /// The undamped normal equations at one state: the frame-and-camera block (data and
 /// priors), its right-hand side (-gradient) and each point's blocks.
-#[derive(Default)]
 pub(super) struct Linear {
-    pub entries: BTreeMap<(usize, usize), f64>,
+    pub entries: SymBlocks,
     pub rhs: Vec<f64>,
     pub points: Vec<PointLin>,
 }
@@ -80,12 +77,8 @@ impl Problem<'_> {
                 let Some(i) = *i else { continue };
                 *hpc.entry(i).or_insert_with(Vec3::zeros) += cross.row(a).transpose();
                 lin.rhs[i] += bc[a];
-                for (b, j) in l.idx.iter().enumerate() {
-                    if let Some(j) = *j {
-                        *lin.entries.entry((i, j)).or_insert(0.0) += hcc[(a, b)];
-                    }
-                }
             }
+            lin.entries.add_outer(&l.idx, |a, b| hcc[(a, b)]);
         }
         if let Some(c) = &tie.control {
             // (x - surveyed) / sigma, axis by axis.
@@ -112,10 +105,10 @@ impl Problem<'_> {
     /// The undamped normal equations at `s`.
     pub fn linear(&self, s: &State) -> Option<Linear> {
         let mut lin = Linear {
+            entries: SymBlocks::new(Arc::new(self.layout.blocks())),
             rhs: vec![0.0; self.layout.len()],
-            ..Linear::default()
+            points: Vec::with_capacity(self.ties.len()),
         };
-        lin.points = Vec::with_capacity(self.ties.len());
         for (tie, x) in self.ties.iter().zip(&s.points) {
             let p = self.point_lin(s, tie, x, &mut lin)?;
             lin.points.push(p);
@@ -125,7 +118,7 @@ impl Problem<'_> {
             for &(i, a) in &row.terms {
                 lin.rhs[i] -= w * a * row.value;
                 for &(j, b) in &row.terms {
-                    *lin.entries.entry((i, j)).or_insert(0.0) += w * a * b;
+                    *lin.entries.entry(i, j) += w * a * b;
                 }
             }
         }
@@ -145,7 +138,7 @@ impl Linear {
     pub fn reduced(&self, lambda: f64) -> Reduced {
         let mut entries = self.entries.clone();
         for i in 0..self.rhs.len() {
-            let d = entries.entry((i, i)).or_insert(0.0);
+            let d = entries.entry(i, i);
             *d += lambda * d.max(1e-9);
         }
         let mut rhs = self.rhs.clone();
@@ -164,10 +157,9 @@ impl Linear {
             let ib = inv * p.bp;
             for (i, vi) in &p.hpc {
                 rhs[*i] -= vi.dot(&ib);
-                for ((j, _), tj) in p.hpc.iter().zip(&t) {
-                    *entries.entry((*i, *j)).or_insert(0.0) -= vi.dot(tj);
-                }
             }
+            let idx: Vec<Option<usize>> = p.hpc.iter().map(|(i, _)| Some(*i)).collect();
+            entries.add_outer(&idx, |a, b| -p.hpc[a].1.dot(&t[b]));
             inverses.push(Some(inv));
         }
         (entries, rhs, inverses)
@@ -177,12 +169,12 @@ impl Linear {
 /// Factorises a symmetric system given by its entries (both triangles).
 pub(super) fn factor(
     n: usize,
-    entries: &BTreeMap<(usize, usize), f64>,
+    entries: &SymBlocks,
 ) -> Option<faer::sparse::linalg::solvers::Llt<usize, f64>> {
     let triplets: Vec<Triplet<usize, usize, f64>> = entries
-        .iter()
-        .filter(|((i, j), _)| i >= j)
-        .map(|(&(i, j), &v)| Triplet::new(i, j, v))
+        .lower_triplets()
+        .into_iter()
+        .map(|(i, j, v)| Triplet::new(i, j, v))
         .collect();
     let m = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).ok()?;
     m.sp_cholesky(faer::Side::Lower).ok()

@@ -1,0 +1,192 @@
+//! The reduced system's symmetric matrix, accumulated in dense blocks: one per pair of
+//! parameter blocks (a frame's free parameters, a camera's, the datum's) that meet through a
+//! tie point or a prior.
+//!
+//! This is the adjustment's hot loop: 14 x 14 entries per observation, and up to 20 x 20 per
+//! tie point's Schur update, for tens of thousands of tie points and every step. A map of
+//! entries searched per entry spent most of a large flight's solve there; here a block pair is
+//! found once per observation and its entries are plain array slots.
+//!
+//! It is bit for bit the matrix a map of entries gives: every entry receives the same additions
+//! in the same order, and only entries that were written become the sparse matrix (a block's
+//! slots that no observation reached stay out of it, as a map would never have held them).
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Which parameter block each parameter of the reduced system belongs to. A block's
+/// parameters are consecutive.
+#[derive(Debug)]
+pub(super) struct Blocks {
+    /// Per parameter: its block.
+    block: Vec<u32>,
+    /// Per block: its first parameter; one more entry, the number of parameters.
+    start: Vec<usize>,
+}
+
+impl Blocks {
+    /// Blocks of the given lengths, in parameter order (empty ones are skipped).
+    pub fn new(lengths: impl IntoIterator<Item = usize>) -> Self {
+        let mut block = Vec::new();
+        let mut start = vec![0];
+        for len in lengths.into_iter().filter(|&n| n > 0) {
+            let b = u32::try_from(start.len() - 1).unwrap_or(u32::MAX);
+            block.extend(std::iter::repeat_n(b, len));
+            start.push(block.len());
+        }
+        Self { block, start }
+    }
+
+    fn len(&self, b: u32) -> usize {
+        self.start[b as usize + 1] - self.start[b as usize]
+    }
+
+    /// Parameter `i`'s block and its place in it.
+    fn locate(&self, i: usize) -> (u32, usize) {
+        let b = self.block[i];
+        (b, i - self.start[b as usize])
+    }
+}
+
+/// A symmetric matrix over the reduced system (both triangles stored), block by block.
+#[derive(Debug, Clone)]
+pub(super) struct SymBlocks {
+    blocks: Arc<Blocks>,
+    /// Each block pair's first slot (row-major, rows of the first block).
+    base: HashMap<(u32, u32), usize>,
+    values: Vec<f64>,
+    written: Vec<bool>,
+}
+
+impl SymBlocks {
+    pub fn new(blocks: Arc<Blocks>) -> Self {
+        Self {
+            blocks,
+            base: HashMap::new(),
+            values: Vec::new(),
+            written: Vec::new(),
+        }
+    }
+
+    /// The first slot of block pair (a, b), allocated at its first use.
+    fn base(&mut self, a: u32, b: u32) -> usize {
+        if let Some(&s) = self.base.get(&(a, b)) {
+            return s;
+        }
+        let s = self.values.len();
+        let n = self.blocks.len(a) * self.blocks.len(b);
+        self.values.resize(s + n, 0.0);
+        self.written.resize(s + n, false);
+        self.base.insert((a, b), s);
+        s
+    }
+
+    fn slot(&mut self, i: usize, j: usize) -> usize {
+        let (a, oi) = self.blocks.locate(i);
+        let (b, oj) = self.blocks.locate(j);
+        self.base(a, b) + oi * self.blocks.len(b) + oj
+    }
+
+    /// Entry (i, j), written (zero until something is added).
+    pub fn entry(&mut self, i: usize, j: usize) -> &mut f64 {
+        let s = self.slot(i, j);
+        self.written[s] = true;
+        &mut self.values[s]
+    }
+
+    /// Adds `value(a, b)` to entry (idx[a], idx[b]) for every pair of positions that hold an
+    /// index, rows outer, columns inner (the order a loop over entries would add them in).
+    pub fn add_outer(&mut self, idx: &[Option<usize>], mut value: impl FnMut(usize, usize) -> f64) {
+        let located: Vec<Option<(u32, usize)>> = idx
+            .iter()
+            .map(|i| i.map(|i| self.blocks.locate(i)))
+            .collect();
+        let mut bases: Vec<((u32, u32), usize)> = Vec::with_capacity(4);
+        for (a, la) in located.iter().enumerate() {
+            let Some((ba, oa)) = *la else { continue };
+            for (b, lb) in located.iter().enumerate() {
+                let Some((bb, ob)) = *lb else { continue };
+                let base = match bases.iter().find(|(k, _)| *k == (ba, bb)) {
+                    Some(&(_, s)) => s,
+                    None => {
+                        let s = self.base(ba, bb);
+                        bases.push(((ba, bb), s));
+                        s
+                    }
+                };
+                let s = base + oa * self.blocks.len(bb) + ob;
+                self.values[s] += value(a, b);
+                self.written[s] = true;
+            }
+        }
+    }
+
+    /// The written entries of the lower triangle (i >= j), ordered by (i, j).
+    pub fn lower_triplets(&self) -> Vec<(usize, usize, f64)> {
+        let mut out = Vec::new();
+        for (&(a, b), &base) in &self.base {
+            if a < b {
+                continue;
+            }
+            let (sa, sb) = (self.blocks.start[a as usize], self.blocks.start[b as usize]);
+            let cols = self.blocks.len(b);
+            for oi in 0..self.blocks.len(a) {
+                for oj in 0..cols {
+                    let s = base + oi * cols + oj;
+                    let (i, j) = (sa + oi, sb + oj);
+                    if self.written[s] && i >= j {
+                        out.push((i, j, self.values[s]));
+                    }
+                }
+            }
+        }
+        out.sort_unstable_by_key(|&(i, j, _)| (i, j));
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use std::collections::BTreeMap;
+
+    /// The same additions into block storage and into a map of entries give the same
+    /// entries, bit for bit, and the same set of written ones.
+    #[test]
+    fn blocks_hold_what_a_map_of_entries_holds() {
+        let blocks = Arc::new(Blocks::new([3, 0, 2, 4, 1]));
+        let mut sym = SymBlocks::new(blocks);
+        let mut map: BTreeMap<(usize, usize), f64> = BTreeMap::new();
+        let groups: [&[Option<usize>]; 4] = [
+            &[Some(0), None, Some(2), Some(5), Some(6)],
+            &[Some(3), Some(4), Some(9)],
+            &[Some(1), Some(7), None, Some(8)],
+            &[Some(0), Some(2), Some(5)],
+        ];
+        for (g, idx) in groups.iter().enumerate() {
+            let value = |a: usize, b: usize| 0.1 * (g + 1) as f64 / (1 + a + 3 * b) as f64;
+            sym.add_outer(idx, value);
+            for (a, i) in idx.iter().enumerate() {
+                for (b, j) in idx.iter().enumerate() {
+                    if let (Some(i), Some(j)) = (i, j) {
+                        *map.entry((*i, *j)).or_insert(0.0) += value(a, b);
+                    }
+                }
+            }
+        }
+        *sym.entry(9, 0) -= 0.25;
+        *map.entry((9, 0)).or_insert(0.0) -= 0.25;
+        let want: Vec<(usize, usize, f64)> = map
+            .iter()
+            .filter(|((i, j), _)| i >= j)
+            .map(|(&(i, j), &v)| (i, j, v))
+            .collect();
+        let got = sym.lower_triplets();
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(&want) {
+            assert_eq!((g.0, g.1), (w.0, w.1));
+            assert_eq!(g.2.to_bits(), w.2.to_bits());
+        }
+    }
+}
