@@ -4,12 +4,13 @@
 //! grid (meridian convergence), the camera's height, and the ground (level or a DEM).
 
 use crate::Error;
+pub use crate::drone_options::DroneOptions;
 use crate::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
-use crate::photo_source::{self, PhotoAttitude, SenseflyRoll};
+use crate::photo_source::{self, PhotoAttitude};
 use aerorect_core::distortion::{Distortion, OpenCv};
-use aerorect_core::{Camera, CameraRotation, ImageSize, Intrinsics, RectifyLimits};
-use aerorect_geo::{Mounting, Pose, Projection, convergence_deg, grid_from_enu};
-use aerorect_io::{CameraFile, Crs, GeoReference, PhotoMetadata, PoseRecord};
+use aerorect_core::{Camera, CameraRotation, ImageSize, Intrinsics};
+use aerorect_geo::{Pose, Projection, convergence_deg, grid_from_enu};
+use aerorect_io::{Crs, GeoReference, PhotoMetadata, PoseRecord};
 use aerorect_raster::WarpOptions;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -284,42 +285,6 @@ pub struct DronePlanInfo {
     pub geo: GeoReference,
     pub clipped: bool,
     pub warnings: Vec<String>,
-}
-
-/// Inputs to [`plan_from_metadata`] that do not come from the photo.
-#[derive(Debug, Clone, Default)]
-pub struct DroneOptions {
-    /// Output ground sample distance; default: the frame's own at nadir (H / f).
-    pub gsd_m: Option<f64>,
-    pub ground_height_m: Option<f64>,
-    /// Terrain: camera heights from AbsoluteAltitude + `vertical_offset_m` against it.
-    pub dem: Option<Arc<aerorect_geo::Dem>>,
-    pub vertical_offset_m: f64,
-    /// DEM holes or gaps are errors instead of a warning and the level fallback.
-    pub strict: bool,
-    /// Over a DEM, leave ground hidden behind nearer terrain empty.
-    pub occlusion: bool,
-    /// Output CRS (default: the UTM zone of the position).
-    pub crs: Option<(Crs, Projection)>,
-    /// Overrides the camera from metadata (sized for each photo as it is read).
-    pub camera: Option<CameraFile>,
-    /// Exterior orientations by file name or stem: frames listed here take their pose from the
-    /// table instead of their metadata.
-    pub poses: Option<Arc<BTreeMap<String, PoseRecord>>>,
-    pub mounting: Mounting,
-    /// External orientations (`--geo`, positions in WGS84): a listed photo takes its position,
-    /// height and angles (where the file has them) from it; an unlisted photo is an error.
-    pub geo: Option<Arc<aerorect_io::EoTable>>,
-    /// GPS-track headings of the photos without attitude, by file name
-    /// ([`photo_source::track_headings`]).
-    pub track_headings: Option<Arc<BTreeMap<String, f64>>>,
-    /// How senseFly's roll is read.
-    pub sensefly_roll: SenseflyRoll,
-    pub limits: RectifyLimits,
-    pub warp: WarpOptions,
-    /// Write each frame as a cloud-optimised GeoTIFF with these options instead of the strip
-    /// GeoTIFF (the output must be .tif).
-    pub cog: Option<aerorect_io::CogOptions>,
 }
 
 /// Stages a frame's output: a COG when `cog` is set, else as its extension says.

@@ -11,6 +11,7 @@ pub mod calibration;
 pub mod compare;
 pub mod demo;
 pub mod drone;
+mod drone_options;
 pub mod error;
 pub mod evaluate;
 pub mod features;

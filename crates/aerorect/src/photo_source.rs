@@ -4,7 +4,7 @@
 //! is handled by `drone::plan_from_pose` before any of these.
 
 use crate::Error;
-use crate::drone::DroneOptions;
+use crate::drone_options::DroneOptions;
 use aerorect_core::{CameraRotation, GeometryError, Mat3};
 use aerorect_geo::Projection;
 use aerorect_io::{BodyAngles, BodySchema, EoTable, PhotoMetadata};
@@ -26,17 +26,7 @@ pub const GPS_TRACK_PRIOR_SIGMA_DEG: f64 = 30.0;
 /// cameras 3-4 degrees rms from the recorded roll and pitch and a median 9 from the heading.
 pub const BODY_PRIOR_SIGMA_DEG: f64 = 10.0;
 
-/// How senseFly's roll is read. Peer tools disagree (ODM flips its sign, OpenSfM and Orthority
-/// do not) and nothing records how the camera sits in the airframe: the default was chosen by
-/// the images (CONVENTIONS.md, "senseFly roll").
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
-pub enum SenseflyRoll {
-    /// The recorded roll, as Pix4D's convention reads it (OpenSfM, Orthority).
-    #[default]
-    AsRecorded,
-    /// The recorded roll negated (ODM).
-    Flipped,
-}
+pub use crate::drone_options::SenseflyRoll;
 
 /// Where a photo's attitude came from.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

@@ -5,7 +5,6 @@
 //! Messages name the quantity and its value ("GSD 1e308 m"); the CLI adds its flag.
 
 use crate::Error;
-use crate::drone::DroneOptions;
 use aerorect_core::error::Num;
 
 /// The coarsest ground sample distance, metres.
@@ -51,22 +50,6 @@ pub fn check_lever_arm_m(arm: [f64; 3]) -> Result<[f64; 3], Error> {
     )))
 }
 
-impl DroneOptions {
-    /// Refuses options outside their sane ranges: the GSD, the ground height, the vertical
-    /// offset and the lever arm.
-    pub fn validate(&self) -> Result<(), Error> {
-        if let Some(g) = self.gsd_m {
-            check_gsd_m(g)?;
-        }
-        if let Some(z) = self.ground_height_m {
-            check_height_m("ground height", z)?;
-        }
-        check_height_m("vertical offset", self.vertical_offset_m)?;
-        check_lever_arm_m(self.mounting.lever_arm_m)?;
-        Ok(())
-    }
-}
-
 /// The error for a camera that is not above the ground it is planned over, when the GSD
 /// would have come from its height: names the photo, the camera's height and where it came
 /// from (which names the DEM file for a DEM), and the ground's height.
@@ -98,11 +81,5 @@ mod tests {
         assert!(check_lever_arm_m([0.1, -0.2, 0.3]).is_ok());
         let e = check_lever_arm_m([0.0, 1e308, 0.0]).unwrap_err();
         assert!(e.to_string().contains("(0, 1e308, 0) m"), "{e}");
-        let opts = DroneOptions {
-            gsd_m: Some(1e308),
-            ..DroneOptions::default()
-        };
-        assert!(opts.validate().is_err());
-        assert!(DroneOptions::default().validate().is_ok());
     }
 }

@@ -4,7 +4,7 @@
 
 use super::{track_headings, with_geo_record};
 use crate::Error;
-use crate::drone::DroneOptions;
+use crate::drone_options::DroneOptions;
 use aerorect_io::PhotoMetadata;
 use std::path::PathBuf;
 use std::sync::Arc;
