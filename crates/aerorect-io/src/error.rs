@@ -22,6 +22,12 @@ pub enum IoError {
 }
 
 impl IoError {
+    /// Whether the file itself could not be read or written (missing, no permission, disk
+    /// full), as opposed to a bad value in it.
+    pub fn is_file_error(&self) -> bool {
+        matches!(self, IoError::Io { .. })
+    }
+
     pub(crate) fn io(path: &Path, error: std::io::Error) -> Self {
         IoError::Io {
             source_name: path.display().to_string(),
