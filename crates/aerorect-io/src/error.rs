@@ -13,6 +13,12 @@ pub enum IoError {
     Decode { source_name: String, reason: String },
     #[error("{source_name}: cannot write image: {reason}")]
     Encode { source_name: String, reason: String },
+    /// A metadata tag (EXIF, XMP) that cannot be read.
+    #[error("{source_name}: {error}")]
+    Metadata {
+        source_name: String,
+        error: crate::metadata::MetadataError,
+    },
     /// A field is missing, unknown, or has a bad value.
     #[error("{source_name}: {message}")]
     Field {
@@ -46,6 +52,16 @@ impl IoError {
         IoError::Encode {
             source_name: path.display().to_string(),
             reason: reason.to_string(),
+        }
+    }
+
+    pub(crate) fn metadata(
+        source_name: impl ToString,
+        error: crate::metadata::MetadataError,
+    ) -> Self {
+        IoError::Metadata {
+            source_name: source_name.to_string(),
+            error,
         }
     }
 
