@@ -7,7 +7,8 @@ adjustment and mosaic (``adjust_flight``, ``mosaic``), and whole flights on a Da
 
 Arrays are NumPy ``(bands, rows, cols)`` like rasterio (a 2-D array is one band) of uint8,
 uint16 or float32. The GIL is released around all heavy work, so threads run in parallel.
-Errors raise :class:`AerorectError` (a ``ValueError``) with the messages of the ``aerorect``
+Errors raise :class:`AerorectError` (a ``ValueError``: bad input) or, when a file cannot be read
+or written, :class:`AerorectFileError` (an ``OSError``), with the messages of the ``aerorect``
 command-line program.
 """
 
@@ -23,6 +24,7 @@ from ._aerorect import (
     DEFAULT_MAX_OUTPUT_PX,
     AdjustedFlight,
     AerorectError,
+    AerorectFileError,
     Camera,
     calibrate,
     read_photo_metadata,
@@ -39,6 +41,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 __all__ = [
     "AdjustedFlight",
     "AerorectError",
+    "AerorectFileError",
     "Camera",
     "DEFAULT_MAX_OUTPUT_PX",
     "adjust_flight",

@@ -14,7 +14,10 @@ __version__: str
 DEFAULT_MAX_OUTPUT_PX: int
 
 class AerorectError(ValueError):
-    """Bad input, an unreadable file, a geometry with no answer; the CLI's message."""
+    """Bad input, a bad value in a file, a geometry with no answer; the CLI's message."""
+
+class AerorectFileError(OSError):
+    """A file that could not be read or written; the CLI's message."""
 
 class Camera:
     """A frame camera: intrinsics in pixels of `width` x `height`, optional lens model."""

@@ -32,7 +32,7 @@ import uuid
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, List, Optional, Sequence, Tuple
 
-from . import AerorectError, _aerorect, _opts
+from . import AerorectError, AerorectFileError, _aerorect, _opts
 
 __all__ = ["rectify_flight", "mosaic", "output_paths"]
 
@@ -155,7 +155,7 @@ def _rectify_one(photo: str, out: str, opts: dict) -> Tuple[str, Optional[str]]:
         _aerorect.rectify_photo_to_file(local.input(photo), lout, o)
         local.upload(lout, out)
         return out, None
-    except AerorectError as e:
+    except (AerorectError, AerorectFileError) as e:
         return photo, str(e)
     finally:
         local.close()
@@ -252,7 +252,7 @@ def _flight_write(k, out, photos, opts_json, progress):
         _flight(photos, opts_json).write_frame(k, progress, lout)
         local.upload(lout, out)
         return k, None
-    except AerorectError as e:
+    except (AerorectError, AerorectFileError) as e:
         return k, str(e)
     finally:
         local.close()

@@ -209,7 +209,7 @@ impl PhotoArgs {
             passes,
             ties: match &self.ties {
                 Some(t) => aerorect::flight::TieSource::from_name(t)
-                    .map_err(|e| anyhow::anyhow!("ties={t:?}: {e}"))?,
+                    .with_context(|| format!("ties={t:?}"))?,
                 None => d.ties,
             },
             control: self.control()?,
@@ -230,7 +230,7 @@ impl PhotoArgs {
             vertical_offset_m: self.gcp_vertical_offset_m.unwrap_or(0.0),
             ..read
         };
-        co.validate().map_err(|e| anyhow::anyhow!("gcps: {e}"))?;
+        co.validate().context("gcps")?;
         Ok(Some(co))
     }
 }

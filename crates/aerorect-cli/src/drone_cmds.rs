@@ -366,7 +366,7 @@ impl FlightArgs {
             vertical_offset_m: self.gcp_vertical_offset_m,
             ..aerorect::flight::ControlOptions::read(&self.gcps)?
         };
-        co.validate().map_err(|e| anyhow::anyhow!("--gcps: {e}"))?;
+        co.validate().context("--gcps")?;
         Ok(Some(co))
     }
 
@@ -424,7 +424,7 @@ impl FlightArgs {
             attitude_sigma_deg: self.attitude_sigma_deg,
             passes: self.adjust_passes,
             ties: aerorect::flight::TieSource::from_name(&self.ties)
-                .map_err(|e| anyhow::anyhow!("--ties {}: {e}", self.ties))?,
+                .with_context(|| format!("--ties {}", self.ties))?,
             refine_radial: self.adjust_lens,
             refine_boresight: self.adjust_boresight,
             control: self.control()?,
@@ -663,7 +663,7 @@ fn process(a: &BatchArgs, input: &Path, opts: &DroneOptions) -> Outcome {
             }
             Outcome::Done(Box::new(r))
         }
-        Err(e) => failure(input, format!("{e:#}")),
+        Err(e) => failure(input, e.full_message()),
     }
 }
 
@@ -914,7 +914,7 @@ fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
         &mut staged,
         |k, res| match res {
             Ok(p) => outln!("{}", result_line(p)),
-            Err(e) => eprintln!("failed: {}: {e:#}", a.inputs[k].display()),
+            Err(e) => eprintln!("failed: {}: {}", a.inputs[k].display(), e.full_message()),
         },
     )?;
     let poses = adjusted_poses_csv(a);

@@ -13,6 +13,12 @@ pub enum IoError {
     Decode { source_name: String, reason: String },
     #[error("{source_name}: cannot write image: {reason}")]
     Encode { source_name: String, reason: String },
+    /// A metadata tag (EXIF, XMP) that cannot be read.
+    #[error("{source_name}: {error}")]
+    Metadata {
+        source_name: String,
+        error: crate::metadata::MetadataError,
+    },
     /// A field is missing, unknown, or has a bad value.
     #[error("{source_name}: {message}")]
     Field {
@@ -22,6 +28,12 @@ pub enum IoError {
 }
 
 impl IoError {
+    /// Whether the file itself could not be read or written (missing, no permission, disk
+    /// full), as opposed to a bad value in it.
+    pub fn is_file_error(&self) -> bool {
+        matches!(self, IoError::Io { .. })
+    }
+
     pub(crate) fn io(path: &Path, error: std::io::Error) -> Self {
         IoError::Io {
             source_name: path.display().to_string(),
@@ -40,6 +52,16 @@ impl IoError {
         IoError::Encode {
             source_name: path.display().to_string(),
             reason: reason.to_string(),
+        }
+    }
+
+    pub(crate) fn metadata(
+        source_name: impl ToString,
+        error: crate::metadata::MetadataError,
+    ) -> Self {
+        IoError::Metadata {
+            source_name: source_name.to_string(),
+            error,
         }
     }
 

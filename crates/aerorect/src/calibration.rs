@@ -104,7 +104,7 @@ pub fn observations_from_images(
             Some(h) => f.with_fixed_half_window(h),
             None => Ok(f),
         })
-        .map_err(|e| Error::Invalid(e.to_string()))?;
+        .map_err(Error::from)?;
     aerorect_io::refuse_duplicate_photos(paths)?;
     let ids = image_ids(paths);
     let found: Vec<(ImageSize, View, Vec<[f64; 2]>)> = paths

@@ -113,7 +113,7 @@ fn random_pairs(
     sigma: f64,
     rng: &mut ChaCha8Rng,
 ) -> Result<Vec<Pair>, Error> {
-    let noise = Normal::new(0.0, sigma.max(0.0)).map_err(|e| Error::Invalid(e.to_string()))?;
+    let noise = Normal::new(0.0, sigma.max(0.0)).map_err(Error::from)?;
     let frame = plan.frame_size();
     let (w, h) = (frame.width as f64 - 1.0, frame.height as f64 - 1.0);
     let mut out = Vec::with_capacity(n);
@@ -242,7 +242,7 @@ pub fn compare(reference: &AnyRaster, cfg: &CompareConfig) -> Result<CompareResu
 
     let t = Instant::now();
     let sigma = (cfg.attitude_noise_arcmin / 60.0).to_radians();
-    let normal = Normal::new(0.0, sigma.max(0.0)).map_err(|e| Error::Invalid(e.to_string()))?;
+    let normal = Normal::new(0.0, sigma.max(0.0)).map_err(Error::from)?;
     let measured = perturbed(
         &cfg.attitude,
         std::array::from_fn(|_| normal.sample(&mut rng)),
@@ -282,7 +282,7 @@ fn noisy(frame: AnyRaster, sigma: f64, rng: &mut ChaCha8Rng) -> Result<AnyRaster
     if sigma <= 0.0 {
         return Ok(frame);
     }
-    let normal = Normal::new(0.0, sigma).map_err(|e| Error::Invalid(e.to_string()))?;
+    let normal = Normal::new(0.0, sigma).map_err(Error::from)?;
     let mut out = frame;
     match &mut out {
         AnyRaster::U8(r) => (0..r.bands()).for_each(|b| {

@@ -50,8 +50,7 @@ pub struct DemoSummary {
 
 /// Runs the demo into `out_dir` (created if needed).
 pub fn run(out_dir: &Path) -> Result<DemoSummary, Error> {
-    std::fs::create_dir_all(out_dir)
-        .map_err(|e| Error::Invalid(format!("{}: {e}", out_dir.display())))?;
+    std::fs::create_dir_all(out_dir).map_err(Error::file(out_dir))?;
     let scene = decode_image_bytes(SCENE_JPEG, "embedded aero1.jpg")?;
     let camera = CameraFile::parse(CAMERA_TOML, "demo camera")?.camera(None)?;
     let attitude =
@@ -155,7 +154,7 @@ fn attitude_toml(d: &SixAngleDegrees) -> String {
 }
 
 fn to_json<T: Serialize>(v: &T) -> Result<String, Error> {
-    serde_json::to_string_pretty(v).map_err(|e| Error::Invalid(e.to_string()))
+    serde_json::to_string_pretty(v).map_err(Error::from)
 }
 
 /// Writes text atomically.

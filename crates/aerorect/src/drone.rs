@@ -101,7 +101,7 @@ fn camera_from_tags(
     size: ImageSize,
     file: &str,
 ) -> Result<(Intrinsics, Option<Distortion>, CameraSource, Vec<String>), Error> {
-    let bad = |e: aerorect_core::GeometryError| Error::Invalid(format!("{file}: camera: {e}"));
+    let bad = |e: aerorect_core::GeometryError| Error::context(format!("{file}: camera"))(e);
     let dji = &meta.dji;
     let [cx, cy] = size.centre();
     if let Some(text) = &dji.dewarp_data {
@@ -157,7 +157,7 @@ pub fn camera_from_metadata(
     let (k, distortion, source, mut warnings) = camera_from_tags(meta, tagged, file)?;
     let camera = Camera::new(k, distortion, tagged)
         .resized(size)
-        .map_err(|e| Error::Invalid(format!("{file}: EXIF PixelX/YDimension: {e}")))?;
+        .map_err(Error::context(format!("{file}: EXIF PixelX/YDimension")))?;
     if tagged != size {
         warnings.push(format!(
             "the calibration was written for {} x {} px; scaled to the image's {} x {}",
@@ -313,7 +313,7 @@ fn world_of(
             "{file}: no GPS position (EXIF GPS or XMP GpsLatitude/GpsLongitude)"
         )));
     };
-    let geo = |e: aerorect_geo::GeoError| Error::Invalid(format!("{file}: {e}"));
+    let geo = |e: aerorect_geo::GeoError| Error::context(file)(e);
     let (crs, proj) = match &opts.crs {
         Some((c, p)) => (c.clone(), p.clone()),
         None => {
@@ -339,7 +339,7 @@ pub fn plan_from_metadata(
     let rotation = attitude.rotation;
     let (h, ground) = heights(meta, opts, file)?;
     let (crs, proj, en, [lon, lat]) = world_of(meta, opts, file)?;
-    let geo = |e: aerorect_geo::GeoError| Error::Invalid(format!("{file}: {e}"));
+    let geo = |e: aerorect_geo::GeoError| Error::context(file)(e);
     let grid_from_enu = grid_from_enu(&proj, lon, lat).map_err(geo)?;
     let recorded = Pose::from_enu([en[0], en[1], h.camera_z_m], &rotation, &grid_from_enu);
     let lever = grid_from_enu
@@ -427,8 +427,7 @@ fn finish_plan(
         (Ground::Dem { dem, .. }, None) => dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1)),
     };
     let height_above = frame.heights.camera_z_m - ground_z;
-    opts.validate()
-        .map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+    opts.validate().map_err(Error::context(&file))?;
     let (z, src) = (frame.heights.camera_z_m, &frame.heights.source);
     if opts.gsd_m.is_none() && !(height_above.is_finite() && height_above > 0.0) {
         return Err(crate::sane::camera_below_ground(file, z, src, ground_z));
@@ -451,12 +450,12 @@ fn finish_plan(
         limits: opts.limits,
         occlusion: opts.occlusion,
     };
-    let plan = plan_ortho(&req, opts.warp).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+    let plan = plan_ortho(&req, opts.warp).map_err(Error::context(&file))?;
     let mut warnings = frame.camera.warnings.clone();
     warnings.extend(frame.warnings);
     warnings.extend(plan.warnings.iter().cloned());
     let [lon, lat] = frame.lon_lat;
-    let geo = |e: aerorect_geo::GeoError| Error::Invalid(format!("{file}: {e}"));
+    let geo = |e: aerorect_geo::GeoError| Error::context(file)(e);
     let info = DronePlanInfo {
         gimbal_yaw_pitch_roll_deg: attitude.angles_deg,
         attitude,
@@ -522,7 +521,7 @@ pub fn plan_from_pose(
     let recorded = Pose::new([pose.x, pose.y, z], rotation.ground_from_camera());
     let lon_lat = proj
         .transform(&Projection::wgs84(), pose.x, pose.y)
-        .map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
+        .map_err(Error::context(&file))?;
     let frame = Frame {
         camera,
         pose: opts
@@ -657,7 +656,7 @@ pub fn ortho_photo(
     let image = aerorect_io::read_image(input)?;
     opts.warp
         .nodata_as_for(&image)
-        .map_err(|e| Error::Invalid(format!("--nodata {}: {e}", opts.warp.nodata)))?;
+        .map_err(Error::context(format!("--nodata {}", opts.warp.nodata)))?;
     let size = image.size();
     stages.read = lap(&mut lap_t);
     let posed = opts.poses.as_deref().map(|p| pose_for(p, input));

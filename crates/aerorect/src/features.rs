@@ -118,9 +118,7 @@ pub fn raster_features(
     let start = Instant::now();
     let factor = reduction_factor(image.size(), opts.long_side_px);
     let mut gray = gray_reduced(image, factor)?;
-    let describe = |g: &_| {
-        sift(g, &opts.features).map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))
-    };
+    let describe = |g: &_| sift(g, &opts.features).map_err(Error::context(path.display()));
     let mut features = describe(&gray)?;
     if features.len() < FEW_KEYPOINTS {
         // A dull frame: described again with its contrast stretched.
@@ -233,9 +231,7 @@ pub fn tie_photos(
     centres: Option<&[[f64; 2]]>,
     opts: &TieOptions,
 ) -> Result<Ties, Error> {
-    opts.features
-        .validate()
-        .map_err(|e| Error::Invalid(e.to_string()))?;
+    opts.features.validate().map_err(Error::from)?;
     let frames: Vec<FrameFeatures> = paths
         .par_iter()
         .map(|p| frame_features(p, opts))
@@ -248,8 +244,9 @@ pub fn tie_photos(
                 paths.len()
             )));
         }
-        Some(c) => candidate_pairs(c, None, &opts.pairs)
-            .map_err(|e| Error::Invalid(format!("candidate pairs: {e}")))?,
+        Some(c) => {
+            candidate_pairs(c, None, &opts.pairs).map_err(Error::context("candidate pairs"))?
+        }
         None => (0..paths.len())
             .flat_map(|i| (i + 1..paths.len()).map(move |j| (i, j)))
             .collect(),

@@ -46,7 +46,7 @@ pub struct GcpPlan {
 }
 
 fn solve_err(what: &str) -> impl FnOnce(aerorect_solve::SolveError) -> Error + '_ {
-    move |e| Error::Invalid(format!("{what}: {e}"))
+    Error::context::<aerorect_solve::SolveError>(what)
 }
 
 impl GcpPlan {

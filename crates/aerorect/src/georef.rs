@@ -355,8 +355,7 @@ fn terrain_under(
             b[3] - b[1]
         )));
     }
-    HeightGrid::from_dem(dem, req.world, b, spacing, fill)
-        .map_err(|e| Error::Invalid(e.to_string()))
+    HeightGrid::from_dem(dem, req.world, b, spacing, fill).map_err(Error::from)
 }
 
 fn plan_terrain(
@@ -486,8 +485,7 @@ pub fn load_dem(path: &std::path::Path) -> Result<Dem, Error> {
         )));
     }
     let proj_text = d.geo.crs.to_proj_string()?;
-    let projection =
-        Projection::new(&proj_text).map_err(|e| Error::Invalid(format!("DEM {name}: {e}")))?;
+    let projection = Projection::new(&proj_text).map_err(Error::context(format!("DEM {name}")))?;
     let dem = Dem {
         name,
         values: d.heights,
@@ -497,6 +495,6 @@ pub fn load_dem(path: &std::path::Path) -> Result<Dem, Error> {
         cell_size: d.geo.pixel_size,
         projection,
     };
-    dem.validate().map_err(|e| Error::Invalid(e.to_string()))?;
+    dem.validate().map_err(Error::from)?;
     Ok(dem)
 }

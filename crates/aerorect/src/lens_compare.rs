@@ -44,7 +44,7 @@ fn field(noise_px: f64, seed: u64) -> Result<(Vec<Observation>, Vec<Observation>
     let rot = Rotation3::from_scaled_axis(Vector3::new(0.04, -0.06, 0.03));
     let t = Vector3::new(0.05, -0.08, 0.2);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let noise = Normal::new(0.0, noise_px).map_err(|e| Error::Invalid(e.to_string()))?;
+    let noise = Normal::new(0.0, noise_px).map_err(Error::from)?;
     let (mut fit, mut check) = (vec![], vec![]);
     for i in 0..17 {
         for j in 0..17 {
@@ -92,7 +92,7 @@ pub fn compare(noise_px: f64, seed: u64) -> Result<Vec<CompareRow>, Error> {
         let n = model.model().names().len() - fix.len();
         let mut opts = CalibrationOptions::new(model, ImageSize::new(800, 800));
         opts.fix = fix.iter().map(|s| s.to_string()).collect();
-        let r = calibrate(&fit, &opts).map_err(|e| Error::Invalid(format!("{kind}: {e}")))?;
+        let r = calibrate(&fit, &opts).map_err(Error::context(&kind))?;
         let errs: Vec<f64> = check
             .iter()
             .filter_map(|o| {

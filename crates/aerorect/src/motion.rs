@@ -73,7 +73,7 @@ impl Method {
 
     /// An estimator planned for `size`.
     pub fn plan(&self, size: ImageSize) -> Result<Box<dyn ShiftEstimator + Send>, Error> {
-        let err = |e: aerorect_raster::shift::ShiftError| Error::Invalid(e.to_string());
+        let err = Error::Shift;
         Ok(match *self {
             Method::Jtc(o) => {
                 Box::new(JointTransformCorrelator::new(size.width, size.height, o).map_err(err)?)
@@ -200,9 +200,7 @@ pub fn motion_sim(
                 let mut line = format!("{name},{snr},{},{dx},{dy}", acc[0].n);
                 for (est, a) in estimators.iter_mut().zip(acc.iter_mut()) {
                     let t = Instant::now();
-                    let e = est
-                        .estimate(&r, &cur)
-                        .map_err(|e| Error::Invalid(format!("{name}: {e}")))?;
+                    let e = est.estimate(&r, &cur).map_err(Error::context(&name))?;
                     let secs = t.elapsed().as_secs_f64();
                     a.add(&e, dx, dy, secs);
                     line += &format!(",{},{},{secs}", e.dx, e.dy);
@@ -240,8 +238,8 @@ fn dump_pair(
         .append(true)
         .create(true)
         .open(&path)
-        .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
-    writeln!(f, "{line}").map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))
+        .map_err(Error::file(&path))?;
+    writeln!(f, "{line}").map_err(Error::file(path))
 }
 
 /// One line of `track`.
@@ -281,10 +279,7 @@ impl Tracker {
             None => None,
             Some(prev) => {
                 let t = Instant::now();
-                let estimate = self
-                    .estimator
-                    .estimate(prev, &frame)
-                    .map_err(|e| Error::Invalid(e.to_string()))?;
+                let estimate = self.estimator.estimate(prev, &frame).map_err(Error::from)?;
                 Some(TrackStep {
                     estimate,
                     seconds: t.elapsed().as_secs_f64(),

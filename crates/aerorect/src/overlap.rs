@@ -105,7 +105,7 @@ pub fn overlap_shift(
             smooth: 0.0,
         },
     )
-    .map_err(|e| Error::Invalid(e.to_string()))?;
+    .map_err(Error::from)?;
     let (mut pa, mut pb) = (vec![0f32; patch * patch], vec![0f32; patch * patch]);
     let mut shifts = Vec::new();
     let step = patch as i64;

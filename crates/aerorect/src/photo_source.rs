@@ -182,15 +182,15 @@ pub fn load_geo_file(path: &Path) -> Result<EoTable, Error> {
         return Ok(t);
     };
     let name = path.display();
-    let bad = |e: String| Error::Invalid(format!("{name}: CRS '{crs}': {e}"));
-    let c = aerorect_io::Crs::parse(&crs).map_err(|e| bad(e.to_string()))?;
-    let def = c.to_proj_string().map_err(|e| bad(e.to_string()))?;
-    let proj = Projection::new(&def).map_err(|e| bad(e.to_string()))?;
+    let bad = |e: Error| Error::context(format!("{name}: CRS '{crs}'"))(e);
+    let c = aerorect_io::Crs::parse(&crs).map_err(|e| bad(e.into()))?;
+    let def = c.to_proj_string().map_err(|e| bad(e.into()))?;
+    let proj = Projection::new(&def).map_err(|e| bad(e.into()))?;
     let wgs84 = Projection::wgs84();
     for r in t.records.values_mut() {
         r.position = proj
             .transform(&wgs84, r.position[0], r.position[1])
-            .map_err(|e| Error::Invalid(format!("{name}: line {}: {e}", r.line)))?;
+            .map_err(Error::context(format!("{name}: line {}", r.line)))?;
     }
     Ok(t)
 }

@@ -214,7 +214,8 @@ fn finish(
         .filter(|t| t.inlier)
         .map(|t| ([t.u_ref, t.v_ref], [t.u_image, t.v_image]))
         .unzip();
-    let err = |e| Error::Invalid(format!("registration: final fit to the inliers: {e}"));
+    let err =
+        |e: aerorect_solve::SolveError| Error::context("registration: final fit to the inliers")(e);
     let homography = fit_projective(&from, &to).map_err(err)?;
     let image_from_ref = match model {
         TieModel::Projective => PlaneTransform::Projective(homography),

@@ -72,7 +72,7 @@ mod tests {
     fn values_outside_the_sane_ranges_are_refused_naming_them() {
         assert_eq!(check_gsd_m(0.05).ok(), Some(0.05));
         for g in [-6.87, 0.0, 1e308, f64::NAN, 2e4] {
-            let e = check_gsd_m(g).unwrap_err().to_string();
+            let e = check_gsd_m(g).unwrap_err().full_message();
             assert!(e.contains(&format!("GSD {} m", Num(g))), "{e}");
         }
         assert!(check_height_m("ground height", -430.0).is_ok());

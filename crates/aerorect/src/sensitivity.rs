@@ -99,7 +99,7 @@ pub fn run(cfg: &SensitivityConfig) -> Result<SensitivityRow, Error> {
         return Err(Error::Invalid("no check point sees the ground".into()));
     }
     let sigma = (cfg.sigma_arcmin / 60.0).to_radians();
-    let normal = Normal::new(0.0, sigma).map_err(|e| Error::Invalid(e.to_string()))?;
+    let normal = Normal::new(0.0, sigma).map_err(Error::from)?;
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let mut sum = [0.0f64; 6];
     let mut sum_sq_rmse = 0.0;

@@ -70,7 +70,7 @@ fn camera_sources_in_order_of_trust() {
     unknown.focal_length_35mm = None;
     let e = camera_from_metadata(&unknown, SIZE, "DJI_9.JPG")
         .unwrap_err()
-        .to_string();
+        .full_message();
     assert!(e.contains("DJI_9.JPG") && e.contains("XYZ"), "{e}");
     assert!(parse_dewarp("2018;1,2,3", SIZE).is_err());
 }
@@ -91,7 +91,7 @@ fn calibration_tags_are_scaled_to_the_decoded_size() {
     assert_eq!(c.tagged_size, [4000, 2250]);
     let e = camera_from_metadata(&m, ImageSize::new(1000, 1000), "IMG_1.JPG")
         .unwrap_err()
-        .to_string();
+        .full_message();
     assert!(
         e.contains("IMG_1.JPG") && e.contains("4000x2250") && e.contains("1000x1000"),
         "{e}"
@@ -291,7 +291,7 @@ fn height_from_ground_elevation_and_missing_fields() {
     none.dji.gimbal_pitch_deg = None;
     let e = plan_from_metadata(&none, SIZE, &DroneOptions::default(), "f.jpg")
         .unwrap_err()
-        .to_string();
+        .full_message();
     assert!(
         e.contains("f.jpg") && e.contains("GimbalPitchDegree"),
         "{e}"
@@ -301,7 +301,7 @@ fn height_from_ground_elevation_and_missing_fields() {
     assert!(
         plan_from_metadata(&nogps, SIZE, &DroneOptions::default(), "x")
             .unwrap_err()
-            .to_string()
+            .full_message()
             .contains("GPS")
     );
     let opts = DroneOptions {
@@ -311,7 +311,7 @@ fn height_from_ground_elevation_and_missing_fields() {
     assert!(
         plan_from_metadata(&m, SIZE, &opts, "x")
             .unwrap_err()
-            .to_string()
+            .full_message()
             .contains("not positive")
     );
 }

@@ -205,7 +205,7 @@ fn dem_holes_warn_or_refuse() {
     };
     let e = plan_ortho(&req(&strict), WarpOptions::default())
         .unwrap_err()
-        .to_string();
+        .full_message();
     assert!(
         e.contains("hills") && e.contains("nodata") && e.contains("--strict"),
         "{e}"

@@ -465,7 +465,7 @@ fn mosaic_writes_a_tiled_geotiff_of_the_tiles_or_nothing() {
     std::fs::remove_file(&out).unwrap();
     std::fs::remove_file(&frames[2].path).unwrap();
     let e = aerorect::mosaic::mosaic(frames, crs, &out, &opts).unwrap_err();
-    assert!(e.to_string().contains("frame2.tif"), "{e}");
+    assert!(e.full_message().contains("frame2.tif"), "{e:?}");
     let left: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
         .map(|e| e.unwrap().file_name())

@@ -76,7 +76,7 @@ fn sensefly_height_is_the_flat_default_and_without_it_the_ground_is_asked_for() 
     let size = ImageSize::new(4608, 3456);
     let e = plan_from_metadata(&m, size, &DroneOptions::default(), "IMG_1.JPG")
         .unwrap_err()
-        .to_string();
+        .full_message();
     assert!(
         e.contains("IMG_1.JPG") && e.contains("sensefly:Height") && e.contains("--ground-height-m"),
         "{e}"

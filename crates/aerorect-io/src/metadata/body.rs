@@ -4,6 +4,7 @@
 //! yaw-pitch-roll: NED Z-Y-X angles of the body, the camera fixed looking down with the image
 //! top towards the nose, so pitch 0 is nadir (the rotation is built in `aerorect::photo_source`).
 
+use super::MetadataError;
 use super::xmp::{first_number, tags_in};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -70,7 +71,7 @@ pub struct BodyTags {
 /// The senseFly, else the Pix4D, tags of a packet's tags (keyed by namespace and name). A tag
 /// that is not a number is an error naming it; a schema with only some of its three angles has
 /// no angles.
-pub fn body_tags(all: &BTreeMap<(String, String), String>) -> Result<BodyTags, String> {
+pub fn body_tags(all: &BTreeMap<(String, String), String>) -> Result<BodyTags, MetadataError> {
     if let Some((_, t)) = tags_in(all, &SENSEFLY_NS) {
         let n = |names: &[&str]| first_number("sensefly", &t, names);
         let (schema, angles) = match (n(&["Yaw"])?, n(&["Heading"])?) {
@@ -134,7 +135,7 @@ mod tests {
  </rdf:Description>
 </rdf:RDF></x:xmpmeta>"#;
 
-    fn tags(x: &str) -> Result<BodyTags, String> {
+    fn tags(x: &str) -> Result<BodyTags, MetadataError> {
         body_tags(&xmp_tags(x).expect("xml"))
     }
 
@@ -187,7 +188,7 @@ mod tests {
     #[test]
     fn a_bad_angle_names_the_tag_and_value() {
         let bad = SNOWPEAK_2188.replace("12.880300521850586", "12,88");
-        let e = tags(&bad).unwrap_err();
+        let e = tags(&bad).unwrap_err().to_string();
         assert!(e.contains("sensefly:Roll = '12,88'"), "{e}");
     }
 }

@@ -1,6 +1,7 @@
 //! DJI's `drone-dji` XMP tags, with the quirks found in the wild: numbers written "+37.10",
 //! and `GpsLongtitude` misspelt.
 
+use super::MetadataError;
 use super::xmp::{tags_in, xmp_number, xmp_tags};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -32,7 +33,7 @@ pub struct DjiTags {
 
 /// Every `drone-dji` tag of an XMP packet, written as an attribute or as an element, by local
 /// name.
-pub fn dji_tags(xmp: &str) -> Result<BTreeMap<String, String>, String> {
+pub fn dji_tags(xmp: &str) -> Result<BTreeMap<String, String>, MetadataError> {
     let tags = xmp_tags(xmp)?;
     Ok(tags_in(&tags, &[DJI_NS])
         .map(|(_, t)| t)
@@ -40,12 +41,12 @@ pub fn dji_tags(xmp: &str) -> Result<BTreeMap<String, String>, String> {
 }
 
 /// A DJI number: "+37.10", "-19.00", " 5 ".
-pub fn dji_number(tag: &str, value: &str) -> Result<f64, String> {
+pub fn dji_number(tag: &str, value: &str) -> Result<f64, MetadataError> {
     xmp_number("drone-dji", tag, value)
 }
 
-pub(super) fn parse_dji(tags: &BTreeMap<String, String>) -> Result<DjiTags, String> {
-    let num = |names: &[&str]| -> Result<Option<f64>, String> {
+pub(super) fn parse_dji(tags: &BTreeMap<String, String>) -> Result<DjiTags, MetadataError> {
+    let num = |names: &[&str]| -> Result<Option<f64>, MetadataError> {
         for n in names {
             if let Some(v) = tags.get(*n) {
                 return dji_number(n, v).map(Some);
@@ -54,12 +55,12 @@ pub(super) fn parse_dji(tags: &BTreeMap<String, String>) -> Result<DjiTags, Stri
         Ok(None)
     };
     // Heights beyond 100 km are no flight (1e308 used to reach the homography as "singular").
-    let height = |name: &str| -> Result<Option<f64>, String> {
+    let height = |name: &str| -> Result<Option<f64>, MetadataError> {
         match num(&[name])? {
-            Some(v) if v.abs() > 1e5 => Err(format!(
-                "XMP drone-dji:{name} = '{}' is outside the sane range |h| <= 100000 m",
-                tags.get(name).map_or("", |t| t.trim())
-            )),
+            Some(v) if v.abs() > 1e5 => Err(MetadataError::Height {
+                tag: name.to_string(),
+                value: tags.get(name).map_or("", |t| t.trim()).to_string(),
+            }),
             v => Ok(v),
         }
     };
@@ -138,7 +139,7 @@ mod tests {
     fn a_bad_number_names_the_tag_and_value() {
         let bad = XMP.replace("-19.00", "-19,00");
         let tags = dji_tags(&bad).expect("xml");
-        let e = parse_dji(&tags).unwrap_err();
+        let e = parse_dji(&tags).unwrap_err().to_string();
         assert!(e.contains("GimbalPitchDegree = '-19,00'"), "{e}");
     }
 }

@@ -1,6 +1,6 @@
 //! EXIF (kamadak-exif) and GDAL's `EXIF_*` metadata items of a TIFF (tag 42112).
 
-use super::PhotoMetadata;
+use super::{MetadataError, PhotoMetadata};
 use crate::error::IoError;
 use exif::{In, Tag, Value};
 use std::collections::BTreeMap;
@@ -90,14 +90,17 @@ pub(super) fn gdal_metadata_items(path: &Path) -> Result<BTreeMap<String, String
 const GDAL_METADATA: u16 = 42112;
 
 /// The numbers of a GDAL EXIF item: "(53) (54) (1.2)", "(4.73)", "26".
-fn gdal_numbers(item: &str, value: &str) -> Result<Vec<f64>, String> {
+fn gdal_numbers(item: &str, value: &str) -> Result<Vec<f64>, MetadataError> {
     value
         .split_whitespace()
         .map(|t| {
             let t = t.trim_start_matches('(').trim_end_matches(')');
             match t.parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(v),
-                _ => Err(format!("GDAL metadata {item} = '{value}' is not a number")),
+                _ => Err(MetadataError::GdalNumber {
+                    item: item.to_string(),
+                    value: value.to_string(),
+                }),
             }
         })
         .collect()
@@ -107,15 +110,15 @@ fn gdal_numbers(item: &str, value: &str) -> Result<Vec<f64>, String> {
 pub(super) fn fill_gdal_exif(
     m: &mut PhotoMetadata,
     items: &BTreeMap<String, String>,
-) -> Result<(), String> {
+) -> Result<(), MetadataError> {
     let text = |k: &str| items.get(k).map(|v| v.trim().to_string());
-    let first = |k: &str| -> Result<Option<f64>, String> {
+    let first = |k: &str| -> Result<Option<f64>, MetadataError> {
         match items.get(k) {
             Some(v) => Ok(gdal_numbers(k, v)?.first().copied()),
             None => Ok(None),
         }
     };
-    let dms = |k: &str, reference: &str, negative: &str| -> Result<Option<f64>, String> {
+    let dms = |k: &str, reference: &str, negative: &str| -> Result<Option<f64>, MetadataError> {
         let Some(v) = items.get(k) else {
             return Ok(None);
         };

@@ -5,6 +5,7 @@
 
 mod body;
 mod dji;
+mod error;
 mod exif_tags;
 mod xmp;
 
@@ -13,6 +14,7 @@ pub use dji::{DJI_NS, DjiTags, dji_number, dji_tags};
 pub use xmp::{tags_in, xmp_number, xmp_packet, xmp_tags};
 
 use crate::error::IoError;
+pub use error::MetadataError;
 use exif_tags::{fill_exif, fill_gdal_exif, gdal_metadata_items};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -57,22 +59,18 @@ pub fn read_photo_metadata(path: &Path) -> Result<PhotoMetadata, IoError> {
     } else {
         BTreeMap::new()
     };
-    fill_gdal_exif(&mut meta, &gdal).map_err(|e| IoError::field(&name, e))?;
+    let bad = |e| IoError::metadata(&name, e);
+    fill_gdal_exif(&mut meta, &gdal).map_err(bad)?;
     // The XMP packet: in the bytes (a JPEG's APP1 segment, a TIFF's tag 700), else escaped in a
     // GDAL metadata item.
     let xmp = xmp_packet(&bytes).or_else(|| gdal.values().find_map(|v| xmp_packet(v.as_bytes())));
     if let Some(xmp) = xmp {
-        let tags = xmp_tags(xmp).map_err(|e| {
-            IoError::field(
-                &name,
-                format!("the XMP packet is not valid XML ({e}): its attitude and camera tags cannot be read; repair or remove the XMP"),
-            )
-        })?;
+        let tags = xmp_tags(xmp).map_err(bad)?;
         let dji = tags_in(&tags, &[DJI_NS])
             .map(|(_, t)| t)
             .unwrap_or_default();
-        meta.dji = dji::parse_dji(&dji).map_err(|e| IoError::field(&name, e))?;
-        meta.body = body_tags(&tags).map_err(|e| IoError::field(&name, e))?;
+        meta.dji = dji::parse_dji(&dji).map_err(bad)?;
+        meta.body = body_tags(&tags).map_err(bad)?;
     }
     if meta.latitude_deg.is_none() {
         meta.latitude_deg = meta.dji.latitude_deg;

@@ -2,6 +2,7 @@
 //! prefixes): `drone-dji:`, `sensefly:` or `Camera:` are only the usual prefixes, a file may
 //! bind any prefix to the namespace.
 
+use super::MetadataError;
 use std::collections::BTreeMap;
 
 /// The XMP packet of a file: the text from `<x:xmpmeta` to `</x:xmpmeta>`.
@@ -19,8 +20,8 @@ pub fn xmp_packet(bytes: &[u8]) -> Option<&str> {
 
 /// Every namespaced tag of an XMP packet, written as an attribute or as an element with text,
 /// keyed by (namespace URI, local name). An error when the packet is not XML.
-pub fn xmp_tags(xmp: &str) -> Result<BTreeMap<(String, String), String>, String> {
-    let doc = roxmltree::Document::parse(xmp).map_err(|e| e.to_string())?;
+pub fn xmp_tags(xmp: &str) -> Result<BTreeMap<(String, String), String>, MetadataError> {
+    let doc = roxmltree::Document::parse(xmp).map_err(MetadataError::Xml)?;
     let mut out = BTreeMap::new();
     for node in doc.descendants() {
         for a in node.attributes() {
@@ -61,12 +62,16 @@ pub fn tags_in<'a>(
 }
 
 /// An XMP number: "+37.10", "-19.00", " 5 "; an error names `prefix:tag` and the value.
-pub fn xmp_number(prefix: &str, tag: &str, value: &str) -> Result<f64, String> {
+pub fn xmp_number(prefix: &str, tag: &str, value: &str) -> Result<f64, MetadataError> {
     let t = value.trim();
     let t = t.strip_prefix('+').unwrap_or(t);
     match t.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
-        _ => Err(format!("XMP {prefix}:{tag} = '{value}' is not a number")),
+        _ => Err(MetadataError::XmpNumber {
+            prefix: prefix.to_string(),
+            tag: tag.to_string(),
+            value: value.to_string(),
+        }),
     }
 }
 
@@ -75,7 +80,7 @@ pub(super) fn first_number(
     prefix: &str,
     tags: &BTreeMap<String, String>,
     names: &[&str],
-) -> Result<Option<f64>, String> {
+) -> Result<Option<f64>, MetadataError> {
     for n in names {
         if let Some(v) = tags.get(*n) {
             return xmp_number(prefix, n, v).map(Some);

@@ -50,7 +50,11 @@ impl AdjustedFlight {
             each(k, &r);
             match r {
                 Ok(p) => done.push(p),
-                Err(e) => failed.push(format!("{}: {e}", self.frames[k].input.display())),
+                Err(e) => failed.push(format!(
+                    "{}: {}",
+                    self.frames[k].input.display(),
+                    e.full_message()
+                )),
             }
         }
         if !failed.is_empty() {
@@ -75,5 +79,5 @@ impl AdjustedFlight {
 
 /// A report as pretty JSON.
 fn pretty<T: Serialize>(v: &T) -> Result<String, Error> {
-    serde_json::to_string_pretty(v).map_err(|e| Error::Invalid(format!("the report as JSON: {e}")))
+    serde_json::to_string_pretty(v).map_err(Error::context("the report as JSON"))
 }

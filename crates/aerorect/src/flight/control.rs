@@ -172,15 +172,19 @@ pub(super) fn resolve(
     let from = match &co.file.crs {
         Some(crs) => Some(
             Projection::new(&crs.to_proj_string()?)
-                .map_err(|e| Error::Invalid(format!("{file}: its CRS {crs}: {e}")))?,
+                .map_err(Error::context(format!("{file}: its CRS {crs}")))?,
         ),
         None => None,
     };
     for p in &co.file.points {
         let [x, y] = match &from {
-            Some(f) if f != world => f.transform(world, p.xyz[0], p.xyz[1]).map_err(|e| {
-                Error::Invalid(format!("{file} line {}: point '{}': {e}", p.line, p.name))
-            })?,
+            Some(f) if f != world => {
+                f.transform(world, p.xyz[0], p.xyz[1])
+                    .map_err(Error::context(format!(
+                        "{file} line {}: point '{}'",
+                        p.line, p.name
+                    )))?
+            }
             _ => [p.xyz[0], p.xyz[1]],
         };
         // A file's zero sigma (a point taken as exact) is held to a millimetre.

@@ -57,7 +57,7 @@ pub(super) fn match_patches(
             smooth: 0.0,
         },
     )
-    .map_err(|e| Error::Invalid(e.to_string()))?;
+    .map_err(Error::from)?;
     let (mut out, mut tried) = (Vec::new(), 0);
     let step = (side / 2) as i64;
     let (bw, bh) = (b.coarse.size().width as i64, b.coarse.size().height as i64);

@@ -7,7 +7,7 @@ use super::*;
 /// in hex; a NaN or infinity becomes null, which reading refuses): a round's matches and
 /// orientation go from worker to worker so.
 pub fn exact_json<T: Serialize>(value: &T) -> Result<String, Error> {
-    let mut v = serde_json::to_value(value).map_err(|e| Error::Invalid(e.to_string()))?;
+    let mut v = serde_json::to_value(value).map_err(Error::from)?;
     map_numbers(&mut v, &|v| {
         if let serde_json::Value::Number(n) = v
             && n.is_f64()
@@ -16,13 +16,13 @@ pub fn exact_json<T: Serialize>(value: &T) -> Result<String, Error> {
             *v = serde_json::Value::String(format!("f64:{:016x}", x.to_bits()));
         }
     });
-    serde_json::to_string(&v).map_err(|e| Error::Invalid(e.to_string()))
+    serde_json::to_string(&v).map_err(Error::from)
 }
 
 /// The value [`exact_json`] wrote.
 pub fn from_exact_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, Error> {
     let mut v: serde_json::Value =
-        serde_json::from_str(text).map_err(|e| Error::Invalid(format!("exact JSON: {e}")))?;
+        serde_json::from_str(text).map_err(Error::context("exact JSON"))?;
     map_numbers(&mut v, &|v| {
         if let serde_json::Value::String(s) = v
             && let Some(bits) = s.strip_prefix("f64:")
@@ -32,7 +32,7 @@ pub fn from_exact_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, 
                 .map_or(serde_json::Value::Null, serde_json::Value::Number);
         }
     });
-    serde_json::from_value(v).map_err(|e| Error::Invalid(format!("exact JSON: {e}")))
+    serde_json::from_value(v).map_err(Error::context("exact JSON"))
 }
 
 pub(super) fn map_numbers(v: &mut serde_json::Value, f: &dyn Fn(&mut serde_json::Value)) {

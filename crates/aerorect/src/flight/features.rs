@@ -94,7 +94,7 @@ impl FlightPlan {
         let usable = footprints.iter().all(|f| f.len() >= 3);
         let opts = self.tie_options().pairs;
         candidate_pairs(&centres, usable.then_some(&footprints[..]), &opts)
-            .map_err(|e| Error::Invalid(format!("candidate pairs: {e}")))
+            .map_err(Error::context("candidate pairs"))
     }
 
     /// Frames `i` and `j` matched by their features: the pair's tie points, each with its

@@ -32,7 +32,7 @@ pub(super) fn flight_crs(
         .iter()
         .find_map(|(_, m)| Some((m.longitude_deg?, m.latitude_deg?)))
         .ok_or_else(|| Error::Invalid("no frame of the flight has a GPS position".into()))?;
-    let (p, epsg) = Projection::utm_for(lon, lat).map_err(|e| Error::Invalid(e.to_string()))?;
+    let (p, epsg) = Projection::utm_for(lon, lat).map_err(Error::from)?;
     Ok((Crs::Epsg(epsg), p))
 }
 

@@ -126,8 +126,7 @@ impl FlightPlan {
             },
             occlusion: false,
         };
-        plan_ortho(&req, matching_warp())
-            .map_err(|e| Error::Invalid(format!("{}: {e}", f.input.display())))
+        plan_ortho(&req, matching_warp()).map_err(Error::context(f.input.display()))
     }
 
     /// Frame `k`'s gray ortho on the matching grid.

@@ -43,7 +43,7 @@ impl Oriented<'_> {
             limits: opts.limits,
             occlusion: opts.occlusion,
         };
-        plan_ortho(&req, opts.warp).map_err(|e| Error::Invalid(format!("{file}: {e}")))
+        plan_ortho(&req, opts.warp).map_err(Error::context(&file))
     }
 
     /// Rectifies the frame onto the output grid, its output staged.

@@ -145,7 +145,7 @@ pub(super) fn match_and_adjust(
         _ => ties.as_slice().into(),
     };
     let adjusted = aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &all, &aopts)
-        .map_err(|e| Error::Invalid(format!("flight adjustment: {e}")))?;
+        .map_err(Error::context("flight adjustment"))?;
     let accuracy = plan.control.as_ref().map(|c| {
         let recorded = aerorect_solve::adjust::OrientedFrames {
             frames: &adjust_frames,

@@ -134,7 +134,7 @@ fn no_attitude_and_no_gps_is_an_error_naming_the_photo() {
         "IMG_7.JPG",
     )
     .unwrap_err()
-    .to_string();
+    .full_message();
     assert!(
         e.contains("IMG_7.JPG") && e.contains("no GPS position"),
         "{e}"
@@ -142,7 +142,7 @@ fn no_attitude_and_no_gps_is_an_error_naming_the_photo() {
     let (_, m) = gps("a.jpg", 37.0, 139.0, "1");
     let e = attitude_from_metadata(&m, &DroneOptions::default(), "a.jpg")
         .unwrap_err()
-        .to_string();
+        .full_message();
     assert!(
         e.contains("a.jpg") && e.contains("no neighbouring photo"),
         "{e}"
@@ -174,7 +174,7 @@ fn a_geo_record_replaces_the_photos_position_height_and_angles() {
     assert_eq!(m.body.xy_accuracy_m, Some(4.0));
     let e = with_geo_record(&own, &opts, "/x/IMG_2.JPG")
         .unwrap_err()
-        .to_string();
+        .full_message();
     assert!(
         e.contains("IMG_2.JPG") && e.contains("not in the external-orientation file geo.txt"),
         "{e}"
