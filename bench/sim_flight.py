@@ -6,6 +6,7 @@ adjustment's time (whole flight and the solve), peak memory, the attitude errors
 and after against the truth, and the mosaic's time.
 
     python3 bench/sim_flight.py NX NY [WORK_DIR [SIGMA_DEG [TIES]]]   # e.g. 10 10, 40 25
+    python3 bench/sim_flight.py 10 10 out/fw fixed-wing:5          # then fixed-wing-gps-only
 
 SIGMA_DEG (default 1) is the recorded attitudes' error; TIES is `--ties` (both, features,
 correlation; default both). SIGMA_DEG `gps-only` records no attitude at all: the frames get
@@ -14,6 +15,18 @@ track. SIGMA_DEG `gcp` keeps the 1 degree errors, puts every position 3 m off in
 1 m of noise (`pert_gps.csv`) and adds the simulation's ground control (`gcp_list.txt`: five
 GCPs and ten check points `C0`..`C9`, marks at 0.5 px of noise): `batch --adjust --gcps`,
 then the check points' RMSE before and after (accuracy.json).
+
+SIGMA_DEG `fixed-wing[:SIGMA]` flies a fixed wing instead (`simulate_flight ... fixed-wing`):
+the image top to the nose, strips flown east and west in turn, every frame rolled and pitched
+U(-5, 5) degrees, the nose 30 degrees off the track into the wind (the crab flips sign with the
+strip), positions recorded N(0, 3 m) off east and north and N(0, 2 m) up, attitudes recorded
+N(0, SIGMA) off (default 5 degrees), frames 22 m apart in 45 m strips. The recorded poses are a
+GPS's, so `--adjust-positions-m 3` corrects them (a pose table's positions are otherwise held)
+and `--attitude-sigma-deg SIGMA`. `fixed-wing-gps-only` is the same flight with no attitude at
+all: an ODM geo.txt of the recorded (3 m off) positions, each frame starting at nadir along its
+GPS track (30 degrees off the nose, 5 off the tilt). Both report the attitude error against the
+truth as a total angle, split into tilt (the optical axis) and heading, and the positions'
+error; a fixed-wing directory (`fixed_wing.txt`) serves both fixed-wing modes, not the others.
 
 Needs only the standard library (and cargo). Run with the machine otherwise quiet.
 SIM_FLIGHT_MOSAIC=0 skips the mosaic; AERORECT_FLIGHT_TIMING=1 prints where the adjustment's
@@ -24,6 +37,7 @@ import json
 import math
 import os
 import random
+import re
 import subprocess
 import sys
 import time
@@ -45,6 +59,42 @@ def angle_deg(a, b):
     ra, rb = rot(*a), rot(*b)
     tr = sum(ra[t][i] * rb[t][i] for i in range(3) for t in range(3))
     return math.degrees(math.acos(max(-1.0, min(1.0, (tr - 1) / 2))))
+
+
+def tilt_deg(a, b):
+    """The angle between the two poses' optical axes (roll and pitch together)."""
+    ra, rb = rot(*a), rot(*b)
+    dot = sum(ra[t][2] * rb[t][2] for t in range(3))
+    return math.degrees(math.acos(max(-1.0, min(1.0, dot))))
+
+
+def heading_deg(a, b):
+    """The difference of the two poses' kappas (their headings at nadir), within +-180."""
+    return abs((a[2] - b[2] + 180.0) % 360.0 - 180.0)
+
+
+def track_starts(positions):
+    """What aerorect starts a frame with no attitude from: nadir, the image top along its GPS
+    track from the previous to the next frame in name order (photo_source::track_headings;
+    kappa is minus the heading)."""
+    names = sorted(positions)
+    out = {}
+    for k, n in enumerate(names):
+        a, b = positions[names[max(k - 1, 0)]], positions[names[min(k + 1, len(names) - 1)]]
+        heading = math.degrees(math.atan2(b[0] - a[0], b[1] - a[1]))
+        out[n] = [0.0, 0.0, -heading]
+    return out
+
+
+def centres(path):
+    with open(path) as f:
+        return {r["filename"]: [float(r[k]) for k in ("x", "y", "z")] for r in csv.DictReader(f)}
+
+
+def position_errors(a, b):
+    """Horizontal and vertical distances between the same frames' centres."""
+    return ([math.hypot(a[n][0] - b[n][0], a[n][1] - b[n][1]) for n in b],
+            [abs(a[n][2] - b[n][2]) for n in b])
 
 
 def poses(path):
@@ -73,18 +123,40 @@ def main():
     nx, ny = int(sys.argv[1]), int(sys.argv[2])
     work = sys.argv[3] if len(sys.argv) > 3 else os.path.join(ROOT, "out", f"sim-flight-{nx}x{ny}")
     sigma = sys.argv[4] if len(sys.argv) > 4 else "1"
-    gps_only, gcp = sigma == "gps-only", sigma == "gcp"
-    if gps_only or gcp:
+    fixed_wing = sigma.startswith("fixed-wing")
+    gps_only, gcp = sigma in ("gps-only", "fixed-wing-gps-only"), sigma == "gcp"
+    if fixed_wing:
+        sigma = "5" if gps_only or ":" not in sigma else sigma.split(":", 1)[1]
+    elif gps_only or gcp:
         sigma = "1"
     ties = sys.argv[5] if len(sys.argv) > 5 else "both"
     subprocess.run(["cargo", "build", "--release", "-q", "-p", "aerorect-cli"], cwd=ROOT, check=True)
     if not os.path.exists(os.path.join(work, "pert.csv")):
         subprocess.run(["cargo", "run", "--release", "-q", "-p", "aerorect", "--example",
-                        "simulate_flight", "--", str(nx), str(ny), work, sigma], cwd=ROOT, check=True)
+                        "simulate_flight", "--", str(nx), str(ny), work, sigma]
+                       + (["fixed-wing"] if fixed_wing else []), cwd=ROOT, check=True)
+    marked = os.path.exists(os.path.join(work, "fixed_wing.txt"))
+    if marked != fixed_wing:
+        sys.exit(f"{work} holds a {'fixed-wing' if marked else 'nadir'} flight: "
+                 "give another WORK_DIR for this mode")
+    if fixed_wing and not gps_only:
+        line = open(os.path.join(work, "fixed_wing.txt")).read()
+        m = re.search(r"recorded attitude N\(0, ([0-9.]+) deg\)", line)
+        if not m or float(m.group(1)) != float(sigma):
+            sys.exit(f"{work} was simulated with other attitude errors ({line.strip()}): give another WORK_DIR")
     frames = sorted(os.path.join("frames", f) for f in os.listdir(os.path.join(work, "frames")))
     common = ["--poses", "pert.csv", "--camera", "cam.toml", "--dem", "dem.tif", "--gsd-m", "0.25", "--adjust",
               "--ties", ties, "--attitude-sigma-deg", str(max(1.0, float(sigma)))]
-    if gps_only:
+    if fixed_wing and not gps_only:
+        common += ["--adjust-positions-m", "3"]
+    if gps_only and fixed_wing:
+        # The positions the fixed wing recorded (3 m off), its attitudes dropped.
+        with open(os.path.join(work, "pert.csv")) as f, open(os.path.join(work, "geo.txt"), "w") as g:
+            g.write("EPSG:32633\n")
+            for r in csv.DictReader(f):
+                g.write(f"{r['filename']} {r['x']} {r['y']} {r['z']}\n")
+        common[0:2] = ["--geo", "geo.txt"]
+    elif gps_only:
         rng = random.Random(1)
         with open(os.path.join(work, "truth.csv")) as f, open(os.path.join(work, "geo.txt"), "w") as g:
             g.write("EPSG:32633\n")
@@ -108,7 +180,12 @@ def main():
         print(f"  ASPRS 2014 horizontal: {acc['asprs_horizontal']}")
     rep = json.load(open(os.path.join(work, "out", "adjustment.json")))
     truth = poses(os.path.join(work, "truth.csv"))
-    rec = truth if gps_only else poses(os.path.join(work, "pert.csv"))
+    if gps_only:
+        with open(os.path.join(work, "geo.txt")) as g:
+            geo = {p[0]: [float(v) for v in p[1:4]] for p in (l.split() for l in g.readlines()[1:])}
+        rec = track_starts(geo)
+    else:
+        rec = poses(os.path.join(work, "pert.csv"))
     adj = poses(os.path.join(work, "out", "adjusted_poses.csv"))
     before = [angle_deg(rec[n], truth[n]) for n in truth]
     after = [angle_deg(adj[n], truth[n]) for n in truth]
@@ -119,8 +196,18 @@ def main():
     print(f"  tie rms {a['rms_before_px']:.2f} -> {a['rms_after_px']:.3f} px; "
           f"reliable pairs {sum(p['reliable'] for p in rep['pairs'])} of {len(rep['pairs'])}, "
           f"unconnected {len(rep['unconnected'])}")
-    start = "none recorded (nadir along the GPS track)" if gps_only else stats(before)
-    print(f"  attitude error vs truth, deg: before {start}; after {stats(after)}")
+    start = "none recorded, nadir along the GPS track: " if gps_only else ""
+    print(f"  attitude error vs truth, deg: before {start}{stats(before)}; after {stats(after)}")
+    if fixed_wing:
+        for what, f in (("tilt (optical axis)", tilt_deg), ("heading", heading_deg)):
+            print(f"    {what}: before {stats([f(rec[n], truth[n]) for n in truth])}; "
+                  f"after {stats([f(adj[n], truth[n]) for n in truth])}")
+        true_c = centres(os.path.join(work, "truth.csv"))
+        rec_c = geo if gps_only else centres(os.path.join(work, "pert.csv"))
+        adj_c = centres(os.path.join(work, "out", "adjusted_poses.csv"))
+        (hb, vb), (ha, va) = position_errors(rec_c, true_c), position_errors(adj_c, true_c)
+        print(f"  position error vs truth, m: horizontal before {stats(hb)}, after {stats(ha)}; "
+              f"vertical before {stats(vb)}, after {stats(va)}")
     lost = {u.split("/")[-1] for u in rep["unconnected"]}
     if lost:
         tied = [angle_deg(adj[n], truth[n]) for n in truth if n not in lost]

@@ -13,12 +13,25 @@
 //! 0.5 px) of noise per axis, five spread over the block (`G0`..`G4`) and ten at random
 //! (`C0`..`C9`, listed in `checkpoints.txt` to keep out of the solve).
 //!
-//! `cargo run --release -p aerorect --example simulate_flight -- NX NY OUT_DIR [SIGMA_DEG]`
+//! With `fixed-wing` after SIGMA_DEG, a fixed wing's flight instead (the default's random
+//! stream and outputs are untouched): the image top towards the nose, strips flown east and
+//! west in turn (`f_STRIP_SHOT.png` in flight order, so the GPS track runs along the strip),
+//! every frame rolled and pitched by U(-5, 5) degrees, and the nose 30 degrees off the track
+//! (plus U(-2, 2)) into a wind from the north: left of the track flying east, right of it
+//! flying west, so the crab flips sign with the strip (the strips' noses point 120 degrees
+//! apart). The recorded positions are off by N(0, 3 m) east and north and N(0, 2 m) up, in
+//! `pert.csv` as in `pert_gps.csv` (the same), with the attitudes off by N(0, SIGMA_DEG). The
+//! frames are 22 m apart in 45 m strips so that the crabbed footprints (90 x 120 m at 105 m
+//! over the ground, long side across the nose) keep about 70 % forward and 70 % side overlap
+//! (60 % over the highest hills); `fixed_wing.txt` marks the directory.
+//!
+//! `cargo run --release -p aerorect --example simulate_flight -- NX NY OUT_DIR [SIGMA_DEG [fixed-wing]]`
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use aerorect::core::{Camera, CameraRotation, ImageSize, Intrinsics};
 use aerorect::geo::Pose;
 use aerorect::io::{Crs, GeoReference};
+use aerorect::photo_source::rotation_from_body_ypr;
 use aerorect::raster::{AnyRaster, Raster};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -30,6 +43,34 @@ const ORIGIN: [f64; 2] = [500_000.0, 5_000_000.0];
 const FORWARD_M: f64 = 40.0;
 const STRIP_M: f64 = 55.0;
 const HEIGHT_M: f64 = 130.0;
+
+/// How far apart the frames are: along a strip and between strips (m).
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    forward_m: f64,
+    strip_m: f64,
+}
+
+/// The default nadir flight's.
+const NADIR: Layout = Layout {
+    forward_m: FORWARD_M,
+    strip_m: STRIP_M,
+};
+
+/// The fixed wing's: closer, so that the crabbed, tilted footprints still overlap.
+const FIXED_WING: Layout = Layout {
+    forward_m: 22.0,
+    strip_m: 45.0,
+};
+
+/// The fixed wing's roll and pitch: U(-this, this) degrees.
+const FW_TILT_DEG: f64 = 5.0;
+/// The fixed wing's crab (degrees, the nose off the track into the wind) and its gusts
+/// (U(-this, this) degrees more).
+const FW_CRAB_DEG: f64 = 30.0;
+const FW_GUST_DEG: f64 = 2.0;
+/// The fixed wing's GPS noise (m, one sigma; east, north, up).
+const FW_GPS_SIGMA_M: [f64; 3] = [3.0, 3.0, 2.0];
 
 fn hills(x: f64, y: f64) -> f64 {
     let (u, v) = (x - ORIGIN[0], y - ORIGIN[1]);
@@ -102,12 +143,15 @@ fn render(camera: &Camera, pose: &Pose) -> Raster<u8> {
     Raster::from_planes(ImageSize::new(w, h), vec![pixels]).unwrap()
 }
 
-fn write_dem(path: &Path, nx: usize, ny: usize) {
+fn write_dem(path: &Path, nx: usize, ny: usize, layout: Layout) {
     let cell = 5.0;
-    let (x0, y1) = (ORIGIN[0] - 150.0, ORIGIN[1] + ny as f64 * STRIP_M + 150.0);
+    let (x0, y1) = (
+        ORIGIN[0] - 150.0,
+        ORIGIN[1] + ny as f64 * layout.strip_m + 150.0,
+    );
     let (w, h) = (
-        ((nx as f64 * FORWARD_M + 300.0) / cell) as usize,
-        ((ny as f64 * STRIP_M + 300.0) / cell) as usize,
+        ((nx as f64 * layout.forward_m + 300.0) / cell) as usize,
+        ((ny as f64 * layout.strip_m + 300.0) / cell) as usize,
     );
     let z: Vec<f32> = (0..w * h)
         .map(|i| {
@@ -134,12 +178,15 @@ fn write_gcps(
     out: &Path,
     camera: &Camera,
     poses: &[(String, Pose)],
-    (nx, ny): (usize, usize),
+    (nx, ny, layout): (usize, usize, Layout),
     rng: &mut ChaCha8Rng,
 ) {
     use rand::Rng;
     let noise = Normal::new(0.0, 0.5).unwrap();
-    let (w, h) = ((nx - 1) as f64 * FORWARD_M, (ny - 1) as f64 * STRIP_M);
+    let (w, h) = (
+        (nx - 1) as f64 * layout.forward_m,
+        (ny - 1) as f64 * layout.strip_m,
+    );
     let spread = [
         (0.15, 0.15),
         (0.85, 0.15),
@@ -182,26 +229,23 @@ fn write_gcps(
     std::fs::write(out.join("checkpoints.txt"), checks.join(",")).unwrap();
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let nx: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(10);
-    let ny: usize = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(10);
-    let out = Path::new(args.get(2).map_or("out/sim-flight", String::as_str)).to_path_buf();
-    let sigma: f64 = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(1.0);
-    std::fs::create_dir_all(out.join("frames")).unwrap();
-    let camera = Camera::new(
-        Intrinsics::new(420.0, 420.0, 239.5, 179.5).unwrap(),
-        None,
-        ImageSize::new(480, 360),
-    );
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
+/// One frame: its name, true centre and omega, phi, kappa, and as recorded (`pert.csv`:
+/// centre and angles; `pert_gps.csv`: centre).
+struct Shot {
+    name: String,
+    centre: [f64; 3],
+    truth: [f64; 3],
+    rec_centre: [f64; 3],
+    rec: [f64; 3],
+    gps_centre: [f64; 3],
+}
+
+/// The default flight: nadir within N(0, 0.5) degrees, alternate strips turned 180 degrees.
+fn nadir_shots(nx: usize, ny: usize, sigma: f64, rng: &mut ChaCha8Rng) -> Vec<Shot> {
     let err = Normal::new(0.0, sigma).unwrap();
     let tilt = Normal::new(0.0, 0.5).unwrap();
-    let (mut truth, mut pert, mut pert_gps) = (String::new(), String::new(), String::new());
-    let mut poses = Vec::new();
     let gps = Normal::new(0.0, 1.0).unwrap();
-    let header = "filename,x,y,z,omega,phi,kappa\n";
-    let t0 = std::time::Instant::now();
+    let mut shots = Vec::new();
     for j in 0..ny {
         for i in 0..nx {
             // Alternate strips fly back (kappa 180).
@@ -211,42 +255,112 @@ fn main() {
                 ORIGIN[1] + j as f64 * STRIP_M,
                 HEIGHT_M,
             ];
-            let opk = [
-                tilt.sample(&mut rng),
-                tilt.sample(&mut rng),
-                kappa + tilt.sample(&mut rng),
-            ];
+            let opk = [tilt.sample(rng), tilt.sample(rng), kappa + tilt.sample(rng)];
             let rec = [
-                opk[0] + err.sample(&mut rng),
-                opk[1] + err.sample(&mut rng),
-                opk[2] + err.sample(&mut rng),
+                opk[0] + err.sample(rng),
+                opk[1] + err.sample(rng),
+                opk[2] + err.sample(rng),
             ];
-            let rot = CameraRotation::omega_phi_kappa(opk[0], opk[1], opk[2]).unwrap();
-            let pose = Pose::new(c, rot.ground_from_camera());
-            let name = format!("f_{j:03}_{i:03}.png");
-            let frame = render(&camera, &pose);
-            aerorect::io::write_image(&out.join("frames").join(&name), &AnyRaster::U8(frame))
-                .unwrap();
-            let row = |a: [f64; 3]| {
-                format!(
-                    "{name},{:.3},{:.3},{:.3},{:.6},{:.6},{:.6}\n",
-                    c[0], c[1], c[2], a[0], a[1], a[2]
-                )
-            };
-            truth += &row(opk);
-            pert += &row(rec);
-            let d = [0, 1, 2].map(|k| GPS_OFFSET_M[k] + gps.sample(&mut rng));
-            pert_gps += &format!(
-                "{name},{:.3},{:.3},{:.3},{:.6},{:.6},{:.6}\n",
-                c[0] + d[0],
-                c[1] + d[1],
-                c[2] + d[2],
-                rec[0],
-                rec[1],
-                rec[2]
-            );
-            poses.push((name.clone(), pose));
+            let d = [0, 1, 2].map(|k| GPS_OFFSET_M[k] + gps.sample(rng));
+            shots.push(Shot {
+                name: format!("f_{j:03}_{i:03}.png"),
+                centre: c,
+                truth: opk,
+                rec_centre: c,
+                rec,
+                gps_centre: [c[0] + d[0], c[1] + d[1], c[2] + d[2]],
+            });
         }
+    }
+    shots
+}
+
+/// The fixed wing's flight (see the file's doc).
+fn fixed_wing_shots(nx: usize, ny: usize, sigma: f64, rng: &mut ChaCha8Rng) -> Vec<Shot> {
+    use rand::Rng;
+    let err = Normal::new(0.0, sigma).unwrap();
+    let mut shots = Vec::new();
+    for j in 0..ny {
+        let east = j % 2 == 0;
+        // Wind from the north: the nose turns north of the track.
+        let (track, crab) = if east {
+            (90.0, -FW_CRAB_DEG)
+        } else {
+            (270.0, FW_CRAB_DEG)
+        };
+        for t in 0..nx {
+            let i = if east { t } else { nx - 1 - t };
+            let c = [
+                ORIGIN[0] + i as f64 * FIXED_WING.forward_m,
+                ORIGIN[1] + j as f64 * FIXED_WING.strip_m,
+                HEIGHT_M,
+            ];
+            let yaw = track + crab + rng.random_range(-FW_GUST_DEG..=FW_GUST_DEG);
+            let pitch = rng.random_range(-FW_TILT_DEG..=FW_TILT_DEG);
+            let roll = rng.random_range(-FW_TILT_DEG..=FW_TILT_DEG);
+            let opk = rotation_from_body_ypr(yaw, pitch, roll)
+                .unwrap()
+                .to_omega_phi_kappa();
+            let rec = opk.map(|a| a + err.sample(rng));
+            let gps = FW_GPS_SIGMA_M.map(|s| Normal::new(0.0, s).unwrap().sample(rng));
+            let at = [c[0] + gps[0], c[1] + gps[1], c[2] + gps[2]];
+            shots.push(Shot {
+                name: format!("f_{j:03}_{t:03}.png"),
+                centre: c,
+                truth: opk,
+                rec_centre: at,
+                rec,
+                gps_centre: at,
+            });
+        }
+    }
+    shots
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let nx: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(10);
+    let ny: usize = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(10);
+    let out = Path::new(args.get(2).map_or("out/sim-flight", String::as_str)).to_path_buf();
+    let sigma: f64 = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(1.0);
+    let fixed_wing = match args.get(4).map(String::as_str) {
+        None => false,
+        Some("fixed-wing") => true,
+        Some(other) => panic!("mode '{other}': expected fixed-wing"),
+    };
+    std::fs::create_dir_all(out.join("frames")).unwrap();
+    let camera = Camera::new(
+        Intrinsics::new(420.0, 420.0, 239.5, 179.5).unwrap(),
+        None,
+        ImageSize::new(480, 360),
+    );
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let (shots, layout) = if fixed_wing {
+        (fixed_wing_shots(nx, ny, sigma, &mut rng), FIXED_WING)
+    } else {
+        (nadir_shots(nx, ny, sigma, &mut rng), NADIR)
+    };
+    let (mut truth, mut pert, mut pert_gps) = (String::new(), String::new(), String::new());
+    let mut poses = Vec::new();
+    let header = "filename,x,y,z,omega,phi,kappa\n";
+    let t0 = std::time::Instant::now();
+    for shot in &shots {
+        let opk = shot.truth;
+        let rot = CameraRotation::omega_phi_kappa(opk[0], opk[1], opk[2]).unwrap();
+        let pose = Pose::new(shot.centre, rot.ground_from_camera());
+        let frame = render(&camera, &pose);
+        aerorect::io::write_image(&out.join("frames").join(&shot.name), &AnyRaster::U8(frame))
+            .unwrap();
+        let row = |c: [f64; 3], a: [f64; 3]| {
+            format!(
+                "{},{:.3},{:.3},{:.3},{:.6},{:.6},{:.6}\n",
+                shot.name, c[0], c[1], c[2], a[0], a[1], a[2]
+            )
+        };
+        truth += &row(shot.centre, opk);
+        pert += &row(shot.rec_centre, shot.rec);
+        pert_gps += &row(shot.gps_centre, shot.rec);
+        poses.push((shot.name.clone(), pose));
     }
     let wkt = Crs::Epsg(32633).to_wkt().unwrap();
     for (name, rows) in [("truth", truth), ("pert", pert), ("pert_gps", pert_gps)] {
@@ -258,8 +372,17 @@ fn main() {
         "fx_px = 420.0\nfy_px = 420.0\ncx_px = 239.5\ncy_px = 179.5\nimage_size_px = [480, 360]\n",
     )
     .unwrap();
-    write_dem(&out.join("dem.tif"), nx, ny);
-    write_gcps(&out, &camera, &poses, (nx, ny), &mut rng);
+    write_dem(&out.join("dem.tif"), nx, ny, layout);
+    write_gcps(&out, &camera, &poses, (nx, ny, layout), &mut rng);
+    if fixed_wing {
+        std::fs::write(
+            out.join("fixed_wing.txt"),
+            format!(
+                "fixed wing: roll and pitch U(-{FW_TILT_DEG}, {FW_TILT_DEG}) deg, crab {FW_CRAB_DEG} deg, GPS N(0, {FW_GPS_SIGMA_M:?} m), recorded attitude N(0, {sigma} deg)\n"
+            ),
+        )
+        .unwrap();
+    }
     eprintln!(
         "{} frames rendered into {} in {:.1} s",
         nx * ny,
