@@ -71,7 +71,7 @@ pub(super) fn match_and_adjust(
             b,
             patches: m.patches,
             inliers: m.inliers,
-            misalignment_before_m: misalignment(&t, &rec.poses, &cams),
+            misalignment_before_m: misalignment(&t, &rec.poses, &cams, ground),
             misalignment_after_m: None,
             reliable: m.reliable(),
         });
@@ -172,14 +172,14 @@ pub(super) fn match_and_adjust(
     };
     let (poses, cameras) = round.orientation(rec);
     let new_cams: Vec<&Camera> = cameras.iter().collect();
-    finish_reports(&mut round.reports, &ties, &poses, &new_cams);
+    finish_reports(&mut round.reports, &ties, (&poses, &new_cams), ground);
     round.ties = ties
         .iter()
         .filter_map(|t| {
             Some(TieVector {
                 ground: [t.ground[0], t.ground[1]],
-                before_m: tie_gap(t, &rec.poses, &cams)?,
-                after_m: tie_gap(t, &poses, &new_cams)?,
+                before_m: tie_gap(t, &rec.poses, &cams, ground)?,
+                after_m: tie_gap(t, &poses, &new_cams, ground)?,
             })
         })
         .collect();
@@ -351,14 +351,14 @@ pub(super) fn adjusted_poses(
 pub(super) fn finish_reports(
     reports: &mut [PairReport],
     ties: &[TiePoint],
-    poses: &[Pose],
-    cams: &[&Camera],
+    (poses, cams): (&[Pose], &[&Camera]),
+    ground: GroundFn<'_>,
 ) {
     // Ties are in pair order; each reliable pair contributed `inliers` of them.
     let mut at = 0;
     for r in reports.iter_mut().filter(|r| r.reliable) {
         let t = &ties[at..at + r.inliers];
-        r.misalignment_after_m = Some(misalignment(t, poses, cams));
+        r.misalignment_after_m = Some(misalignment(t, poses, cams, ground));
         at += r.inliers;
     }
 }
@@ -399,8 +399,15 @@ pub(super) fn median_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
     t.get(t.len() / 2).copied().unwrap_or(0.0)
 }
 
-/// A GPS fix moved by more than this many of its sigmas is contradicted by the images.
+/// A GPS fix moved by more than this many of its sigmas is contradicted by the images (the
+/// Huber threshold of each axis with robust GPS).
 pub const GPS_CONTRADICTION_SIGMAS: f64 = 3.0;
+
+/// Three sigma of a 3-D vector: three independent N(0, sigma) components have a norm beyond
+/// 3.76 sigma in 0.27 % of cases (chi-square with 3 degrees of freedom at 99.73 %: 14.16), as
+/// one beyond 3 sigma. A fix's 3-D offset or a frame's 3-D turn compared with 3 sigma would be
+/// flagged by chance in 3 % of frames (three frames of a hundred).
+pub const THREE_SIGMA_3D: f64 = 3.76;
 
 /// A frame's GPS position against the images: where the adjustment moved it, in metres and
 /// in its prior's sigmas.
@@ -410,7 +417,7 @@ pub struct GpsCheck {
     pub offset_m: [f64; 3],
     pub prior_sigma_m: [f64; 3],
     /// The offset's whitened norm (less the block's common shift, where one was solved);
-    /// above [`GPS_CONTRADICTION_SIGMAS`] the images contradict the fix.
+    /// above [`THREE_SIGMA_3D`] the images contradict the fix.
     pub sigmas: f64,
     pub contradicted: bool,
     /// The weight the solve left the fix (below 1: down-weighted, the images won).
@@ -444,7 +451,7 @@ pub(super) fn gps_checks(
                 offset_m: r.position_m,
                 prior_sigma_m: sigma,
                 sigmas,
-                contradicted: sigmas > GPS_CONTRADICTION_SIGMAS,
+                contradicted: sigmas > THREE_SIGMA_3D,
                 weight: r.position_weight,
             }
         })
@@ -452,7 +459,8 @@ pub(super) fn gps_checks(
 }
 
 /// Warnings where the images contradict the records by more than their priors allow: GPS
-/// fixes moved beyond three sigmas, attitudes turned beyond three of their prior's sigmas.
+/// fixes moved beyond three sigmas, attitudes turned beyond three of their prior's sigmas (both
+/// 3-D, so three sigma is [`THREE_SIGMA_3D`]).
 pub(super) fn contradictions(
     frames: &[Frame],
     adjust_frames: &[AdjustFrame],
@@ -475,7 +483,7 @@ pub(super) fn contradictions(
         .collect();
     if !moved.is_empty() {
         out.push(format!(
-            "the images contradict the GPS positions of {} frames (moved beyond {GPS_CONTRADICTION_SIGMAS} sigma from the block's common shift; down-weighted where the weight is below 1): {}",
+            "the images contradict the GPS positions of {} frames (moved beyond {THREE_SIGMA_3D} sigma from the block's common shift, three sigma of a 3-D offset; down-weighted where the weight is below 1): {}",
             moved.len(),
             moved.join(", ")
         ));
@@ -488,7 +496,7 @@ pub(super) fn contradictions(
             let prior = a.attitude_sigma_deg.unwrap_or(fo.attitude_sigma_deg);
             let w = r.rotation_deg;
             let turn = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-            (turn > 3.0 * prior).then(|| {
+            (turn > THREE_SIGMA_3D * prior).then(|| {
                 format!(
                     "{} ({turn:.1} deg against a prior of {prior} deg)",
                     f.input.display()
@@ -498,7 +506,7 @@ pub(super) fn contradictions(
         .collect();
     if !turned.is_empty() {
         out.push(format!(
-            "the recorded attitudes of {} frames contradict the images by more than three times their prior: {}",
+            "the recorded attitudes of {} frames contradict the images by more than {THREE_SIGMA_3D} times their prior (three sigma of a 3-D turn): {}",
             turned.len(),
             turned.join(", ")
         ));
