@@ -17,7 +17,7 @@ pub enum IoError {
     #[error("{source_name}: {error}")]
     Metadata {
         source_name: String,
-        error: crate::metadata::MetadataError,
+        error: crate::metadata::error::MetadataError,
     },
     /// A field is missing, unknown, or has a bad value.
     #[error("{source_name}: {message}")]
@@ -57,7 +57,7 @@ impl IoError {
 
     pub(crate) fn metadata(
         source_name: impl ToString,
-        error: crate::metadata::MetadataError,
+        error: crate::metadata::error::MetadataError,
     ) -> Self {
         IoError::Metadata {
             source_name: source_name.to_string(),

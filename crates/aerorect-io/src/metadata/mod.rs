@@ -5,7 +5,7 @@
 
 mod body;
 mod dji;
-mod error;
+pub(crate) mod error;
 mod exif_tags;
 mod xmp;
 
