@@ -11,13 +11,15 @@
 //! One file per stage: `frames` (the photos and their first orientation), `features` (the
 //! first round's tie points from SIFT features, which need no attitude), `correlate` (the
 //! later rounds' tie points, by correlation of the frames rendered on one grid), `ties` (a
-//! pair's tie points as the adjustment takes them), `solve` (a round's adjustment), `plan`
+//! pair's tie points as the adjustment takes them), `solve` (a round's adjustment), `checks`
+//! (the GPS fixes and recorded attitudes against the images after it), `plan`
 //! (the steps as pure functions, for Dask), `exchange` (what travels between processes),
 //! `render` (the adjusted frames onto the output grid), `control` (ground control points as
 //! tie points held to their surveyed positions) and `accuracy` (the report against them).
 
 mod accuracy;
 mod batch;
+mod checks;
 mod control;
 mod correlate;
 mod exchange;
@@ -35,15 +37,16 @@ pub use accuracy::{
     asprs_class,
 };
 pub use batch::{ACCURACY_FILE, ADJUSTMENT_FILES, adjustment_files};
+pub use checks::GpsCheck;
 pub use control::{ControlOptions, MARK_SIGMA_PX, Role, SURVEY_SIGMA_M};
 pub use exchange::{exact_json, from_exact_json};
 pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource};
 pub use plan::{FlightPlan, FlightProgress, Orientation};
 pub use predict::{MarkPrediction, chip};
 pub use render::AdjustedFlight;
-pub use solve::GpsCheck;
 pub use ties::{PairMatch, PairTie, TieVector};
 
+use checks::*;
 use correlate::*;
 use frames::*;
 use render::*;
