@@ -18,7 +18,8 @@
 //!
 //! Files: `blocks` (the named parameter blocks and their indices), `residuals` (the model and
 //! the cost), `jacobian` (analytic derivatives; `oracle` checks them against central
-//! differences), `points` (ground points through the adjusted frames), `solve` (normal equations, Schur complement, the loop's steps), `gauge`
+//! differences), `points` (ground points through the adjusted frames), `solve` (normal equations, Schur complement, the loop's steps), `normal` (the reduced system's
+//! matrix, accumulated in dense blocks per pair of parameter blocks), `gauge`
 //! (freedoms the ties cannot see), `report` (statistics and the adjusted frames).
 //! The loop is the crate's one Levenberg-Marquardt ([`crate::lm`]), stopped by Ceres's
 //! tolerances ([`AdjustOptions::tolerances`]).
