@@ -3,6 +3,7 @@
 //! more than its prior allows.
 
 use super::*;
+use aerorect_solve::adjust::FrameAdjustment;
 
 /// Three sigma of a 3-D vector: three independent N(0, sigma) components have a norm beyond
 /// 3.76 sigma in 0.27 % of cases (chi-square with 3 degrees of freedom at 99.73 %: 14.16), as
@@ -113,4 +114,165 @@ pub(super) fn contradictions(
         ));
     }
     out
+}
+
+/// One block of a flight that falls apart: frames tied to each other and to no frame of
+/// another block, so nothing but their GPS places the blocks against each other.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BlockReport {
+    pub frames: Vec<String>,
+    /// Image observations of the block's tie points.
+    pub observations: usize,
+    /// The block's own residual RMS after the adjustment (px).
+    pub rms_after_px: f64,
+}
+
+/// The blocks of a flight whose reliable pairs fall into two or more sets that share no frame
+/// (empty for a flight in one piece). Frames no reliable pair reaches are not in any block:
+/// they are the report's unconnected frames.
+pub(super) fn blocks(
+    frames: &[String],
+    reports: &[PairReport],
+    adjusted: &[FrameAdjustment],
+) -> Vec<BlockReport> {
+    let index = |name: &str| frames.iter().position(|f| f == name);
+    let mut parent: Vec<usize> = (0..frames.len()).collect();
+    fn root(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let mut tied = vec![false; frames.len()];
+    for r in reports.iter().filter(|r| r.reliable) {
+        let (Some(a), Some(b)) = (index(&r.a), index(&r.b)) else {
+            continue;
+        };
+        tied[a] = true;
+        tied[b] = true;
+        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+        parent[ra] = rb;
+    }
+    let mut sets: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for f in (0..frames.len()).filter(|&f| tied[f]) {
+        let r = root(&mut parent, f);
+        sets.entry(r).or_default().push(f);
+    }
+    if sets.len() < 2 {
+        return Vec::new();
+    }
+    let mut out: Vec<BlockReport> = sets
+        .into_values()
+        .map(|set| block_report(frames, &set, adjusted))
+        .collect();
+    out.sort_by_key(|b| std::cmp::Reverse(b.frames.len()));
+    out
+}
+
+fn block_report(frames: &[String], set: &[usize], adjusted: &[FrameAdjustment]) -> BlockReport {
+    let (mut n, mut sum) = (0usize, 0.0);
+    for f in set.iter().filter_map(|&f| adjusted.get(f)) {
+        n += f.observations;
+        sum += f.observations as f64 * f.rms_after_px * f.rms_after_px;
+    }
+    BlockReport {
+        frames: set.iter().map(|&f| frames[f].clone()).collect(),
+        observations: n,
+        rms_after_px: if n > 0 { (sum / n as f64).sqrt() } else { 0.0 },
+    }
+}
+
+/// The warning for a flight in separate blocks (none for one in one piece).
+pub(super) fn blocks_warning(blocks: &[BlockReport]) -> Option<String> {
+    (blocks.len() >= 2).then(|| {
+        let each: Vec<String> = blocks
+            .iter()
+            .map(|b| {
+                format!(
+                    "{} frames from {}, rms {:.2} px",
+                    b.frames.len(),
+                    b.frames.first().map_or("", String::as_str),
+                    b.rms_after_px
+                )
+            })
+            .collect();
+        format!(
+            "the flight falls into {} blocks that share no tie point ({}): each is adjusted from \
+             its own ties, and only their GPS places them against each other (the report lists them \
+             under blocks)",
+            blocks.len(),
+            each.join("; ")
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pair(a: &str, b: &str, reliable: bool) -> PairReport {
+        PairReport {
+            a: a.into(),
+            b: b.into(),
+            patches: 0,
+            inliers: 0,
+            misalignment_before_m: 0.0,
+            misalignment_after_m: None,
+            reliable,
+        }
+    }
+
+    fn frame(observations: usize, rms: f64) -> FrameAdjustment {
+        FrameAdjustment {
+            rotation_deg: [0.0; 3],
+            rotation_sigma_deg: [0.0; 3],
+            position_m: [0.0; 3],
+            position_sigma_m: [0.0; 3],
+            observations,
+            rms_before_px: 0.0,
+            rms_after_px: rms,
+            outliers: 0,
+            position_weight: 1.0,
+        }
+    }
+
+    #[test]
+    fn two_blocks_are_found_and_reported_each_with_its_own_rms() {
+        let names: Vec<String> = ["a", "b", "c", "d", "e", "f"].map(String::from).into();
+        // a-b-c tie, d-e tie, c-d only unreliably; f ties nothing.
+        let reports = [
+            pair("a", "b", true),
+            pair("b", "c", true),
+            pair("c", "d", false),
+            pair("d", "e", true),
+            pair("e", "f", false),
+        ];
+        let adjusted = [
+            (10, 1.0),
+            (20, 1.0),
+            (10, 1.0),
+            (30, 2.0),
+            (10, 0.0),
+            (0, 0.0),
+        ]
+        .map(|(n, r)| frame(n, r));
+        let b = blocks(&names, &reports, &adjusted);
+        assert_eq!(b.len(), 2);
+        assert_eq!(b[0].frames, ["a", "b", "c"]);
+        assert_eq!((b[0].observations, b[0].rms_after_px), (40, 1.0));
+        assert_eq!(b[1].frames, ["d", "e"]);
+        // sqrt((30 * 4 + 10 * 0) / 40).
+        assert!((b[1].rms_after_px - 3.0f64.sqrt()).abs() < 1e-12);
+        let w = blocks_warning(&b).unwrap_or_default();
+        assert!(
+            w.contains("2 blocks") && w.contains("3 frames from a"),
+            "{w}"
+        );
+        // Joined by one more reliable pair: one block, no report and no warning.
+        let mut joined = reports.to_vec();
+        joined.push(pair("c", "d", true));
+        assert!(blocks(&names, &joined, &adjusted).is_empty());
+        assert!(blocks_warning(&[]).is_none());
+    }
 }

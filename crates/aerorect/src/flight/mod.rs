@@ -37,7 +37,7 @@ pub use accuracy::{
     asprs_class,
 };
 pub use batch::{ACCURACY_FILE, ADJUSTMENT_FILES, adjustment_files};
-pub use checks::GpsCheck;
+pub use checks::{BlockReport, GpsCheck};
 pub use control::{ControlOptions, MARK_SIGMA_PX, Role, SURVEY_SIGMA_M};
 pub use exchange::{exact_json, from_exact_json};
 pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource};
@@ -265,6 +265,10 @@ pub struct FlightReport {
     pub pairs: Vec<PairReport>,
     /// Frames no reliable pair reaches (left as recorded).
     pub unconnected: Vec<String>,
+    /// A flight in separate blocks that share no tie point: each block with its own residual
+    /// (empty, and absent from the JSON, for a flight in one piece).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub blocks: Vec<BlockReport>,
     /// Every frame's GPS position against the images (when positions are adjusted).
     pub gps: Vec<GpsCheck>,
     /// The flight against its ground control and check points (with `control`).

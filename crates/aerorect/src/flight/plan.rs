@@ -271,12 +271,15 @@ impl FlightPlan {
                 oscillating,
             ));
         }
+        let names: Vec<String> = self
+            .frames
+            .iter()
+            .map(|f| f.input.display().to_string())
+            .collect();
+        let blocks = blocks(&names, &round.reports, &round.adjusted.report.frames);
+        warnings.extend(blocks_warning(&blocks));
         let report = FlightReport {
-            frames: self
-                .frames
-                .iter()
-                .map(|f| f.input.display().to_string())
-                .collect(),
+            frames: names,
             passes: progress.rounds.len(),
             rounds: progress.rounds.clone(),
             match_gsd_m: self.gsd,
@@ -284,6 +287,7 @@ impl FlightPlan {
             oscillating,
             warnings,
             unconnected: unconnected(&self.frames, &round.reports),
+            blocks,
             gps: round.gps,
             accuracy: round.accuracy,
             pairs: round.reports,
