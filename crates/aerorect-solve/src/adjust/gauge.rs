@@ -30,6 +30,23 @@ pub struct GaugeHold {
 /// The sets of frames the ties join (union-find over the tie points' observations), each
 /// sorted, the frames no tie reaches left out.
 pub fn connected(frames: usize, ties: &[TiePoint]) -> Vec<Vec<usize>> {
+    connected_by(
+        frames,
+        ties.iter().flat_map(|t| {
+            let first = t.observations.first().map(|o| o.frame);
+            t.observations
+                .iter()
+                .filter_map(move |o| Some((first?, o.frame)))
+        }),
+    )
+}
+
+/// The sets of frames that links (a, b) join (union-find), each sorted, the frames no link
+/// reaches left out.
+pub fn connected_by(
+    frames: usize,
+    links: impl IntoIterator<Item = (usize, usize)>,
+) -> Vec<Vec<usize>> {
     let mut parent: Vec<usize> = (0..frames).collect();
     fn root(p: &mut [usize], mut i: usize) -> usize {
         while p[i] != i {
@@ -39,15 +56,11 @@ pub fn connected(frames: usize, ties: &[TiePoint]) -> Vec<Vec<usize>> {
         i
     }
     let mut seen = vec![false; frames];
-    for t in ties {
-        let Some(first) = t.observations.first() else {
-            continue;
-        };
-        for o in &t.observations {
-            seen[o.frame] = true;
-            let (a, b) = (root(&mut parent, first.frame), root(&mut parent, o.frame));
-            parent[a] = b;
-        }
+    for (a, b) in links {
+        seen[a] = true;
+        seen[b] = true;
+        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+        parent[ra] = rb;
     }
     let mut sets: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
     for f in (0..frames).filter(|&f| seen[f]) {

@@ -36,7 +36,7 @@ mod residuals;
 mod solve;
 
 pub use crate::lm::{Termination, Tolerances};
-pub use gauge::{GaugeHold, ONE_POINT_RATIO, connected};
+pub use gauge::{GaugeHold, ONE_POINT_RATIO, connected, connected_by};
 pub use points::OrientedFrames;
 pub use residuals::radial_refinable;
 

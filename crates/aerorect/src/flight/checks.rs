@@ -135,36 +135,22 @@ pub(super) fn blocks(
     reports: &[PairReport],
     adjusted: &[FrameAdjustment],
 ) -> Vec<BlockReport> {
-    let index = |name: &str| frames.iter().position(|f| f == name);
-    let mut parent: Vec<usize> = (0..frames.len()).collect();
-    fn root(p: &mut [usize], mut i: usize) -> usize {
-        while p[i] != i {
-            p[i] = p[p[i]];
-            i = p[i];
-        }
-        i
-    }
-    let mut tied = vec![false; frames.len()];
-    for r in reports.iter().filter(|r| r.reliable) {
-        let (Some(a), Some(b)) = (index(&r.a), index(&r.b)) else {
-            continue;
-        };
-        tied[a] = true;
-        tied[b] = true;
-        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-        parent[ra] = rb;
-    }
-    let mut sets: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-    for f in (0..frames.len()).filter(|&f| tied[f]) {
-        let r = root(&mut parent, f);
-        sets.entry(r).or_default().push(f);
-    }
+    let index: std::collections::HashMap<&str, usize> = frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| (f.as_str(), k))
+        .collect();
+    let links = reports
+        .iter()
+        .filter(|r| r.reliable)
+        .filter_map(|r| Some((*index.get(r.a.as_str())?, *index.get(r.b.as_str())?)));
+    let sets = aerorect_solve::adjust::connected_by(frames.len(), links);
     if sets.len() < 2 {
         return Vec::new();
     }
     let mut out: Vec<BlockReport> = sets
-        .into_values()
-        .map(|set| block_report(frames, &set, adjusted))
+        .iter()
+        .map(|set| block_report(frames, set, adjusted))
         .collect();
     out.sort_by_key(|b| std::cmp::Reverse(b.frames.len()));
     out
