@@ -45,6 +45,7 @@ __all__ = [
     "Camera",
     "DEFAULT_MAX_OUTPUT_PX",
     "adjust_flight",
+    "batch",
     "distributed",
     "calibrate",
     "mosaic",
@@ -141,6 +142,36 @@ def rectify_photo_to_file(
     :func:`rectify_photo`. Returns the report."""
     return _aerorect.rectify_photo_to_file(
         os.fspath(path), os.fspath(out), _opts(cog=cog, **kwargs)
+    )
+
+
+def batch(
+    paths: Sequence[PathLike],
+    out_dir: PathLike,
+    gsd_m: Optional[float] = None,
+    dem: Optional[PathLike] = None,
+    *,
+    jobs: int = 2,
+    force: bool = False,
+    format: str = "tif",
+    report_html: Optional[PathLike] = None,
+    **kwargs: Any,
+) -> dict:
+    """``aerorect batch PATHS --out-dir OUT_DIR``: every photo to ``OUT_DIR/STEM.tif`` (or
+    ``.png`` with a world file), ``jobs`` at once; an existing whole output is skipped unless
+    ``force``. Keyword arguments as :func:`rectify_photo`, and ``geo`` (an external-orientation
+    file), ``poses``, ``cog``. Returns ``{"frames": [{"input", "status", "why", "report"}],
+    "seconds"}``; raises, naming every failed photo, when one fails (the others are written).
+    With ``adjust`` use :func:`adjust_flight` and its ``write_frame``."""
+    o = _opts(gsd_m=gsd_m, dem=dem, **kwargs)
+    return _aerorect.batch(
+        [os.fspath(p) for p in paths],
+        os.fspath(out_dir),
+        o,
+        jobs,
+        force,
+        format,
+        None if report_html is None else os.fspath(report_html),
     )
 
 

@@ -113,6 +113,15 @@ def calibrate(
     stop_px: float = 0.01,
     max_iterations: int = 200,
 ) -> Tuple[Camera, Dict[str, Any]]: ...
+def batch(
+    paths: Sequence[_Path],
+    out_dir: _Path,
+    opts: Optional[Mapping[str, Any]] = None,
+    jobs: int = 2,
+    force: bool = False,
+    format: str = "tif",
+    report_html: Optional[_Path] = None,
+) -> Dict[str, Any]: ...
 def adjust_flight(
     paths: Sequence[_Path], opts: Optional[Mapping[str, Any]] = None
 ) -> AdjustedFlight: ...

@@ -1,14 +1,15 @@
 //! A flight: the joint adjustment (`batch --adjust`) and the mosaic.
 
-use crate::options::PhotoArgs;
+use crate::options::{PhotoArgs, keyworded};
 use crate::{py_err, to_py};
+use aerorect::batch::run_adjusted_batch;
 use aerorect::drone::DroneOptions;
 use aerorect::io::StagedOutputs;
-use aerorect::mosaic::{Blend, MosaicOptions, frames_from_photos, mosaic as build, mosaic_cog};
+use aerorect::mosaic::{mosaic_adjusted, mosaic_options, run_mosaic};
 use anyhow::{Result, bail};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// A flight made consistent from its overlaps: each frame's adjusted pose and camera.
 #[pyclass(module = "aerorect")]
@@ -26,12 +27,24 @@ pub fn adjust_flight(
     opts: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<AdjustedFlight> {
     let args = PhotoArgs::from_dict(opts)?;
-    py.detach(|| -> Result<_> {
-        let o = args.options(None)?;
-        let flight = aerorect::flight::adjust_flight(&paths, &o, &args.flight_options()?)?;
-        Ok(AdjustedFlight { flight, opts: o })
-    })
-    .map_err(py_err)
+    let (flight, warnings) = py
+        .detach(|| -> Result<_> {
+            let (o, warnings) = args.flight_frames(&paths)?;
+            let flight = aerorect::flight::adjust_flight(&paths, &o, &args.flight_options()?)?;
+            Ok((AdjustedFlight { flight, opts: o }, warnings))
+        })
+        .map_err(py_err)?;
+    warn_all(py, &warnings)?;
+    Ok(flight)
+}
+
+/// Each warning through Python's `warnings.warn` (the CLI prints them).
+pub(crate) fn warn_all(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
+    let w = py.import("warnings")?;
+    for text in warnings {
+        w.call_method1("warn", (text,))?;
+    }
+    Ok(())
 }
 
 #[pymethods]
@@ -76,12 +89,11 @@ impl AdjustedFlight {
         feather_px: usize,
         cog: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let mopts = mosaic_options(blend, feather_px, Some(&out)).map_err(py_err)?;
+        let max = self.opts.limits.max_output_px;
+        let mopts =
+            mosaic_options(blend, feather_px, max, Some(&out)).map_err(|e| py_err(keyworded(e)))?;
         let r = py
-            .detach(|| -> Result<_> {
-                let frames = self.flight.mosaic_frames(&self.opts)?;
-                write_mosaic(frames, self.flight.crs().clone(), &out, &mopts, cog)
-            })
+            .detach(|| mosaic_adjusted(&self.flight, &out, (&self.opts, &mopts, cog)))
             .map_err(py_err)?;
         to_py(py, &r)
     }
@@ -116,7 +128,8 @@ impl FlightPlan {
     ) -> PyResult<Self> {
         let args = PhotoArgs::from_dict(opts)?;
         py.detach(|| -> Result<_> {
-            let o = args.options(None)?;
+            // The warnings were the caller's when it adjusted or planned the flight first.
+            let (o, _) = args.flight_frames(&paths)?;
             let plan = aerorect::flight::FlightPlan::new(&paths, &o, &args.flight_options()?)?;
             Ok(Self { plan, opts: o })
         })
@@ -270,56 +283,23 @@ pub fn write_adjusted_batch<'py>(
             out_paths.len()
         )));
     }
-    let report = py
+    let (report, warnings) = py
         .detach(|| -> Result<_> {
-            let o = args.options(None)?;
-            let flight = aerorect::flight::adjust_flight(&paths, &o, &args.flight_options()?)?;
-            let mut staged = StagedOutputs::new();
-            flight.stage_batch(&out_paths, &out_dir, &o, &mut staged, |_, _| {})?;
-            staged.commit()?;
-            Ok(flight.report)
+            let (o, warnings) = args.flight_frames(&paths)?;
+            let fo = args.flight_options()?;
+            let flight = run_adjusted_batch(
+                &paths,
+                &out_paths,
+                (&out_dir, None),
+                (&o, &fo),
+                |_| {},
+                |_, _| {},
+            )?;
+            Ok((flight.report, warnings))
         })
         .map_err(py_err)?;
+    warn_all(py, &warnings)?;
     to_py(py, &report)
-}
-
-/// The mosaic's options, and (given) its output's name checked: a .tif or .tiff.
-pub(crate) fn mosaic_options(
-    blend: &str,
-    feather_px: usize,
-    out: Option<&Path>,
-) -> Result<MosaicOptions> {
-    let blend: Blend = blend.parse().map_err(anyhow::Error::msg)?;
-    let m = MosaicOptions {
-        blend,
-        feather_px,
-        ..MosaicOptions::default()
-    };
-    m.validate()?;
-    let Some(out) = out else { return Ok(m) };
-    let ext = out.extension().and_then(|e| e.to_str());
-    if !ext.is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff")) {
-        bail!(
-            "--out {}: the mosaic is a GeoTIFF: give a .tif or .tiff name",
-            out.display()
-        );
-    }
-    Ok(m)
-}
-
-fn write_mosaic(
-    frames: Vec<aerorect::mosaic::MosaicFrame>,
-    crs: aerorect::io::Crs,
-    out: &Path,
-    mopts: &MosaicOptions,
-    cog: bool,
-) -> Result<aerorect::mosaic::MosaicReport> {
-    Ok(if cog {
-        let c = aerorect::io::CogOptions::masked_by_alpha(mopts.alpha);
-        mosaic_cog(frames, crs, out, mopts, &c)?
-    } else {
-        build(frames, crs, out, mopts)?
-    })
 }
 
 /// One mosaic of a flight on one grid (`aerorect mosaic`): returns its report.
@@ -335,22 +315,17 @@ pub fn mosaic<'py>(
     feather_px: usize,
 ) -> PyResult<Bound<'py, PyAny>> {
     let args = PhotoArgs::from_dict(opts)?;
-    let mopts = mosaic_options(blend, feather_px, Some(&out)).map_err(py_err)?;
-    let r = py
+    let mopts = mosaic_options(blend, feather_px, args.max_output_px(), Some(&out))
+        .map_err(|e| py_err(keyworded(e)))?;
+    let (r, warnings) = py
         .detach(|| -> Result<_> {
-            let mut o = args.options(None)?;
-            // The mosaic's frames are planned without nodata; the alpha band marks coverage.
-            o.warp.nodata = 0.0;
-            o.warp.alpha = false;
-            let cog = o.cog.take().is_some();
-            let (frames, crs) = if adjust {
-                let f = aerorect::flight::adjust_flight(&paths, &o, &args.flight_options()?)?;
-                (f.mosaic_frames(&o)?, f.crs().clone())
-            } else {
-                frames_from_photos(&paths, &o)?
-            };
-            write_mosaic(frames, crs, &out, &mopts, cog)
+            let (o, warnings) = args.flight_frames(&paths)?;
+            let fo = adjust.then(|| args.flight_options()).transpose()?;
+            let cog = o.cog.is_some();
+            let r = run_mosaic(&paths, &out, (&o, &mopts, cog), fo.as_ref(), |_| {})?;
+            Ok((r, warnings))
         })
         .map_err(py_err)?;
+    warn_all(py, &warnings)?;
     to_py(py, &r)
 }

@@ -5,6 +5,7 @@
 //! `aerorect/__init__.py` re-exports both.
 
 mod arrays;
+mod batch;
 mod camera;
 mod flight;
 mod mosaic;
@@ -82,6 +83,7 @@ fn _aerorect(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(camera::undistort, m)?)?;
     m.add_function(wrap_pyfunction!(camera::shift, m)?)?;
     m.add_function(wrap_pyfunction!(camera::calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::batch, m)?)?;
     m.add_function(wrap_pyfunction!(flight::adjust_flight, m)?)?;
     m.add_function(wrap_pyfunction!(flight::write_adjusted_batch, m)?)?;
     m.add_function(wrap_pyfunction!(flight::mosaic, m)?)?;

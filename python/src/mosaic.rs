@@ -3,11 +3,12 @@
 //! where the tiles come together, the same file `aerorect mosaic` writes.
 
 use crate::arrays::{array_from_raster, raster_from_array};
-use crate::flight::mosaic_options;
-use crate::options::PhotoArgs;
+use crate::options::{PhotoArgs, keyworded};
 use crate::{py_err, to_py};
 use aerorect::io::GeoReference;
-use aerorect::mosaic::{MosaicFrame, MosaicPlan, MosaicRun, Window, frames_from_photos};
+use aerorect::mosaic::{
+    MosaicFrame, MosaicPlan, MosaicRun, Window, frames_from_photos, mosaic_options,
+};
 use aerorect::raster::AnyRaster;
 use anyhow::{Result, bail};
 use pyo3::prelude::*;
@@ -38,9 +39,10 @@ pub fn plan_mosaic(
     feather_px: usize,
 ) -> PyResult<MosaicTiles> {
     let args = PhotoArgs::from_dict(opts)?;
-    let mopts = mosaic_options(blend, feather_px, None).map_err(py_err)?;
+    let mopts = mosaic_options(blend, feather_px, args.max_output_px(), None)
+        .map_err(|e| py_err(keyworded(e)))?;
     py.detach(|| -> Result<_> {
-        let mut o = args.options(None)?;
+        let (mut o, _) = args.flight_frames(&paths)?;
         o.warp.nodata = 0.0;
         o.warp.alpha = false;
         o.cog = None;
@@ -117,7 +119,9 @@ impl MosaicTiles {
         cells: Vec<usize>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let t0 = std::time::Instant::now();
-        mosaic_options("feather", 16, Some(&out)).map_err(py_err)?;
+        // The output's name only (the tiles' options were the plan's).
+        let max = aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
+        mosaic_options("feather", 16, max, Some(&out)).map_err(|e| py_err(keyworded(e)))?;
         for f in &self.plan.frames {
             if aerorect::io::same_file(&f.path, &out) {
                 return Err(py_err(anyhow::anyhow!(

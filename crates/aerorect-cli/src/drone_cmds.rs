@@ -1,159 +1,76 @@
-//! Drone photos from their own metadata: `rectify` without --attitude, and `batch`.
+//! Drone photos from their own metadata: `rectify` without --attitude, the flight's options
+//! (batch, mosaic), and `overlap`. The options go to the facade as requests
+//! (`aerorect::options`), which checks them; this file only turns flags into them.
 
 use crate::args::{GeoArgs, RectifyArgs};
 use crate::outputs::Files;
 use aerorect::core::RectifyLimits;
-use aerorect::core::error::Num;
-use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
-use aerorect::demo::write_text;
-use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo, rectify_photo_staged};
-use aerorect::geo::{Mounting, Projection};
-use aerorect::georef::load_dem;
-use aerorect::io::{CameraFile, CogOptions, Crs, PoseRecord, StagedOutputs, image_files};
-use aerorect::raster::{AnyRaster, Interp, WarpOptions};
-use aerorect::sane;
+use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo_staged};
+use aerorect::io::StagedOutputs;
+use aerorect::options::{FlightRequest, OrthoRequest, Spelling};
+use aerorect::raster::WarpOptions;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::Mutex;
 
-/// Three comma-separated finite numbers of a flag.
-fn triple(flag: &str, text: &str) -> Result<[f64; 3]> {
+/// How the CLI spells the facade's option keys: `--gsd-m 1e308`.
+pub(crate) const FLAGS: Spelling = Spelling {
+    prefix: "--",
+    dashes: true,
+    before_value: " ",
+};
+
+/// A facade error with the options it names spelled as flags.
+pub(crate) fn flagged(e: aerorect::Error) -> anyhow::Error {
+    e.spelled(&FLAGS).into()
+}
+
+/// Numbers separated by commas, `n` of them (`what` says which), as a flag gives them.
+fn numbers<const N: usize>(flag: &str, text: &str, what: &str) -> Result<[f64; N]> {
     let v: Vec<f64> = text
         .split(',')
         .map(|t| t.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .with_context(|| format!("--{flag} '{text}': expected three numbers"))?;
-    match v[..] {
-        [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok([a, b, c]),
-        _ => bail!("--{flag} '{text}': expected three finite numbers"),
-    }
+        .with_context(|| format!("--{flag} '{text}': expected {what}"))?;
+    v.try_into()
+        .map_err(|_| anyhow::anyhow!("--{flag} '{text}': expected {what}"))
 }
 
-/// The options every frame of a command shares.
-pub(crate) fn ortho_options(
-    geo: &GeoArgs,
-    common: (Option<f64>, Option<f64>, Option<&Path>),
-    limits: RectifyLimits,
-    warp: WarpOptions,
-    poses: Option<&Path>,
-) -> Result<DroneOptions> {
-    let (gsd_m, ground_height_m, camera) = common;
-    check_ranges(geo, gsd_m, ground_height_m)?;
-    let geo_format = geo
-        .geo_file
-        .as_deref()
-        .map(|p| -> Result<_> {
-            let text = aerorect::io::read_text(p)
-                .with_context(|| format!("--geo {}: cannot read", p.display()))?;
-            Ok(aerorect::io::eo::detect_format(&text))
+impl GeoArgs {
+    /// The request these flags and the command's own make (nothing read or checked yet but
+    /// the flags' syntax).
+    pub(crate) fn request(
+        &self,
+        common: (Option<f64>, Option<f64>, Option<&Path>, Option<&Path>),
+        limits: RectifyLimits,
+        warp: WarpOptions,
+    ) -> Result<OrthoRequest> {
+        let (gsd_m, ground_height_m, camera, poses) = common;
+        let three = |flag: &str, t: &Option<String>| {
+            t.as_deref()
+                .map(|t| numbers::<3>(flag, t, "three numbers"))
+                .transpose()
+        };
+        Ok(OrthoRequest {
+            gsd_m,
+            ground_height_m,
+            vertical_offset_m: self.vertical_offset_m,
+            strict: self.strict,
+            occlusion: self.occlusion,
+            crs: self.crs.clone(),
+            camera: camera.map(Path::to_path_buf),
+            poses: poses.map(Path::to_path_buf),
+            pose: None,
+            geo: self.geo_file.clone(),
+            dem: self.dem.clone(),
+            boresight_deg: three("boresight-deg", &self.boresight_deg)?,
+            lever_arm_m: three("lever-arm-m", &self.lever_arm_m)?,
+            sensefly_roll: self.sensefly_roll.into(),
+            limits,
+            warp,
+            cog: false,
         })
-        .transpose()?;
-    let geo_is_poses = geo_format == Some(aerorect::io::EoFormat::PoseCsv);
-    if geo_is_poses && poses.is_some() {
-        bail!("--geo is a pose table and --poses gives another: give one of them");
     }
-    let poses = if geo_is_poses {
-        geo.geo_file.as_deref()
-    } else {
-        poses
-    };
-    let mounting = Mounting::from_angles(
-        geo.boresight_deg
-            .as_deref()
-            .map(|t| triple("boresight-deg", t))
-            .transpose()?
-            .unwrap_or([0.0; 3]),
-        geo.lever_arm_m
-            .as_deref()
-            .map(|t| -> Result<_> {
-                let arm = triple("lever-arm-m", t)?;
-                sane::check_lever_arm_m(arm).with_context(|| format!("--lever-arm-m '{t}'"))
-            })
-            .transpose()?
-            .unwrap_or([0.0; 3]),
-    );
-    let crs = output_crs(geo, poses)?;
-    let poses = poses
-        .map(|p| -> Result<_> {
-            let rows = aerorect::io::read_poses(p)?;
-            Ok(Arc::new(
-                rows.into_iter().map(|r| (r.filename.clone(), r)).collect(),
-            ))
-        })
-        .transpose()?;
-    Ok(DroneOptions {
-        gsd_m,
-        ground_height_m,
-        dem: geo.dem.as_deref().map(load_dem).transpose()?.map(Arc::new),
-        vertical_offset_m: geo.vertical_offset_m,
-        strict: geo.strict,
-        occlusion: geo.occlusion,
-        crs,
-        camera: camera.map(CameraFile::read).transpose()?,
-        poses,
-        mounting,
-        geo: match (&geo.geo_file, geo_is_poses) {
-            (Some(p), false) => Some(Arc::new(aerorect::photo_source::load_geo_file(p)?)),
-            _ => None,
-        },
-        track_headings: None,
-        sensefly_roll: geo.sensefly_roll.into(),
-        limits,
-        warp,
-        cog: None,
-    })
-}
-
-/// The flags with a sane range (the library's), refused naming the flag and its value.
-fn check_ranges(geo: &GeoArgs, gsd_m: Option<f64>, ground_height_m: Option<f64>) -> Result<()> {
-    if let Some(g) = gsd_m {
-        sane::check_gsd_m(g).with_context(|| format!("--gsd-m {}", Num(g)))?;
-    }
-    if let Some(z) = ground_height_m {
-        sane::check_height_m("ground height", z)
-            .with_context(|| format!("--ground-height-m {}", Num(z)))?;
-    }
-    let v = geo.vertical_offset_m;
-    sane::check_height_m("vertical offset", v)
-        .with_context(|| format!("--vertical-offset-m {}", Num(v)))?;
-    Ok(())
-}
-
-/// The output CRS: `--crs`, else the pose table's `.prj` (an error names the one it came from).
-fn output_crs(geo: &GeoArgs, poses: Option<&Path>) -> Result<Option<(Crs, Projection)>> {
-    let (text, origin) = match (&geo.crs, poses) {
-        (Some(c), _) => (c.clone(), "--crs".to_string()),
-        (None, Some(p)) => {
-            let prj = p.with_extension("prj");
-            match aerorect::io::read_text(&prj) {
-                Ok(t) => (
-                    t.trim().to_string(),
-                    format!("{} (the poses' CRS)", prj.display()),
-                ),
-                Err(_) => return Ok(None),
-            }
-        }
-        (None, None) => return Ok(None),
-    };
-    let mut short: String = text.chars().take(80).collect();
-    if short.len() < text.len() {
-        short.push_str("...");
-    }
-    let named = || format!("{origin} '{short}'");
-    let c = Crs::parse(&text).with_context(named)?;
-    let def = c.to_proj_string().with_context(named)?;
-    let p = Projection::new(&def).with_context(named)?;
-    if p.is_geographic() {
-        bail!(
-            "{} is geographic: orthos need a projected CRS in metres",
-            named()
-        );
-    }
-    Ok(Some((c, p)))
 }
 
 /// `--cog` writes a .tif: refuses another extension.
@@ -186,46 +103,17 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
     let limits = RectifyLimits {
         max_output_px: a.max_output_px,
     };
-    let mut opts = ortho_options(
-        &a.geo,
-        (a.gsd_m, a.ground_height_m, a.camera.as_deref()),
-        limits,
-        warp,
-        None,
-    )?;
+    let common = (a.gsd_m, a.ground_height_m, a.camera.as_deref(), None);
+    let mut req = a.geo.request(common, limits, warp)?;
     if let Some(text) = &a.pose {
-        let v: Vec<f64> = text
-            .split(',')
-            .map(|t| t.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .with_context(|| format!("--pose '{text}': expected x,y,z,omega,phi,kappa"))?;
-        let [x, y, z, omega, phi, kappa] = v[..] else {
-            bail!("--pose '{text}': expected six numbers x,y,z,omega,phi,kappa");
-        };
-        if let Some(bad) = v.iter().find(|x| !x.is_finite()) {
-            bail!("--pose '{text}': {bad} is not a finite number");
-        }
-        let name = a
-            .input
-            .file_name()
-            .and_then(|n| n.to_str())
-            .unwrap_or("")
-            .to_string();
-        let rec = PoseRecord {
-            filename: name.clone(),
-            x,
-            y,
-            z,
-            omega,
-            phi,
-            kappa,
-        };
-        opts.poses = Some(Arc::new([(name, rec)].into_iter().collect()));
+        let what = "six numbers x,y,z,omega,phi,kappa";
+        req.pose = Some(numbers::<6>("pose", text, what)?);
     }
     if a.cog {
         cog_needs_tif("OUTPUT", &a.output)?;
-        opts.cog = Some(CogOptions::masked_by_alpha(a.alpha));
+        req.cog = true;
     }
+    let opts = req.resolve(Some(&a.input)).map_err(flagged)?;
     let mut staged = StagedOutputs::new();
     let r = rectify_photo_staged(&a.input, &a.output, &opts, None, &mut staged)?;
     if let Some(p) = &a.report {
@@ -239,7 +127,7 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
     Ok(())
 }
 
-fn result_line(r: &PhotoResult) -> String {
+pub(crate) fn result_line(r: &PhotoResult) -> String {
     let i = &r.info;
     format!(
         "{} -> {}: {} x {} px at {:.3} m/px, {}, gimbal yaw {:.1} pitch {:.1}, height {:.1} m{}, {:.2} s",
@@ -355,21 +243,6 @@ impl FlightArgs {
             .inputs("--gcps", &self.gcps)
     }
 
-    /// The ground control these options name (read and checked), if any.
-    pub(crate) fn control(&self) -> Result<Option<aerorect::flight::ControlOptions>> {
-        if self.gcps.is_empty() {
-            return Ok(None);
-        }
-        let co = aerorect::flight::ControlOptions {
-            checkpoints: self.checkpoints.clone(),
-            mark_sigma_px: self.gcp_sigma_px,
-            vertical_offset_m: self.gcp_vertical_offset_m,
-            ..aerorect::flight::ControlOptions::read(&self.gcps)?
-        };
-        co.validate().context("--gcps")?;
-        Ok(Some(co))
-    }
-
     /// The options every frame of `inputs` shares, with the flight's checks: the photos an
     /// external-orientation file misses, and the GPS-track headings of photos without attitude.
     pub(crate) fn options(
@@ -378,376 +251,47 @@ impl FlightArgs {
         limits: RectifyLimits,
         warp: WarpOptions,
     ) -> Result<DroneOptions> {
-        let mut opts = ortho_options(
-            &self.geo,
-            (self.gsd_m, self.ground_height_m, self.camera.as_deref()),
-            limits,
-            warp,
+        let common = (
+            self.gsd_m,
+            self.ground_height_m,
+            self.camera.as_deref(),
             self.poses.as_deref(),
-        )?;
-        for w in aerorect::photo_source::prepare_flight(&mut opts, inputs)? {
+        );
+        let req = self.geo.request(common, limits, warp)?;
+        let (opts, warnings) = req.resolve_flight(inputs).map_err(flagged)?;
+        for w in warnings {
             eprintln!("warning: {w}");
         }
         Ok(opts)
     }
 
-    pub(crate) fn flight_options(&self) -> Result<aerorect::flight::FlightOptions> {
-        use aerorect::flight::PositionPrior;
-        for (flag, v, max) in [
-            (
-                "--adjust-positions-m",
-                self.adjust_positions_m,
-                sane::MAX_HEIGHT_M,
-            ),
-            (
-                "--attitude-sigma-deg",
-                Some(self.attitude_sigma_deg),
-                aerorect::flight::MAX_ATTITUDE_SIGMA_DEG,
-            ),
-        ] {
-            if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0 && *v <= max)) {
-                bail!(
-                    "{flag} {}: must be a finite number > 0 and at most {max}",
-                    Num(v)
-                );
-            }
-        }
-        if self.adjust_passes == 0 {
-            bail!("--adjust-passes 0: at least one matching round");
-        }
-        Ok(aerorect::flight::FlightOptions {
-            positions: match (self.hold_positions, self.adjust_positions_m) {
-                (true, _) => PositionPrior::Hold,
-                (false, Some(s)) => PositionPrior::Sigma(s),
-                (false, None) => PositionPrior::Recorded,
-            },
-            attitude_sigma_deg: self.attitude_sigma_deg,
-            passes: self.adjust_passes,
-            ties: aerorect::flight::TieSource::from_name(&self.ties)
-                .with_context(|| format!("--ties {}", self.ties))?,
-            refine_radial: self.adjust_lens,
-            refine_boresight: self.adjust_boresight,
-            control: self.control()?,
+    /// The adjustment's request from these flags.
+    fn flight_request(&self) -> FlightRequest {
+        FlightRequest {
+            adjust_positions_m: self.adjust_positions_m,
+            hold_positions: self.hold_positions,
+            adjust_lens: self.adjust_lens,
+            adjust_boresight: self.adjust_boresight,
+            attitude_sigma_deg: Some(self.attitude_sigma_deg),
+            adjust_passes: Some(self.adjust_passes),
+            ties: Some(self.ties.clone()),
             robust_gps: self.robust_gps,
-            ..Default::default()
-        })
-    }
-}
-
-#[derive(Args)]
-pub struct BatchArgs {
-    /// Photos of a flight (JPEG with DJI metadata, or any image with --camera and the same tags).
-    #[arg(required = true)]
-    inputs: Vec<PathBuf>,
-    /// Where the rectified frames go (NAME.tif, or NAME.png + NAME.pgw with --format png).
-    #[arg(long)]
-    out_dir: PathBuf,
-    #[command(flatten)]
-    flight: FlightArgs,
-    /// Frames processed at once (each also uses all threads for its warp).
-    #[arg(long, default_value_t = 2)]
-    jobs: usize,
-    /// Rewrite outputs that already exist.
-    #[arg(long)]
-    force: bool,
-    /// tif (GeoTIFF) or png (with a world file).
-    #[arg(long, default_value = "tif")]
-    format: String,
-    /// Resampling: nearest, bilinear, bicubic, or average (the area-weighted mean of the source
-    /// pixels under each output pixel, GDAL's -r average, OpenCV's INTER_AREA).
-    #[arg(long, default_value = "bilinear")]
-    interp: Interp,
-    /// Bilinear and bicubic: keep the plain kernel where the output is more than twice coarser
-    /// than the source (by default such regions read a 2 x 2 box-reduced level, which stops aliasing).
-    #[arg(long)]
-    no_prefilter: bool,
-    #[arg(long, default_value_t = 0.0)]
-    nodata: f64,
-    #[arg(long, default_value_t = DEFAULT_MAX_OUTPUT_PX)]
-    max_output_px: u64,
-    /// A self-contained HTML report: footprint map, before/after thumbnails, per-frame attitude,
-    /// height, GSD and warnings.
-    #[arg(long)]
-    report_html: Option<PathBuf>,
-    /// Write cloud-optimised GeoTIFFs (tiled, Deflate, internal overviews) instead of strip
-    /// GeoTIFFs; needs --format tif.
-    #[arg(long)]
-    cog: bool,
-}
-
-/// What became of one input.
-enum Outcome {
-    Done(Box<PhotoResult>),
-    Skipped(String),
-    Failed(String),
-}
-
-fn output_for(a: &BatchArgs, input: &Path) -> Result<PathBuf> {
-    let stem = input
-        .file_stem()
-        .with_context(|| format!("{}: no file name", input.display()))?;
-    Ok(a.out_dir.join(stem).with_extension(&a.format))
-}
-
-pub fn batch(a: BatchArgs) -> Result<()> {
-    if a.format != "tif" && a.format != "png" {
-        bail!("--format '{}': expected tif or png", a.format);
-    }
-    if a.jobs == 0 {
-        bail!("--jobs 0: at least one frame must be in flight");
-    }
-    if a.cog && a.format != "tif" {
-        bail!(
-            "--cog writes cloud-optimised GeoTIFFs: it needs --format tif, not '{}'",
-            a.format
-        );
-    }
-    batch_files(&a)?.check()?;
-    if a.flight.adjust {
-        a.flight.flight_options()?;
-    }
-    // One camera file and one set of options for every frame, read before the out folder
-    // is made.
-    let mut opts = a.flight.options(
-        &a.inputs,
-        RectifyLimits {
-            max_output_px: a.max_output_px,
-        },
-        WarpOptions {
-            interp: a.interp,
-            nodata: a.nodata,
-            alpha: false,
-            prefilter: !a.no_prefilter,
-            ..WarpOptions::default()
-        },
-    )?;
-    if a.cog {
-        opts.cog = Some(CogOptions::masked_by_alpha(false));
-    }
-    std::fs::create_dir_all(&a.out_dir)
-        .with_context(|| format!("{}: cannot create", a.out_dir.display()))?;
-    if a.flight.adjust {
-        return batch_adjusted(&a, &opts);
-    }
-    let started = std::time::Instant::now();
-    let pb =
-        ProgressBar::with_draw_target(Some(a.inputs.len() as u64), ProgressDrawTarget::stderr());
-    pb.set_style(
-        ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} frames, {elapsed} elapsed, eta {eta} {msg}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let say = |line: String| {
-        if pb.is_hidden() {
-            outln!("{line}");
-        } else {
-            pb.println(line);
-        }
-    };
-    let queue = Mutex::new(a.inputs.iter().enumerate());
-    let outcomes: Mutex<Vec<(usize, Outcome)>> = Mutex::new(Vec::new());
-    // `jobs` workers take frames from one queue: at most `jobs` frames are in memory at once.
-    std::thread::scope(|s| {
-        for _ in 0..a.jobs.min(a.inputs.len()) {
-            s.spawn(|| {
-                loop {
-                    let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
-                    let Some((k, input)) = next else { break };
-                    let outcome = process(&a, input, &opts);
-                    let line = match &outcome {
-                        Outcome::Done(r) => with_warnings(result_line(r), r),
-                        Outcome::Skipped(why) => format!("{}: skipped: {why}", input.display()),
-                        Outcome::Failed(why) => format!("{}: FAILED: {why}", input.display()),
-                    };
-                    say(line);
-                    pb.inc(1);
-                    if let Ok(mut o) = outcomes.lock() {
-                        o.push((k, outcome));
-                    }
-                }
-            });
-        }
-    });
-    pb.finish_and_clear();
-    let mut outcomes = outcomes.into_inner().unwrap_or_default();
-    outcomes.sort_by_key(|(k, _)| *k);
-    summarise(&a, &outcomes, started.elapsed().as_secs_f64())
-}
-
-/// Refuses two photos that would go to one output (a/X.JPG and b/X.JPG both to OUT/X.tif).
-fn refuse_collisions(a: &BatchArgs) -> Result<()> {
-    let mut first: HashMap<PathBuf, &Path> = HashMap::new();
-    for input in &a.inputs {
-        let out = output_for(a, input)?;
-        let key = aerorect::io::resolved_path(&out).unwrap_or_else(|| out.clone());
-        // The same photo twice was refused before (refuse_duplicate_photos in batch_files).
-        if let Some(other) = first.insert(key, input) {
-            bail!(
-                "{} and {} would both be written to {}: rename one, or rectify them in separate runs; nothing written",
-                other.display(),
-                input.display(),
-                out.display()
-            );
+            gcps: self.gcps.clone(),
+            checkpoints: self.checkpoints.clone(),
+            gcp_sigma_px: Some(self.gcp_sigma_px),
+            gcp_vertical_offset_m: Some(self.gcp_vertical_offset_m),
         }
     }
-    Ok(())
-}
 
-/// Everything batch reads and writes (every frame's output with its sidecars), after the
-/// name collisions between frames are refused.
-fn batch_files(a: &BatchArgs) -> Result<Files> {
-    aerorect::io::refuse_duplicate_photos(&a.inputs)?;
-    refuse_collisions(a)?;
-    let mut files = a
-        .flight
-        .inputs(Files::new())
-        .folder("--out-dir", Some(&a.out_dir));
-    for input in &a.inputs {
-        files = files.input("PHOTOS", Some(input));
+    /// The adjustment's values checked, reading no file.
+    pub(crate) fn validate_flight(&self) -> Result<()> {
+        self.flight_request().validate().map_err(flagged)
     }
-    for input in &a.inputs {
-        for out in image_files(&output_for(a, input)?, true) {
-            files = files.output("--out-dir", Some(&out));
-        }
+
+    /// The adjustment's options (the ground control files read).
+    pub(crate) fn flight_options(&self) -> Result<aerorect::flight::FlightOptions> {
+        self.flight_request().resolve().map_err(flagged)
     }
-    let adjustment = a.flight.adjust.then(|| adjustment_json(a));
-    let poses = a.flight.adjust.then(|| adjusted_poses_csv(a));
-    let prj = poses.as_ref().map(|p| p.with_extension("prj"));
-    let accuracy =
-        (!a.flight.gcps.is_empty()).then(|| a.out_dir.join(aerorect::flight::ACCURACY_FILE));
-    Ok(files
-        .output("--report-html", a.report_html.as_deref())
-        .output("--gcps (the accuracy report)", accuracy.as_deref())
-        .output("--adjust (its report)", adjustment.as_deref())
-        .output("--adjust (the adjusted poses)", poses.as_deref())
-        .output("--adjust (the adjusted poses' CRS)", prj.as_deref()))
-}
-
-/// Where `batch --adjust` writes the adjustment's report.
-fn adjustment_json(a: &BatchArgs) -> PathBuf {
-    a.out_dir.join("adjustment.json")
-}
-
-/// Where `batch --adjust` writes the adjusted exterior orientation (`--poses`' format, with
-/// its CRS in a `.prj` beside it).
-fn adjusted_poses_csv(a: &BatchArgs) -> PathBuf {
-    a.out_dir.join("adjusted_poses.csv")
-}
-
-fn process(a: &BatchArgs, input: &Path, opts: &DroneOptions) -> Outcome {
-    let output = match output_for(a, input) {
-        Ok(o) => o,
-        Err(e) => return failure(input, e),
-    };
-    // An existing output counts as done only when it is a whole image; else it is redone.
-    let mut broken = None;
-    if output.exists() && !a.force {
-        match aerorect::io::check_image_whole(&output) {
-            Ok(()) => {
-                return Outcome::Skipped(format!(
-                    "{} exists (use --force to rewrite)",
-                    output.display()
-                ));
-            }
-            Err(e) => broken = Some(e),
-        }
-    }
-    let thumbs = a.report_html.as_ref().map(|_| 320);
-    match rectify_photo(input, &output, opts, thumbs) {
-        Ok(mut r) => {
-            if let Some(e) = broken {
-                let redone =
-                    format!("the existing output was not a whole image ({e}): rectified again");
-                r.info.warnings.insert(0, redone);
-            }
-            Outcome::Done(Box::new(r))
-        }
-        Err(e) => failure(input, e.full_message()),
-    }
-}
-
-/// A failed frame; the input's name is said once (the line starts with it), not again from
-/// the error's own context.
-fn failure(input: &Path, e: impl std::fmt::Display) -> Outcome {
-    let text = e.to_string();
-    let name = format!("{}: ", input.display());
-    Outcome::Failed(text.strip_prefix(&name).unwrap_or(&text).to_string())
-}
-
-/// A frame's result line followed by its warnings, one indented line each.
-fn with_warnings(line: String, r: &PhotoResult) -> String {
-    r.info
-        .warnings
-        .iter()
-        .fold(line, |acc, w| format!("{acc}\n  warning: {w}"))
-}
-
-fn summarise(a: &BatchArgs, outcomes: &[(usize, Outcome)], seconds: f64) -> Result<()> {
-    let done: Vec<&PhotoResult> = outcomes
-        .iter()
-        .filter_map(|(_, o)| match o {
-            Outcome::Done(r) => Some(r.as_ref()),
-            _ => None,
-        })
-        .collect();
-    let listed = |want_failed: bool| -> Vec<(String, String)> {
-        outcomes
-            .iter()
-            .filter_map(|(k, o)| match (o, want_failed) {
-                (Outcome::Failed(w), true) | (Outcome::Skipped(w), false) => {
-                    Some((a.inputs[*k].display().to_string(), w.clone()))
-                }
-                _ => None,
-            })
-            .collect()
-    };
-    let (failed, skipped) = (listed(true), listed(false));
-    if let Some(p) = &a.report_html {
-        write_report(p, (&done, &skipped, &failed), seconds)?;
-    }
-    outln!(
-        "{} frames: {} rectified, {} skipped, {} failed, {:.2} s",
-        outcomes.len(),
-        done.len(),
-        skipped.len(),
-        failed.len(),
-        seconds
-    );
-    if !failed.is_empty() {
-        for (f, why) in &failed {
-            eprintln!("failed: {f}: {why}");
-        }
-        bail!(
-            "{} of {} frames failed (listed above)",
-            failed.len(),
-            outcomes.len()
-        );
-    }
-    Ok(())
-}
-
-/// A frame listed in the summary: its input and why.
-type Listed = (String, String);
-
-/// Writes the HTML report, except over an earlier one when no frame was rectified in this run
-/// (a re-run that skips every frame would replace the flight's report with an empty one).
-fn write_report(
-    path: &Path,
-    (done, skipped, failed): (&[&PhotoResult], &[Listed], &[Listed]),
-    seconds: f64,
-) -> Result<()> {
-    if done.is_empty() && path.exists() {
-        outln!(
-            "report: {} kept as it was (no frame was rectified in this run)",
-            path.display()
-        );
-        return Ok(());
-    }
-    let html = aerorect::report_html::render(done, skipped, failed, seconds, None);
-    write_text(path, &html)?;
-    outln!("report: {}", path.display());
-    Ok(())
 }
 
 #[derive(Args)]
@@ -786,158 +330,5 @@ pub fn overlap(a: OverlapArgs) -> Result<()> {
             r.rms_px
         );
     }
-    Ok(())
-}
-
-/// `batch --adjust`: plan, match and adjust the whole flight, then write every frame with its
-/// adjusted orientation and `adjustment.json`; a failed adjustment writes nothing.
-pub(crate) fn print_adjustment(r: &aerorect::flight::FlightReport) {
-    for p in &r.pairs {
-        outln!(
-            "pair {} / {}: {} tie points of {} patches{}, misalignment {:.3} m -> {}",
-            p.a,
-            p.b,
-            p.inliers,
-            p.patches,
-            if p.reliable {
-                ""
-            } else {
-                " (nothing reliable shared: not used)"
-            },
-            p.misalignment_before_m,
-            p.misalignment_after_m
-                .map_or("-".to_string(), |m| format!("{m:.3} m"))
-        );
-    }
-    for u in &r.unconnected {
-        eprintln!("warning: {u}: overlaps no other frame reliably; left as recorded");
-    }
-    for w in &r.warnings {
-        eprintln!("warning: {w}");
-    }
-    let adj = &r.adjustment;
-    outln!(
-        "adjustment: {} frames, {} tie points, rms {:.2} -> {:.2} px in {} iterations ({}), {:.2} s",
-        r.frames.len(),
-        adj.tie_points,
-        adj.rms_before_px,
-        adj.rms_after_px,
-        adj.iterations,
-        serde_json::to_value(adj.termination)
-            .ok()
-            .and_then(|v| v.as_str().map(str::to_owned))
-            .unwrap_or_default(),
-        adj.seconds
-    );
-    if let Some(d) = &adj.datum {
-        outln!(
-            "datum of the recorded positions ({:?}): shift {:.3}, {:.3}, {:.3} m, rotation {:.4}, {:.4}, {:.4} deg, scale {:.0} ppm",
-            d.model,
-            d.shift_m[0],
-            d.shift_m[1],
-            d.shift_m[2],
-            d.rotation_deg[0],
-            d.rotation_deg[1],
-            d.rotation_deg[2],
-            d.scale_ppm
-        );
-    }
-    if let Some(a) = &r.accuracy {
-        print_accuracy(a);
-    }
-}
-
-fn print_accuracy(a: &aerorect::flight::AccuracyReport) {
-    for p in &a.points {
-        let m = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:+.3}"));
-        outln!(
-            "{:?} {}: dX {} dY {} dZ {} m; {} marks",
-            p.role,
-            p.name,
-            m(p.residual_m.map(|r| r[0])),
-            m(p.residual_m.map(|r| r[1])),
-            m(p.residual_z_m),
-            p.images.len()
-        );
-    }
-    for (what, b, r) in [
-        ("control", &a.control_before, &a.control),
-        ("check", &a.check_before, &a.check),
-    ] {
-        if r.count > 0 {
-            outln!(
-                "RMSE over {} {what} points XY / Z: {:.3} / {:.3} m recorded, {:.3} / {:.3} m adjusted (GSD {:.3} m)",
-                r.count,
-                b.xy_m,
-                b.z_m,
-                r.xy_m,
-                r.z_m,
-                a.mean_gsd_m
-            );
-        }
-    }
-    if let Some(c) = &a.asprs_horizontal {
-        outln!(
-            "ASPRS 2014 horizontal accuracy class: {} ({:.3} m at 95 %, {} check points)",
-            c.class_cm
-                .map_or("beyond 10 m".into(), |c| format!("{c} cm")),
-            c.accuracy_95_m,
-            c.check_points
-        );
-    }
-    if !a.unreached.is_empty() {
-        eprintln!(
-            "warning: {} frames in blocks no ground control point reaches: {}",
-            a.unreached.len(),
-            a.unreached.join(", ")
-        );
-    }
-}
-
-fn batch_adjusted(a: &BatchArgs, opts: &DroneOptions) -> Result<()> {
-    let fo = a.flight.flight_options()?;
-    let flight = aerorect::flight::adjust_flight(&a.inputs, opts, &fo)?;
-    let r = &flight.report;
-    print_adjustment(r);
-    // Every frame depends on the whole adjustment: the frames and adjustment.json land
-    // together, or (when a frame fails) none of them does.
-    let outputs: Vec<PathBuf> = a
-        .inputs
-        .iter()
-        .map(|input| output_for(a, input))
-        .collect::<Result<_>>()?;
-    let mut staged = StagedOutputs::new();
-    let done = flight.stage_batch(
-        &outputs,
-        &a.out_dir,
-        opts,
-        &mut staged,
-        |k, res| match res {
-            Ok(p) => outln!("{}", result_line(p)),
-            Err(e) => eprintln!("failed: {}: {}", a.inputs[k].display(), e.full_message()),
-        },
-    )?;
-    let poses = adjusted_poses_csv(a);
-    if let Some(p) = &a.report_html {
-        let overview = flight.overview()?;
-        let section = aerorect::report_html::FlightSection {
-            report: r,
-            ties: &flight.ties,
-            overview_png: Some(
-                aerorect::io::thumbnail_png(&AnyRaster::U8(overview), 800)
-                    .map_err(anyhow::Error::msg)?,
-            ),
-        };
-        let done: Vec<&PhotoResult> = done.iter().collect();
-        let seconds = r.seconds + done.iter().map(|d| d.seconds).sum::<f64>();
-        let html = aerorect::report_html::render(&done, &[], &[], seconds, Some(&section));
-        staged.text(p, &html)?;
-    }
-    staged.commit()?;
-    outln!(
-        "adjustment report: {}; adjusted poses: {}",
-        adjustment_json(a).display(),
-        poses.display()
-    );
     Ok(())
 }

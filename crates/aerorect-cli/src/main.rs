@@ -6,11 +6,13 @@ mod stdout;
 
 mod args;
 mod baseline_cmds;
+mod batch_cmds;
 mod board_cmds;
 mod calib_cmds;
 mod camera_cmds;
 mod commands;
 mod drone_cmds;
+mod flight_print;
 mod gcp_cmds;
 mod mosaic_cmds;
 mod motion_cmds;
@@ -76,7 +78,7 @@ enum Command {
     /// The paper's Table 1: registration, quadratic, bilinear and six-angle corrections of a frame simulated from REFERENCE.
     Compare(baseline_cmds::CompareArgs),
     /// Rectify a whole flight from the photos' metadata into georeferenced frames.
-    Batch(drone_cmds::BatchArgs),
+    Batch(batch_cmds::BatchArgs),
     /// Misalignment of two georeferenced frames over their overlap (phase correlation of tiles).
     Overlap(drone_cmds::OverlapArgs),
     /// One mosaic of a flight's photos on one grid (optionally after --adjust), tile by tile.
@@ -121,7 +123,7 @@ fn main() -> ExitCode {
         Command::Gcp(a) => baseline_cmds::gcp(a),
         Command::Register(a) => baseline_cmds::register_cmd(a),
         Command::Compare(a) => baseline_cmds::compare(a),
-        Command::Batch(a) => drone_cmds::batch(a),
+        Command::Batch(a) => batch_cmds::batch(a),
         Command::Overlap(a) => drone_cmds::overlap(a),
         Command::Mosaic(a) => mosaic_cmds::mosaic_cmd(a),
         Command::GcpPredict(a) => gcp_cmds::gcp_predict(a),

@@ -1,12 +1,13 @@
 //! `mosaic`: many drone photos on one grid, optionally after the flight's joint adjustment.
 
-use crate::drone_cmds::{FlightArgs, print_adjustment};
+use crate::drone_cmds::{FlightArgs, flagged};
+use crate::flight_print::print_adjustment;
 use crate::outputs::Files;
 use aerorect::core::RectifyLimits;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
-use aerorect::mosaic::{Blend, MosaicOptions, frames_from_photos, mosaic, mosaic_cog};
+use aerorect::mosaic::{mosaic_options, run_mosaic};
 use aerorect::raster::{Interp, WarpOptions};
-use anyhow::{Result, bail};
+use anyhow::Result;
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -52,23 +53,11 @@ fn mosaic_files(a: &MosaicArgs) -> Files {
 }
 
 pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
-    let blend: Blend = a.blend.parse().map_err(anyhow::Error::msg)?;
-    let mopts = MosaicOptions {
-        blend,
-        feather_px: a.feather_px,
-        max_output_px: a.max_output_px,
-        ..MosaicOptions::default()
-    };
-    mopts.validate()?;
+    let mopts = mosaic_options(&a.blend, a.feather_px, a.max_output_px, None).map_err(flagged)?;
     mosaic_files(&a).check()?;
     aerorect::io::refuse_duplicate_photos(&a.inputs)?;
-    let ext = a.out.extension().and_then(|e| e.to_str());
-    if !ext.is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff")) {
-        bail!(
-            "--out {}: the mosaic is a GeoTIFF: give a .tif or .tiff name",
-            a.out.display()
-        );
-    }
+    // The output's name is checked after the files (an --out aimed at a photo is said first).
+    mosaic_options(&a.blend, a.feather_px, a.max_output_px, Some(&a.out)).map_err(flagged)?;
     let t0 = std::time::Instant::now();
     let opts = a.flight.options(
         &a.inputs,
@@ -83,25 +72,18 @@ pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
             ..WarpOptions::default()
         },
     )?;
-    let (frames, crs) = if a.flight.adjust {
-        let flight =
-            aerorect::flight::adjust_flight(&a.inputs, &opts, &a.flight.flight_options()?)?;
-        print_adjustment(&flight.report);
-        (flight.mosaic_frames(&opts)?, flight.crs().clone())
-    } else {
-        frames_from_photos(&a.inputs, &opts)?
-    };
-    let r = if a.cog {
-        mosaic_cog(
-            frames,
-            crs,
-            &a.out,
-            &mopts,
-            &aerorect::io::CogOptions::masked_by_alpha(mopts.alpha),
-        )?
-    } else {
-        mosaic(frames, crs, &a.out, &mopts)?
-    };
+    let fo = a
+        .flight
+        .adjust
+        .then(|| a.flight.flight_options())
+        .transpose()?;
+    let r = run_mosaic(
+        &a.inputs,
+        &a.out,
+        (&opts, &mopts, a.cog),
+        fo.as_ref(),
+        |flight| print_adjustment(&flight.report),
+    )?;
     outln!(
         "{} frames -> {}: {} x {} px at {:.3} m/px, {} tiles{}, {:.2} s",
         r.frames.len(),

@@ -53,6 +53,10 @@ pub enum Error {
         #[source]
         source: Box<Error>,
     },
+    /// An option a front end passed, refused before any work ([`Error::spelled`] writes its
+    /// name as that front end does).
+    #[error(transparent)]
+    Option(#[from] crate::options::OptionError),
     /// A request that cannot be carried out as asked.
     #[error("{0}")]
     Invalid(String),
@@ -92,6 +96,9 @@ impl Error {
             Error::File { .. } => true,
             Error::Io(e) => e.is_file_error(),
             Error::Context { source, .. } => source.is_file_error(),
+            Error::Option(crate::options::OptionError::Value { source, .. }) => {
+                source.is_file_error()
+            }
             _ => false,
         }
     }

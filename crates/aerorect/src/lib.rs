@@ -7,6 +7,7 @@
 //! `aerorect::solve`, `aerorect::io`, `aerorect::geo`), so the front ends (the CLI, the Python
 //! package) depend on this crate alone.
 
+pub mod batch;
 pub mod calibration;
 pub mod compare;
 pub mod demo;
@@ -21,6 +22,7 @@ pub mod georef;
 pub mod lens_compare;
 pub mod mosaic;
 pub mod motion;
+pub mod options;
 pub mod overlap;
 pub mod photo_source;
 pub mod rectify;

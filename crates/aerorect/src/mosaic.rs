@@ -357,7 +357,10 @@ fn best_of(cands: &[usize], scores: &[Vec<f64>], n: usize) -> Vec<Option<usize>>
         .collect()
 }
 
+mod request;
 mod run;
+
+pub use request::{frame_options, mosaic_adjusted, mosaic_options, run_mosaic};
 
 pub use run::{
     COG_MAX_PX, FrameUse, MosaicReport, MosaicRun, frames_from_photos, mosaic, mosaic_cog,

@@ -1,0 +1,89 @@
+//! `mosaic` as a front end asks for it: the options by name, checked, and the whole run (the
+//! frames planned, or adjusted first, then composited into one GeoTIFF or COG).
+
+use super::{Blend, MosaicOptions, MosaicReport, frames_from_photos, mosaic, mosaic_cog};
+use crate::Error;
+use crate::drone::DroneOptions;
+use crate::flight::{AdjustedFlight, FlightOptions, adjust_flight};
+use crate::options::OptionError;
+use std::path::{Path, PathBuf};
+
+/// The mosaic's options: `blend` by name (feather, none), the seam's cross-fade, the largest
+/// frame ortho; `out` (when given) must be a .tif or .tiff.
+pub fn mosaic_options(
+    blend: &str,
+    feather_px: usize,
+    max_output_px: u64,
+    out: Option<&Path>,
+) -> Result<MosaicOptions, Error> {
+    let blend: Blend = blend.parse().map_err(Error::Invalid)?;
+    let m = MosaicOptions {
+        blend,
+        feather_px,
+        max_output_px,
+        ..MosaicOptions::default()
+    };
+    m.validate()?;
+    let ext = out.and_then(|o| o.extension()).and_then(|e| e.to_str());
+    if let Some(out) = out
+        && !ext.is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff"))
+    {
+        let why = Error::Invalid("the mosaic is a GeoTIFF: give a .tif or .tiff name".into());
+        return Err(OptionError::value("out", out.display(), why).into());
+    }
+    Ok(m)
+}
+
+/// The mosaic of `inputs` written to `out` (a COG when `cog`): each frame planned from `opts`
+/// (see [`frame_options`]), or with `flight` the flight adjusted first (`adjusted` sees it
+/// before any tile is made).
+pub fn run_mosaic(
+    inputs: &[PathBuf],
+    out: &Path,
+    (opts, mopts, cog): (&DroneOptions, &MosaicOptions, bool),
+    flight: Option<&FlightOptions>,
+    adjusted: impl FnOnce(&AdjustedFlight),
+) -> Result<MosaicReport, Error> {
+    let Some(fo) = flight else {
+        let (frames, crs) = frames_from_photos(inputs, &frame_options(opts))?;
+        return write(frames, crs, out, mopts, cog);
+    };
+    let f = adjust_flight(inputs, &frame_options(opts), fo)?;
+    adjusted(&f);
+    mosaic_adjusted(&f, out, (opts, mopts, cog))
+}
+
+/// The mosaic of an adjusted flight's frames, each with its adjusted orientation.
+pub fn mosaic_adjusted(
+    flight: &AdjustedFlight,
+    out: &Path,
+    (opts, mopts, cog): (&DroneOptions, &MosaicOptions, bool),
+) -> Result<MosaicReport, Error> {
+    let frames = flight.mosaic_frames(&frame_options(opts))?;
+    write(frames, flight.crs().clone(), out, mopts, cog)
+}
+
+/// The options a mosaic plans its frames with: `opts` without nodata, alpha or COG (the
+/// mosaic's alpha band marks coverage, and the mosaic itself is the COG).
+pub fn frame_options(opts: &DroneOptions) -> DroneOptions {
+    let mut o = opts.clone();
+    o.warp.nodata = 0.0;
+    o.warp.alpha = false;
+    o.cog = None;
+    o
+}
+
+fn write(
+    frames: Vec<super::MosaicFrame>,
+    crs: aerorect_io::Crs,
+    out: &Path,
+    mopts: &MosaicOptions,
+    cog: bool,
+) -> Result<MosaicReport, Error> {
+    if cog {
+        let c = aerorect_io::CogOptions::masked_by_alpha(mopts.alpha);
+        mosaic_cog(frames, crs, out, mopts, &c)
+    } else {
+        mosaic(frames, crs, out, mopts)
+    }
+}
