@@ -309,7 +309,7 @@ pub(crate) fn mosaic_options(
 
 fn write_mosaic(
     frames: Vec<aerorect::mosaic::MosaicFrame>,
-    crs: aerorect::io::Crs,
+    crs: aerorect::geo::Crs,
     out: &Path,
     mopts: &MosaicOptions,
     cog: bool,

@@ -5,9 +5,9 @@ use crate::py_err;
 use aerorect::core::RectifyLimits;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
 use aerorect::drone::DroneOptions;
-use aerorect::geo::{Mounting, Projection};
+use aerorect::geo::{Crs, Mounting};
 use aerorect::georef::load_dem;
-use aerorect::io::{CameraFile, Crs, PoseRecord};
+use aerorect::io::{CameraFile, PoseRecord};
 use aerorect::raster::{Interp, WarpOptions};
 use anyhow::{Context, Result, bail};
 use pyo3::prelude::*;
@@ -236,14 +236,8 @@ impl PhotoArgs {
 }
 
 /// A projected CRS from user text, as `--crs` takes it.
-fn crs_of(t: &str) -> Result<(Crs, Projection)> {
-    let c = Crs::parse(t).with_context(|| format!("--crs '{t}'"))?;
-    let def = c.to_proj_string().with_context(|| format!("--crs '{t}'"))?;
-    let p = Projection::new(&def).with_context(|| format!("--crs '{t}'"))?;
-    if p.is_geographic() {
-        bail!("--crs '{t}' is geographic: orthos need a projected CRS in metres");
-    }
-    Ok((c, p))
+fn crs_of(t: &str) -> Result<Crs> {
+    Ok(Crs::projected_from_text(t, &format!("--crs '{t}'"))?)
 }
 
 /// The pose table of `--pose X,Y,Z,OMEGA,PHI,KAPPA` for one photo.

@@ -7,9 +7,9 @@ use aerorect::core::error::Num;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
 use aerorect::demo::write_text;
 use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo, rectify_photo_staged};
-use aerorect::geo::{Mounting, Projection};
+use aerorect::geo::{Crs, Mounting};
 use aerorect::georef::load_dem;
-use aerorect::io::{CameraFile, CogOptions, Crs, PoseRecord, StagedOutputs, image_files};
+use aerorect::io::{CameraFile, CogOptions, PoseRecord, StagedOutputs, image_files};
 use aerorect::raster::{AnyRaster, Interp, WarpOptions};
 use aerorect::sane;
 use anyhow::{Context, Result, bail};
@@ -124,7 +124,7 @@ fn check_ranges(geo: &GeoArgs, gsd_m: Option<f64>, ground_height_m: Option<f64>)
 }
 
 /// The output CRS: `--crs`, else the pose table's `.prj` (an error names the one it came from).
-fn output_crs(geo: &GeoArgs, poses: Option<&Path>) -> Result<Option<(Crs, Projection)>> {
+fn output_crs(geo: &GeoArgs, poses: Option<&Path>) -> Result<Option<Crs>> {
     let (text, origin) = match (&geo.crs, poses) {
         (Some(c), _) => (c.clone(), "--crs".to_string()),
         (None, Some(p)) => {
@@ -143,17 +143,10 @@ fn output_crs(geo: &GeoArgs, poses: Option<&Path>) -> Result<Option<(Crs, Projec
     if short.len() < text.len() {
         short.push_str("...");
     }
-    let named = || format!("{origin} '{short}'");
-    let c = Crs::parse(&text).with_context(named)?;
-    let def = c.to_proj_string().with_context(named)?;
-    let p = Projection::new(&def).with_context(named)?;
-    if p.is_geographic() {
-        bail!(
-            "{} is geographic: orthos need a projected CRS in metres",
-            named()
-        );
-    }
-    Ok(Some((c, p)))
+    Ok(Some(Crs::projected_from_text(
+        &text,
+        &format!("{origin} '{short}'"),
+    )?))
 }
 
 /// `--cog` writes a .tif: refuses another extension.

@@ -5,6 +5,16 @@ use thiserror::Error;
 pub enum GeoError {
     #[error("CRS '{definition}': {reason}")]
     Crs { definition: String, reason: String },
+    /// User text (`named`: where it came from, e.g. "--crs 'EPSG:1'") that is no CRS.
+    #[error("{named}")]
+    CrsText {
+        named: String,
+        #[source]
+        source: CrsError,
+    },
+    /// A geographic CRS where a projected one in metres is needed.
+    #[error("{named} is geographic: orthos need a projected CRS in metres")]
+    Geographic { named: String },
     #[error("cannot project ({x}, {y}) from '{from}' to '{to}': {reason}")]
     Transform {
         x: f64,
@@ -17,4 +27,16 @@ pub enum GeoError {
     Dem(String),
     #[error(transparent)]
     Geometry(#[from] aerorect_core::GeometryError),
+}
+
+/// A CRS that cannot be read, built or written in the form asked for.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum CrsError {
+    /// Text that names no CRS this build reads (not EPSG:<code>, PROJ or WKT; an unknown EPSG
+    /// code; a WKT that does not convert), or a CRS with no WKT or GeoKeys form.
+    #[error("CRS: {0}")]
+    Text(String),
+    /// A PROJ definition proj4rs does not build.
+    #[error("CRS: '{}' does not parse: {reason}", crate::crs::short(.definition))]
+    Proj { definition: String, reason: String },
 }
