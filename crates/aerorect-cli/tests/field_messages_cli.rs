@@ -5,7 +5,8 @@
 
 mod common;
 use aerorect::core::ImageSize;
-use aerorect::io::{Crs, GeoReference};
+use aerorect::geo::Crs;
+use aerorect::io::GeoReference;
 use aerorect::raster::{AnyRaster, Raster};
 use common::{aerorect, fails, jpeg_with_xmp};
 use std::path::{Path, PathBuf};
@@ -166,7 +167,7 @@ fn dem(dir: &Path, name: &str, height: f32) {
     let n = 200;
     let raster = Raster::from_planes(ImageSize::new(n, n), vec![vec![height; n * n]]).unwrap();
     let geo = GeoReference {
-        crs: Crs::Epsg(32635),
+        crs: Crs::from_epsg(32635).unwrap(),
         pixel_size: [5.0, 5.0],
         top_left: [536138.43 - 500.0, 5972535.86 + 500.0],
         rotation: [0.0, 0.0],

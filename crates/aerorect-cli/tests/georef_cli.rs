@@ -5,7 +5,8 @@
 
 mod common;
 use aerorect::core::ImageSize;
-use aerorect::io::{Crs, GeoReference};
+use aerorect::geo::Crs;
+use aerorect::io::GeoReference;
 use aerorect::raster::{AnyRaster, Raster};
 use common::{aerorect, fails, ok};
 use std::path::{Path, PathBuf};
@@ -24,7 +25,7 @@ fn dem(dir: &Path, name: &str, n: usize, cell: f64, height: impl Fn(usize, usize
     let raster = Raster::from_planes(ImageSize::new(n, n), vec![values]).unwrap();
     let half = n as f64 * cell / 2.0;
     let geo = GeoReference {
-        crs: Crs::Epsg(32635),
+        crs: Crs::from_epsg(32635).unwrap(),
         pixel_size: [cell, cell],
         top_left: [536138.43 - half, 5972535.86 + half],
         rotation: [0.0, 0.0],

@@ -351,7 +351,8 @@ fn shift_of_a_frame_against_itself_is_zero() {
 
 /// A 300 x 300 texture as a GeoTIFF at 0.5 m in UTM 35N with its corner at (x0, y0).
 fn geotiff(d: &Path, name: &str, x0: f64, y0: f64) {
-    use aerorect::io::{Crs, GeoReference};
+    use aerorect::geo::Crs;
+    use aerorect::io::GeoReference;
     let img = aerorect::raster::AnyRaster::U8(aerorect_testkit::textured_scene(
         aerorect::core::ImageSize::new(300, 300),
         1,
@@ -359,7 +360,7 @@ fn geotiff(d: &Path, name: &str, x0: f64, y0: f64) {
         3,
     ));
     let geo = GeoReference {
-        crs: Crs::Epsg(32635),
+        crs: Crs::from_epsg(32635).unwrap(),
         pixel_size: [0.5, 0.5],
         top_left: [x0, y0],
         rotation: [0.0, 0.0],

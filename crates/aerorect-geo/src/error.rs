@@ -18,3 +18,15 @@ pub enum GeoError {
     #[error(transparent)]
     Geometry(#[from] aerorect_core::GeometryError),
 }
+
+/// A CRS that cannot be read, built or written in the form asked for.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum CrsError {
+    /// Text that names no CRS this build reads (not EPSG:<code>, PROJ or WKT; an unknown EPSG
+    /// code; a WKT that does not convert), or a CRS with no WKT or GeoKeys form.
+    #[error("CRS: {0}")]
+    Text(String),
+    /// A PROJ definition proj4rs does not build.
+    #[error("CRS: '{}' does not parse: {reason}", crate::crs::short(.definition))]
+    Proj { definition: String, reason: String },
+}

@@ -1,4 +1,5 @@
-//! Georeferencing: projected CRSs and the rotation from local east-north-up to a CRS's grid
+//! Georeferencing: coordinate reference systems (read from EPSG codes, WKT and PROJ strings,
+//! built by proj4rs) and the rotation from local east-north-up to a CRS's grid
 //! axes (grid convergence), exterior orientation, terrain heights, and the ground-to-image map
 //! an orthophoto is resampled through.
 //!
@@ -13,8 +14,8 @@ mod ortho;
 mod pose;
 mod terrain;
 
-pub use crs::{Projection, convergence_deg, grid_from_enu};
-pub use error::GeoError;
+pub use crs::{Crs, CrsForm, TmParams, convergence_deg, grid_from_enu, proj_params, tm_params};
+pub use error::{CrsError, GeoError};
 pub use occlusion::{Visible, occlusion_mask};
 pub use ortho::{GroundMap, OrthoGrid, common_window, march_to_ground};
 pub use pose::{Mounting, Pose};

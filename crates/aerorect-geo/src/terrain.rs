@@ -1,7 +1,7 @@
 //! Terrain heights: a DEM in its own CRS, and a height grid resampled from it onto the world
 //! CRS for the ground-to-image map (sampled bilinearly between cell centres).
 
-use crate::{GeoError, Projection};
+use crate::{Crs, GeoError};
 
 /// The largest |height| a DEM may hold, metres (heights beyond it are a nodata value nobody
 /// declared, such as 1e30 or -3.4e38).
@@ -9,6 +9,7 @@ pub const MAX_DEM_HEIGHT_M: f64 = 1e5;
 
 /// A north-up raster of heights in any CRS; NaN is no data. `top_left` is the outer corner of
 /// cell (0, 0), so the centre of cell (c, r) is (x0 + (c + 0.5) sx, y0 - (r + 0.5) sy).
+/// `aerorect_io::read_dem` reads one from a GeoTIFF (`name` is then the file's path).
 #[derive(Debug, Clone)]
 pub struct Dem {
     pub name: String,
@@ -17,7 +18,7 @@ pub struct Dem {
     pub height: usize,
     pub top_left: [f64; 2],
     pub cell_size: [f64; 2],
-    pub projection: Projection,
+    pub crs: Crs,
 }
 
 /// Bilinear interpolation between cell centres of a row-major grid; `None` outside the centres'
@@ -77,11 +78,11 @@ impl Dem {
     }
 
     /// The height at (x, y) of the `world` CRS: projected into the DEM's CRS when it differs.
-    pub fn height_in(&self, world: &Projection, x: f64, y: f64) -> Option<f64> {
-        if *world == self.projection {
+    pub fn height_in(&self, world: &Crs, x: f64, y: f64) -> Option<f64> {
+        if world.same_definition(&self.crs) {
             return self.height_at(x, y);
         }
-        let p = world.transform(&self.projection, x, y).ok()?;
+        let p = world.transform(&self.crs, x, y).ok()?;
         self.height_at(p[0], p[1])
     }
 
@@ -123,7 +124,7 @@ impl HeightGrid {
     /// `world` CRS every `spacing` metres. Nodes without a height get `fill`.
     pub fn from_dem(
         dem: &Dem,
-        world: &Projection,
+        world: &Crs,
         bounds: [f64; 4],
         spacing: f64,
         fill: f64,

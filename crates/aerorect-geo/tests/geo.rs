@@ -5,7 +5,7 @@
 
 use aerorect_core::{Camera, CameraRotation, ImageSize, Intrinsics, Vec3};
 use aerorect_geo::{
-    GroundMap, HeightGrid, OrthoGrid, Pose, Projection, Terrain, convergence_deg, grid_from_enu,
+    Crs, GroundMap, HeightGrid, OrthoGrid, Pose, Terrain, convergence_deg, grid_from_enu,
     march_to_ground,
 };
 use aerorect_raster::PixelMap;
@@ -49,7 +49,7 @@ const PROJ_CONVERGENCE: [(f64, f64, &str, f64); 5] = [
 #[test]
 fn convergence_matches_proj_in_both_hemispheres() {
     for (lon, lat, def, expected) in PROJ_CONVERGENCE {
-        let crs = Projection::new(def).unwrap();
+        let crs = Crs::from_proj_string(def).unwrap();
         let got = convergence_deg(&crs, lon, lat).unwrap();
         assert_abs_diff_eq!(got, expected, epsilon = 2e-5);
     }
@@ -60,9 +60,10 @@ fn convergence_holds_for_a_transverse_mercator_with_west_south_axes() {
     // South Africa's Lo25 (the NGI data's CRS): pyproj gives 3.242657481866681 degrees at
     // (19.2 E, 33.9 S) for '+proj=tmerc +lon_0=25 +k=1 +axis=wsu +ellps=WGS84'. proj4rs keeps
     // the axes east-north, so the same angle comes out of the east-north form.
-    let crs =
-        Projection::new("+proj=tmerc +lat_0=0 +lon_0=25 +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m")
-            .unwrap();
+    let crs = Crs::from_proj_string(
+        "+proj=tmerc +lat_0=0 +lon_0=25 +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m",
+    )
+    .unwrap();
     assert_abs_diff_eq!(
         convergence_deg(&crs, 19.2, -33.9).unwrap(),
         3.242657481866681,
@@ -73,7 +74,8 @@ fn convergence_holds_for_a_transverse_mercator_with_west_south_axes() {
 #[test]
 fn grid_from_enu_sends_true_north_along_the_projected_meridian() {
     let (lon, lat) = (121.0, 24.7);
-    let (crs, epsg) = Projection::utm_for(lon, lat).unwrap();
+    let crs = Crs::utm_for(lon, lat).unwrap();
+    let epsg = crs.epsg().unwrap();
     assert_eq!(epsg, 32651);
     let m = grid_from_enu(&crs, lon, lat).unwrap();
     let north = m * Vec3::new(0.0, 1.0, 0.0);
@@ -195,26 +197,28 @@ fn aligned_grid_covers_the_bounds_on_multiples_of_the_gsd() {
 
 #[test]
 fn bad_crs_strings_are_refused_naming_the_string() {
-    let e = Projection::new("+proj=nonsense +zone=99").unwrap_err();
+    let e = Crs::from_proj_string("+proj=nonsense +zone=99").unwrap_err();
     assert!(e.to_string().contains("+proj=nonsense"), "{e}");
 }
 
 /// Stored peer results: PROJ 9 through rasterio 1.4.4 (`rasterio.warp.transform`).
 #[test]
 fn utm_matches_proj() {
-    let (crs, epsg) = Projection::utm_for(27.55, 53.9).unwrap();
+    let crs = Crs::utm_for(27.55, 53.9).unwrap();
+    let epsg = crs.epsg().unwrap();
     assert_eq!(epsg, 32635);
     let en = crs.from_lon_lat(27.55, 53.9).unwrap();
     assert!(
         (en[0] - 536138.4290761272).abs() < 1e-3 && (en[1] - 5972535.8563540345).abs() < 1e-3,
         "{en:?}"
     );
-    let (crs, epsg) = Projection::utm_for(-70.6, -33.4).unwrap();
+    let crs = Crs::utm_for(-70.6, -33.4).unwrap();
+    let epsg = crs.epsg().unwrap();
     assert_eq!(epsg, 32719);
     let en = crs.from_lon_lat(-70.6, -33.4).unwrap();
     assert!(
         (en[0] - 351205.0646216514).abs() < 1e-3 && (en[1] - 6303223.750659056).abs() < 1e-3,
         "{en:?}"
     );
-    assert!(Projection::utm_for(0.0, 86.0).is_err());
+    assert!(Crs::utm_for(0.0, 86.0).is_err());
 }

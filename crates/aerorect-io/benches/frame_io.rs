@@ -6,7 +6,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use aerorect_core::ImageSize;
-use aerorect_io::{Crs, GeoReference, read_image, write_image_geo};
+use aerorect_geo::Crs;
+use aerorect_io::{GeoReference, read_image, write_image_geo};
 use aerorect_raster::AnyRaster;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::path::PathBuf;
@@ -37,7 +38,7 @@ fn bench(c: &mut Criterion) {
     });
     let raster = read_image(&jpeg).unwrap();
     let geo = GeoReference {
-        crs: Crs::Epsg(32635),
+        crs: Crs::from_epsg(32635).unwrap(),
         pixel_size: [0.03, 0.03],
         top_left: [537_789.9, 5_974_732.8],
         rotation: [0.0, 0.0],

@@ -1,47 +1,29 @@
-//! Digital elevation models read from a single-band GeoTIFF: heights as f32 (integer and
-//! double DEMs converted), nodata as NaN, with the grid and CRS. Sampling is done elsewhere.
+//! Digital elevation models read from a single-band GeoTIFF into the terrain model the planner
+//! samples ([`aerorect_geo::Dem`]): heights as f32 (integer and double DEMs converted), nodata as
+//! NaN, the north-up grid and its CRS. Sampling is done there.
 
 use crate::error::IoError;
-use crate::geotiff::{GeoReference, read_georeference};
+use crate::geotiff::read_georeference;
 use crate::tiff_file;
-use aerorect_core::ImageSize;
+use aerorect_geo::Dem;
 use std::path::Path;
 
-/// A DEM: `heights[r * width + c]` is the height at the centre of pixel (c, r), NaN where the
-/// file has no data.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Dem {
-    pub size: ImageSize,
-    pub heights: Vec<f32>,
-    /// The grid and CRS; `geo.nodata` keeps the file's GDAL_NODATA value (already NaN in
-    /// `heights`).
-    pub geo: GeoReference,
-}
-
-impl Dem {
-    /// The height at pixel (c, r); `None` outside the grid or on nodata.
-    pub fn height_at(&self, c: usize, r: usize) -> Option<f32> {
-        if c >= self.size.width || r >= self.size.height {
-            return None;
-        }
-        let h = self.heights[r * self.size.width + c];
-        (!h.is_nan()).then_some(h)
-    }
-}
-
-/// Reads a single-band GeoTIFF DEM. Refused, naming the file: a file that is not a TIFF, more
-/// than one band, no georeferencing, and no valid height at all.
+/// Reads a single-band GeoTIFF DEM (any CRS the file states); `Dem::name` is the path. Refused,
+/// naming the file: a file that is not a TIFF, more than one band, no georeferencing, no valid
+/// height at all, a rotated grid, and what [`Dem::validate`] refuses (fewer than 2 x 2 cells, a
+/// height beyond the sane range).
 pub fn read_dem(path: &Path) -> Result<Dem, IoError> {
+    let name = path.display().to_string();
     let geo = read_georeference(path)?.ok_or_else(|| {
         IoError::field(
-            path.display(),
+            &name,
             "DEM has no georeferencing (no GeoKeyDirectory, tag 34735)",
         )
     })?;
     let decoded = tiff_file::decode(path)?;
     if decoded.bands != 1 {
         return Err(IoError::field(
-            path.display(),
+            &name,
             format!("DEM has {} bands, not one", decoded.bands),
         ));
     }
@@ -58,13 +40,28 @@ pub fn read_dem(path: &Path) -> Result<Dem, IoError> {
     }
     if heights.iter().all(|h| h.is_nan()) {
         return Err(IoError::field(
-            path.display(),
-            format!("DEM {} has no valid height", path.display()),
+            &name,
+            format!("DEM {name} has no valid height"),
         ));
     }
-    Ok(Dem {
-        size: decoded.size,
-        heights,
-        geo,
-    })
+    if geo.rotation != [0.0, 0.0] {
+        return Err(IoError::field(
+            format!("DEM {name}"),
+            format!(
+                "a rotated grid (geotransform terms {:?}) is not supported",
+                geo.rotation
+            ),
+        ));
+    }
+    let dem = Dem {
+        name,
+        values: heights,
+        width: decoded.size.width,
+        height: decoded.size.height,
+        top_left: geo.top_left,
+        cell_size: geo.pixel_size,
+        crs: geo.crs,
+    };
+    dem.validate()?;
+    Ok(dem)
 }

@@ -19,6 +19,12 @@ pub enum IoError {
         source_name: String,
         error: crate::metadata::error::MetadataError,
     },
+    /// A CRS that cannot be read or written in the form asked for.
+    #[error(transparent)]
+    Crs(#[from] aerorect_geo::CrsError),
+    /// A model read from a file that does not hold (a DEM too small, with no valid height).
+    #[error(transparent)]
+    Geo(#[from] aerorect_geo::GeoError),
     /// A field is missing, unknown, or has a bad value.
     #[error("{source_name}: {message}")]
     Field {

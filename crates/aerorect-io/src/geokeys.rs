@@ -8,8 +8,8 @@
 //! CRS with that citation (GDAL reads it); a transverse Mercator / UTM / longlat PROJ string as
 //! the projection keys GDAL itself writes.
 
-use crate::crs::{Crs, TmParams, proj_params, tm_params};
 use crate::error::IoError;
+use aerorect_geo::{Crs, CrsForm, TmParams, proj_params, tm_params};
 use std::collections::BTreeMap;
 
 pub(crate) const GEO_KEY_DIRECTORY: u16 = 34735;
@@ -139,8 +139,14 @@ impl GeoKeys {
         self.short(RASTER_TYPE) == Some(2)
     }
 
-    /// The CRS the keys describe; an error names the key and value that could not be used.
+    /// The CRS the keys describe, built; an error names the key and value that could not be
+    /// used, or the CRS that does not build.
     pub(crate) fn crs(&self) -> Result<Crs, String> {
+        Crs::from_form(self.form()?).map_err(|e| e.to_string())
+    }
+
+    /// The form of the CRS the keys describe, not yet built.
+    fn form(&self) -> Result<CrsForm, String> {
         let model = self.short(MODEL_TYPE);
         let projected = match model {
             Some(1) => true,
@@ -154,7 +160,7 @@ impl GeoKeys {
         };
         match self.short(type_key) {
             Some(code) if code != USER_DEFINED && code != 0 && model != Some(USER_DEFINED) => {
-                return Ok(Crs::Epsg(code));
+                return Ok(CrsForm::Epsg(code));
             }
             _ => {}
         }
@@ -164,7 +170,7 @@ impl GeoKeys {
                 .and_then(|c| c.find(ESRI_PE).map(|i| &c[i..]))
             {
                 let w = &w[ESRI_PE.len()..];
-                return Ok(Crs::Wkt(w.trim().to_string()));
+                return Ok(CrsForm::Wkt(w.trim().to_string()));
             }
         }
         if !matches!(model, Some(1) | Some(2) | None) {
@@ -176,7 +182,7 @@ impl GeoKeys {
         }
         let geog = self.geographic_params()?;
         if !projected {
-            return Ok(Crs::Proj(format!("+proj=longlat {geog}")));
+            return Ok(CrsForm::Proj(format!("+proj=longlat {geog}")));
         }
         let proj = self.projection_params()?;
         let units = match self.short(LINEAR_UNITS) {
@@ -185,7 +191,7 @@ impl GeoKeys {
             Some(9003) => "us-ft",
             Some(v) => return Err(format!("{} = {v} is not supported", key_name(LINEAR_UNITS))),
         };
-        Ok(Crs::Proj(format!("{proj} {geog} +units={units}")))
+        Ok(CrsForm::Proj(format!("{proj} {geog} +units={units}")))
     }
 
     /// The datum/ellipsoid part of a PROJ string.
@@ -284,20 +290,20 @@ impl GeoKeys {
 /// The GeoKey directory, doubles and text that describe `crs` (PixelIsArea).
 pub(crate) fn encode(crs: &Crs) -> Result<(Vec<u16>, Vec<f64>, String), IoError> {
     let mut w = Writer::default();
-    let geographic = crs.is_geographic()?;
+    let geographic = crs.is_geographic();
     // GDAL reads the WKT citation of a user-defined model type (its ESRI_PE key flavour).
-    let model = match crs {
-        Crs::Wkt(_) => USER_DEFINED,
+    let model = match crs.form() {
+        CrsForm::Wkt(_) => USER_DEFINED,
         _ if geographic => 2,
         _ => 1,
     };
     w.short(MODEL_TYPE, model);
     w.short(RASTER_TYPE, 1);
-    match crs {
-        Crs::Epsg(code) if geographic => w.short(GEOGRAPHIC_TYPE, *code),
-        Crs::Epsg(code) => {
+    match crs.form() {
+        CrsForm::Epsg(code) if geographic => w.short(GEOGRAPHIC_TYPE, *code),
+        CrsForm::Epsg(code) => {
             w.short(PROJECTED_TYPE, *code);
-            if proj_params(&crs.to_proj_string()?)
+            if proj_params(crs.definition())
                 .get("units")
                 .map(String::as_str)
                 == Some("m")
@@ -305,7 +311,7 @@ pub(crate) fn encode(crs: &Crs) -> Result<(Vec<u16>, Vec<f64>, String), IoError>
                 w.short(LINEAR_UNITS, 9001);
             }
         }
-        Crs::Wkt(wkt) => {
+        CrsForm::Wkt(wkt) => {
             w.ascii(PCS_CITATION, &format!("{ESRI_PE}{wkt}"));
             w.short(
                 if geographic {
@@ -316,7 +322,7 @@ pub(crate) fn encode(crs: &Crs) -> Result<(Vec<u16>, Vec<f64>, String), IoError>
                 USER_DEFINED,
             );
         }
-        Crs::Proj(p) => {
+        CrsForm::Proj(p) => {
             let t = tm_params(p)?.ok_or_else(|| {
                 IoError::field(
                     "CRS",
@@ -408,8 +414,8 @@ mod tests {
         let keys = GeoKeys::parse(&DEM_DIR, &[0.0, 25.0, 1.0, 0.0, 0.0], ascii).expect("keys");
         let crs = keys.crs().expect("crs");
         assert_eq!(
-            crs,
-            Crs::Proj(
+            crs.form(),
+            &CrsForm::Proj(
                 "+proj=tmerc +lat_0=0 +lon_0=25 +x_0=0 +y_0=0 +k=1 +datum=WGS84 +units=m".into()
             )
         );
@@ -446,32 +452,34 @@ mod tests {
             .expect("keys")
             .crs()
             .expect("crs");
-        assert_eq!(crs, Crs::Wkt(wkt.to_string()));
-        let tm = Crs::Proj("+proj=tmerc +lon_0=25 +datum=WGS84".into());
+        assert_eq!(crs.form(), &CrsForm::Wkt(wkt.to_string()));
+        let tm = Crs::from_proj_string("+proj=tmerc +lon_0=25 +datum=WGS84").expect("tm");
         let (a, b) = (
-            crs.project_lon_lat(24.4, -33.7).expect("a"),
-            tm.project_lon_lat(24.4, -33.7).expect("b"),
+            crs.from_lon_lat(24.4, -33.7).expect("a"),
+            tm.from_lon_lat(24.4, -33.7).expect("b"),
         );
         assert!((a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6);
     }
 
     #[test]
     fn written_keys_read_back() {
+        let utm35s = Crs::from_epsg(32735).expect("utm");
         for crs in [
-            Crs::Epsg(32635),
-            Crs::Epsg(4326),
-            Crs::Wkt(Crs::Epsg(32735).to_wkt().expect("wkt")),
-            Crs::Proj(
-                "+proj=tmerc +lat_0=0 +lon_0=25 +x_0=0 +y_0=0 +k=1 +datum=WGS84 +units=m".into(),
+            Crs::from_epsg(32635),
+            Crs::from_epsg(4326),
+            Crs::from_wkt(utm35s.to_wkt().expect("wkt")),
+            Crs::from_proj_string(
+                "+proj=tmerc +lat_0=0 +lon_0=25 +x_0=0 +y_0=0 +k=1 +datum=WGS84 +units=m",
             ),
         ] {
+            let crs = crs.expect("crs");
             let (dir, doubles, ascii) = encode(&crs).expect("encode");
             let back = GeoKeys::parse(&dir, &doubles, &ascii)
                 .expect("parse")
                 .crs()
                 .expect("crs");
-            let a = crs.project_lon_lat(26.0, -33.0).expect("a");
-            let b = back.project_lon_lat(26.0, -33.0).expect("b");
+            let a = crs.from_lon_lat(26.0, -33.0).expect("a");
+            let b = back.from_lon_lat(26.0, -33.0).expect("b");
             assert!(
                 (a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6,
                 "{crs} vs {back}"

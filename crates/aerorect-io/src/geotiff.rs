@@ -5,9 +5,9 @@
 //! Convention: PixelIsArea; `top_left` is the outer corner of pixel (0, 0), so on a north-up
 //! grid the centre of pixel (c, r) is (x0 + (c + 0.5) sx, y0 - (r + 0.5) sy).
 
-use crate::crs::Crs;
 use crate::error::IoError;
 use crate::geokeys::{self, GEO_ASCII_PARAMS, GEO_DOUBLE_PARAMS, GEO_KEY_DIRECTORY};
+use aerorect_geo::Crs;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use tiff::tags::Tag;
@@ -202,8 +202,6 @@ pub fn read_georeference(path: &Path) -> Result<Option<GeoReference>, IoError> {
         .and_then(|k| Ok((k.crs()?, k.pixel_is_point())))
         .map_err(|e| IoError::field(path.display(), format!("GeoKeyDirectory: {e}")))?;
     let (crs, pixel_is_point) = keys;
-    crs.to_proj()
-        .map_err(|e| IoError::field(path.display(), format!("GeoKeyDirectory: {e}")))?;
     let mut gt = geotransform(&mut dec, path)?;
     if pixel_is_point {
         gt[0] -= 0.5 * (gt[1] + gt[2]);

@@ -10,7 +10,6 @@ pub mod camera;
 pub mod camera_formats;
 pub mod checkpoints;
 pub mod cog;
-pub mod crs;
 pub mod dem;
 pub mod duplicates;
 pub mod eo;
@@ -38,8 +37,7 @@ pub use checkpoints::{
     write_checkpoints, write_csv,
 };
 pub use cog::{CogCompression, CogMask, CogOptions, write_cog, write_image_cog};
-pub use crs::Crs;
-pub use dem::{Dem, read_dem};
+pub use dem::read_dem;
 pub use duplicates::{first_duplicate, refuse_duplicate_photos};
 pub use eo::{EoFormat, EoRecord, EoTable, read_eo_file};
 pub use error::IoError;

@@ -16,9 +16,10 @@
 #![allow(clippy::unwrap_used)]
 
 use aerorect_core::ImageSize;
+use aerorect_geo::Crs;
 use aerorect_io::{
-    CogCompression, CogMask, CogOptions, Crs, GeoReference, read_georeference, read_image,
-    write_cog, write_image_cog,
+    CogCompression, CogMask, CogOptions, GeoReference, read_georeference, read_image, write_cog,
+    write_image_cog,
 };
 use aerorect_raster::{AnyRaster, Raster};
 use std::collections::BTreeMap;
@@ -28,7 +29,7 @@ use tiff::decoder::{Decoder, DecodingResult};
 
 fn geo(nodata: Option<f64>) -> GeoReference {
     GeoReference {
-        crs: Crs::Epsg(32635),
+        crs: Crs::from_epsg(32635).unwrap(),
         pixel_size: [0.5, 0.5],
         top_left: [500_000.0, 5_975_000.0],
         rotation: [0.0, 0.0],

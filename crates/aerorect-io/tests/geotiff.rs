@@ -2,14 +2,15 @@
 #![allow(clippy::unwrap_used)]
 
 use aerorect_core::ImageSize;
-use aerorect_io::{Crs, GeoReference, read_georeference, read_image, write_image_geo};
+use aerorect_geo::Crs;
+use aerorect_io::{GeoReference, read_georeference, read_image, write_image_geo};
 use aerorect_raster::{AnyRaster, Raster};
 use tiff::decoder::Decoder;
 use tiff::tags::Tag;
 
 fn geo() -> GeoReference {
     GeoReference {
-        crs: Crs::Epsg(32635),
+        crs: Crs::from_epsg(32635).unwrap(),
         pixel_size: [0.25, 0.25],
         top_left: [500_123.5, 5_975_432.25],
         rotation: [0.0, 0.0],
@@ -73,17 +74,20 @@ const LO25_WKT: &str = r#"COMPD_CS["Lo25 WGS84 + EGM2008 height",PROJCS["Lo25 WG
 /// pyproj's projection through the CRS written.
 fn crs_of_each_kind() -> Vec<Crs> {
     vec![
-        Crs::Epsg(32735),
-        Crs::Epsg(4326),
-        Crs::Wkt(LO25_WKT.into()),
-        Crs::Proj("+proj=tmerc +lat_0=0 +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84 +units=m".into()),
-        Crs::Proj("+proj=utm +zone=34 +south +ellps=GRS80 +units=m".into()),
+        Crs::from_epsg(32735).unwrap(),
+        Crs::from_epsg(4326).unwrap(),
+        Crs::from_wkt(LO25_WKT).unwrap(),
+        Crs::from_proj_string(
+            "+proj=tmerc +lat_0=0 +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84 +units=m",
+        )
+        .unwrap(),
+        Crs::from_proj_string("+proj=utm +zone=34 +south +ellps=GRS80 +units=m").unwrap(),
     ]
 }
 
 fn same_projection(a: &Crs, b: &Crs) {
-    let p = a.project_lon_lat(24.4, -33.7).unwrap();
-    let q = b.project_lon_lat(24.4, -33.7).unwrap();
+    let p = a.from_lon_lat(24.4, -33.7).unwrap();
+    let q = b.from_lon_lat(24.4, -33.7).unwrap();
     assert!(
         (p[0] - q[0]).abs() < 1e-6 && (p[1] - q[1]).abs() < 1e-6,
         "{a} -> {p:?}, {b} -> {q:?}"
@@ -148,7 +152,7 @@ fn png_sidecars_carry_the_crs_and_fail_together() {
     assert_eq!(left, ["h.prj"]);
     // A PROJ string with no WKT form is refused before anything is written.
     let g = GeoReference {
-        crs: Crs::Proj("+proj=merc +datum=WGS84".into()),
+        crs: Crs::from_proj_string("+proj=merc +datum=WGS84").unwrap(),
         ..geo()
     };
     let e = write_image_geo(&d2.path().join("m.png"), &img, Some(&g)).unwrap_err();

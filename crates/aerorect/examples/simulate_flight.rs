@@ -29,8 +29,9 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use aerorect::core::{Camera, CameraRotation, ImageSize, Intrinsics};
+use aerorect::geo::Crs;
 use aerorect::geo::Pose;
-use aerorect::io::{Crs, GeoReference};
+use aerorect::io::GeoReference;
 use aerorect::photo_source::rotation_from_body_ypr;
 use aerorect::raster::{AnyRaster, Raster};
 use rand::SeedableRng;
@@ -160,7 +161,7 @@ fn write_dem(path: &Path, nx: usize, ny: usize, layout: Layout) {
         })
         .collect();
     let geo = GeoReference {
-        crs: Crs::Epsg(32633),
+        crs: Crs::from_epsg(32633).unwrap(),
         pixel_size: [cell, cell],
         top_left: [x0, y1],
         rotation: [0.0, 0.0],
@@ -362,7 +363,7 @@ fn main() {
         pert_gps += &row(shot.gps_centre, shot.rec);
         poses.push((shot.name.clone(), pose));
     }
-    let wkt = Crs::Epsg(32633).to_wkt().unwrap();
+    let wkt = Crs::from_epsg(32633).unwrap().to_wkt().unwrap();
     for (name, rows) in [("truth", truth), ("pert", pert), ("pert_gps", pert_gps)] {
         std::fs::write(out.join(format!("{name}.csv")), format!("{header}{rows}")).unwrap();
         std::fs::write(out.join(format!("{name}.prj")), &wkt).unwrap();

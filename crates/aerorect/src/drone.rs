@@ -9,8 +9,8 @@ use crate::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
 use crate::photo_source::{self, PhotoAttitude};
 use aerorect_core::distortion::{Distortion, OpenCv};
 use aerorect_core::{Camera, CameraRotation, ImageSize, Intrinsics};
-use aerorect_geo::{Pose, Projection, convergence_deg, grid_from_enu};
-use aerorect_io::{Crs, GeoReference, PhotoMetadata, PoseRecord};
+use aerorect_geo::{Crs, Pose, convergence_deg, grid_from_enu};
+use aerorect_io::{GeoReference, PhotoMetadata, PoseRecord};
 use aerorect_raster::WarpOptions;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -307,22 +307,19 @@ fn world_of(
     meta: &PhotoMetadata,
     opts: &DroneOptions,
     file: &str,
-) -> Result<(Crs, Projection, [f64; 2], [f64; 2]), Error> {
+) -> Result<(Crs, [f64; 2], [f64; 2]), Error> {
     let (Some(lat), Some(lon)) = (meta.latitude_deg, meta.longitude_deg) else {
         return Err(Error::Invalid(format!(
             "{file}: no GPS position (EXIF GPS or XMP GpsLatitude/GpsLongitude)"
         )));
     };
     let geo = |e: aerorect_geo::GeoError| Error::context(file)(e);
-    let (crs, proj) = match &opts.crs {
-        Some((c, p)) => (c.clone(), p.clone()),
-        None => {
-            let (p, epsg) = Projection::utm_for(lon, lat).map_err(geo)?;
-            (Crs::Epsg(epsg), p)
-        }
+    let crs = match &opts.crs {
+        Some(c) => c.clone(),
+        None => Crs::utm_for(lon, lat).map_err(geo)?,
     };
-    let en = proj.from_lon_lat(lon, lat).map_err(geo)?;
-    Ok((crs, proj, en, [lon, lat]))
+    let en = crs.from_lon_lat(lon, lat).map_err(geo)?;
+    Ok((crs, en, [lon, lat]))
 }
 
 /// The north-up, georeferenced ortho of a photo of `size` from its metadata, on a grid aligned
@@ -338,9 +335,9 @@ pub fn plan_from_metadata(
     let attitude = photo_source::attitude_from_metadata(meta, opts, file)?;
     let rotation = attitude.rotation;
     let (h, ground) = heights(meta, opts, file)?;
-    let (crs, proj, en, [lon, lat]) = world_of(meta, opts, file)?;
+    let (crs, en, [lon, lat]) = world_of(meta, opts, file)?;
     let geo = |e: aerorect_geo::GeoError| Error::context(file)(e);
-    let grid_from_enu = grid_from_enu(&proj, lon, lat).map_err(geo)?;
+    let grid_from_enu = grid_from_enu(&crs, lon, lat).map_err(geo)?;
     let recorded = Pose::from_enu([en[0], en[1], h.camera_z_m], &rotation, &grid_from_enu);
     let lever = grid_from_enu
         * photo_source::enu_from_aircraft(meta, opts.sensefly_roll)
@@ -352,7 +349,6 @@ pub fn plan_from_metadata(
         heights: h,
         ground,
         crs,
-        proj,
         lon_lat: [lon, lat],
         warnings: vec![],
     };
@@ -409,7 +405,6 @@ struct Frame {
     heights: Heights,
     ground: Ground,
     crs: Crs,
-    proj: Projection,
     lon_lat: [f64; 2],
     warnings: Vec<String>,
 }
@@ -435,7 +430,7 @@ fn finish_plan(
     // Over a DEM, the terrain under the camera (the take-off point may be far below it).
     let [x, y, _] = frame.pose.centre;
     if let Ground::Dem { dem, .. } = &frame.ground
-        && let Some(under) = dem.height_in(&frame.proj, x, y)
+        && let Some(under) = dem.height_in(&frame.crs, x, y)
         && z <= under
     {
         return Err(crate::sane::camera_below_ground(file, z, src, under));
@@ -444,7 +439,7 @@ fn finish_plan(
     let req = OrthoRequest {
         camera: &frame.camera.camera,
         pose: frame.pose,
-        world: &frame.proj,
+        world: &frame.crs,
         ground: &frame.ground,
         gsd_m: gsd,
         limits: opts.limits,
@@ -465,7 +460,7 @@ fn finish_plan(
         latitude_deg: lat,
         longitude_deg: lon,
         easting_northing_m: [frame.pose.centre[0], frame.pose.centre[1]],
-        convergence_deg: convergence_deg(&frame.proj, lon, lat).map_err(geo)?,
+        convergence_deg: convergence_deg(&frame.crs, lon, lat).map_err(geo)?,
         pose: frame.pose,
         gsd_m: gsd,
         geo: georeference(frame.crs, &plan, &opts.warp),
@@ -485,7 +480,7 @@ pub fn plan_from_pose(
     opts: &DroneOptions,
     file: &str,
 ) -> Result<(OrthoPlan, DronePlanInfo), Error> {
-    let Some((crs, proj)) = opts.crs.clone() else {
+    let Some(crs) = opts.crs.clone() else {
         return Err(Error::Invalid(format!(
             "{file}: a pose needs the CRS it is in (--crs, or a .prj beside the pose table)"
         )));
@@ -519,8 +514,8 @@ pub fn plan_from_pose(
         }
     };
     let recorded = Pose::new([pose.x, pose.y, z], rotation.ground_from_camera());
-    let lon_lat = proj
-        .transform(&Projection::wgs84(), pose.x, pose.y)
+    let lon_lat = crs
+        .transform(&Crs::wgs84(), pose.x, pose.y)
         .map_err(Error::context(&file))?;
     let frame = Frame {
         camera,
@@ -535,7 +530,6 @@ pub fn plan_from_pose(
         },
         ground,
         crs,
-        proj,
         lon_lat,
         warnings: vec![],
     };

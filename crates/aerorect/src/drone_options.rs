@@ -5,8 +5,8 @@
 use crate::Error;
 use crate::sane::{check_gsd_m, check_height_m, check_lever_arm_m};
 use aerorect_core::RectifyLimits;
-use aerorect_geo::{Mounting, Projection};
-use aerorect_io::{CameraFile, Crs, PoseRecord};
+use aerorect_geo::{Crs, Mounting};
+use aerorect_io::{CameraFile, PoseRecord};
 use aerorect_raster::WarpOptions;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -38,7 +38,7 @@ pub struct DroneOptions {
     /// Over a DEM, leave ground hidden behind nearer terrain empty.
     pub occlusion: bool,
     /// Output CRS (default: the UTM zone of the position).
-    pub crs: Option<(Crs, Projection)>,
+    pub crs: Option<Crs>,
     /// Overrides the camera from metadata (sized for each photo as it is read).
     pub camera: Option<CameraFile>,
     /// Exterior orientations by file name or stem: frames listed here take their pose from the

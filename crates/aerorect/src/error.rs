@@ -25,6 +25,8 @@ pub enum Error {
     Features(#[from] aerorect_raster::features::FeatureError),
     #[error(transparent)]
     Geo(#[from] aerorect_geo::GeoError),
+    #[error(transparent)]
+    Crs(#[from] aerorect_geo::CrsError),
     /// A fit of aerorect-solve (homography, polynomial, flight adjustment).
     #[error(transparent)]
     Solve(#[from] aerorect_solve::SolveError),

@@ -14,7 +14,7 @@ use aerorect_core::{
     Camera, CameraRotation, Homography, Mat3, RectifyGeometry, RectifyLimits, Vec3,
 };
 use aerorect_geo::{
-    Dem, GroundMap, HeightGrid, OrthoGrid, Pose, Projection, Terrain, Visible, occlusion_mask,
+    Crs, Dem, GroundMap, HeightGrid, OrthoGrid, Pose, Terrain, Visible, occlusion_mask,
 };
 use aerorect_raster::{AnyRaster, LensDirection, LensMap, Then, WarpOptions};
 use std::sync::Arc;
@@ -42,7 +42,7 @@ pub struct OrthoRequest<'a> {
     pub camera: &'a Camera,
     pub pose: Pose,
     /// The world CRS the pose is in and the output is written in.
-    pub world: &'a Projection,
+    pub world: &'a Crs,
     pub ground: &'a Ground,
     pub gsd_m: f64,
     pub limits: RectifyLimits,
@@ -340,7 +340,7 @@ fn terrain_under(
         range.1.min(pose.centre[2] - 0.5),
     ));
     let b = bounds_of(reach);
-    let cell = if dem.projection.is_geographic() {
+    let cell = if dem.crs.is_geographic() {
         dem.cell_size[1] * 111_320.0
     } else {
         dem.cell_size[0].min(dem.cell_size[1])
@@ -474,27 +474,7 @@ fn densify(rays: &[Vec3], n: usize) -> Vec<Vec3> {
         .collect()
 }
 
-/// Reads a DEM GeoTIFF (any CRS the file states) for the terrain planner.
+/// Reads a DEM GeoTIFF (any CRS the file states) for the terrain planner: [`aerorect_io::read_dem`].
 pub fn load_dem(path: &std::path::Path) -> Result<Dem, Error> {
-    let name = path.display().to_string();
-    let d = aerorect_io::read_dem(path)?;
-    if d.geo.rotation != [0.0, 0.0] {
-        return Err(Error::Invalid(format!(
-            "DEM {name}: a rotated grid (geotransform terms {:?}) is not supported",
-            d.geo.rotation
-        )));
-    }
-    let proj_text = d.geo.crs.to_proj_string()?;
-    let projection = Projection::new(&proj_text).map_err(Error::context(format!("DEM {name}")))?;
-    let dem = Dem {
-        name,
-        values: d.heights,
-        width: d.size.width,
-        height: d.size.height,
-        top_left: d.geo.top_left,
-        cell_size: d.geo.pixel_size,
-        projection,
-    };
-    dem.validate().map_err(Error::from)?;
-    Ok(dem)
+    Ok(aerorect_io::read_dem(path)?)
 }

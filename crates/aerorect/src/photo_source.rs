@@ -6,7 +6,7 @@
 use crate::Error;
 use crate::drone_options::DroneOptions;
 use aerorect_core::{CameraRotation, GeometryError, Mat3};
-use aerorect_geo::Projection;
+use aerorect_geo::Crs;
 use aerorect_io::{BodyAngles, BodySchema, EoTable, PhotoMetadata};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -183,10 +183,8 @@ pub fn load_geo_file(path: &Path) -> Result<EoTable, Error> {
     };
     let name = path.display();
     let bad = |e: Error| Error::context(format!("{name}: CRS '{crs}'"))(e);
-    let c = aerorect_io::Crs::parse(&crs).map_err(|e| bad(e.into()))?;
-    let def = c.to_proj_string().map_err(|e| bad(e.into()))?;
-    let proj = Projection::new(&def).map_err(|e| bad(e.into()))?;
-    let wgs84 = Projection::wgs84();
+    let proj = Crs::parse(&crs).map_err(|e| bad(e.into()))?;
+    let wgs84 = Crs::wgs84();
     for r in t.records.values_mut() {
         r.position = proj
             .transform(&wgs84, r.position[0], r.position[1])

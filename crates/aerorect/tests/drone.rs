@@ -260,10 +260,10 @@ fn opk_poses_agree_with_the_dji_adapter() {
         phi,
         kappa,
     };
-    let crs = aerorect::io::Crs::Epsg(32635);
-    let proj = aerorect::geo::Projection::utm_for(27.55, 53.9).unwrap().0;
+    let crs = aerorect::geo::Crs::utm_for(27.55, 53.9).unwrap();
+    assert_eq!(crs, aerorect::geo::Crs::from_epsg(32635).unwrap());
     let posed = DroneOptions {
-        crs: Some((crs, proj)),
+        crs: Some(crs),
         ..opts
     };
     let (pp, _) = aerorect::drone::plan_from_pose(&pose, &m, SIZE, &posed, "d").unwrap();
@@ -402,7 +402,7 @@ fn overlap_shift_measures_a_known_offset() {
         AnyRaster::U8(Raster::from_planes(ImageSize::new(512, 512), vec![p]).unwrap())
     };
     let geo = GeoReference {
-        crs: aerorect::io::Crs::Epsg(32635),
+        crs: aerorect::geo::Crs::from_epsg(32635).unwrap(),
         pixel_size: [0.5, 0.5],
         top_left: [1000.0, 2000.0],
         rotation: [0.0, 0.0],

@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used)]
 
 use aerorect::core::{Camera, CameraRotation, ImageSize, Intrinsics, Mat3, RectifyLimits};
-use aerorect::geo::{Dem, HeightGrid, Pose, Projection, Terrain, march_to_ground};
+use aerorect::geo::{Crs, Dem, HeightGrid, Pose, Terrain, march_to_ground};
 use aerorect::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
 use aerorect::raster::{AnyRaster, Interp, Raster, WarpOptions};
 use std::sync::Arc;
@@ -22,8 +22,8 @@ fn texture(x: f64, y: f64) -> f64 {
     128.0 + 50.0 * (x / 2.1).sin() * (y / 2.9).cos() + 30.0 * ((x + y) / 3.7).sin()
 }
 
-fn utm35() -> Projection {
-    Projection::new("+proj=utm +zone=35 +datum=WGS84 +units=m +no_defs").unwrap()
+fn utm35() -> Crs {
+    Crs::from_proj_string("+proj=utm +zone=35 +datum=WGS84 +units=m +no_defs").unwrap()
 }
 
 /// A 2 m DEM of the hills over 1.2 x 1.2 km around ORIGIN.
@@ -46,7 +46,7 @@ fn dem() -> Dem {
         height: n,
         top_left,
         cell_size: [cell, cell],
-        projection: utm35(),
+        crs: utm35(),
     }
 }
 
@@ -228,7 +228,7 @@ fn dem_holes_warn_or_refuse() {
 #[test]
 fn dem_in_another_crs_is_reprojected() {
     let utm = dem();
-    let wgs = Projection::wgs84();
+    let wgs = Crs::wgs84();
     // Resample the hills onto a lon/lat grid covering the same ground.
     let ll0 = utm35()
         .transform(&wgs, ORIGIN[0] - 500.0, ORIGIN[1] + 500.0)
@@ -253,7 +253,7 @@ fn dem_in_another_crs_is_reprojected() {
         height: m,
         top_left: ll0,
         cell_size: cell,
-        projection: wgs,
+        crs: wgs,
     };
     let (cam, pose) = setup();
     let a = plan(

@@ -5,7 +5,7 @@
 #![allow(clippy::unwrap_used)]
 
 use aerorect::core::{Camera, CameraRotation, ImageSize, Intrinsics, RectifyLimits};
-use aerorect::geo::{Pose, Projection};
+use aerorect::geo::{Crs, Pose};
 use aerorect::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
 use aerorect::mosaic::{Blend, MosaicFrame, MosaicOptions, MosaicPlan, MosaicRun, Window};
 use aerorect::raster::{AnyRaster, Interp, Raster, WarpOptions};
@@ -59,7 +59,7 @@ fn simulate(cam: &Camera, pose: &Pose, offset: f64) -> AnyRaster {
 }
 
 fn plan(cam: &Camera, pose: Pose) -> OrthoPlan {
-    let world = Projection::new("+proj=utm +zone=35 +datum=WGS84 +units=m +no_defs").unwrap();
+    let world = Crs::from_proj_string("+proj=utm +zone=35 +datum=WGS84 +units=m +no_defs").unwrap();
     let req = OrthoRequest {
         camera: cam,
         pose,
@@ -447,7 +447,7 @@ fn mosaic_writes_a_tiled_geotiff_of_the_tiles_or_nothing() {
         ..MosaicOptions::default()
     };
     let out = dir.path().join("mosaic.tif");
-    let crs = aerorect::io::Crs::Epsg(32635);
+    let crs = aerorect::geo::Crs::from_epsg(32635).unwrap();
     let report = aerorect::mosaic::mosaic(frames.clone(), crs.clone(), &out, &opts).unwrap();
     let (plan, v, a, _) = run_all(&s, opts.clone());
     assert_eq!(report.size, [plan.grid.size.width, plan.grid.size.height]);

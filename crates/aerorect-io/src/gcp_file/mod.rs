@@ -18,8 +18,8 @@ mod metashape;
 mod odm;
 mod pix4d;
 
-use crate::crs::Crs;
 use crate::error::IoError;
+use aerorect_geo::Crs;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
@@ -377,7 +377,7 @@ fn assemble(
 /// longitude and latitude ranges.
 fn in_degrees(crs: Option<&Crs>, mut xyz: impl Iterator<Item = [f64; 3]>) -> bool {
     match crs {
-        Some(c) => c.is_geographic().unwrap_or(false),
+        Some(c) => c.is_geographic(),
         None => xyz.all(|p| p[0].abs() <= 180.0 && p[1].abs() <= 90.0),
     }
 }

@@ -21,7 +21,7 @@
 
 use super::Row;
 use super::fields::number;
-use crate::crs::Crs;
+use aerorect_geo::Crs;
 
 pub(super) fn parse(text: &str) -> Result<(Option<Crs>, Vec<Row>), String> {
     let mut lines = text
@@ -33,7 +33,7 @@ pub(super) fn parse(text: &str) -> Result<(Option<Crs>, Vec<Row>), String> {
         return Err("empty: the first line must name the CRS".into());
     };
     let crs = crs_of(n, crs_line)?;
-    let geographic = crs.is_geographic().unwrap_or(false);
+    let geographic = crs.is_geographic();
     let mut rows = vec![];
     for (n, l) in lines {
         let f: Vec<&str> = l.split_whitespace().collect();
@@ -84,13 +84,16 @@ fn crs_of(n: usize, line: &str) -> Result<Crs, String> {
             .ok_or_else(|| {
                 format!("line {n}: CRS '{line}': UTM zone '{zone}' is not 1..60 followed by N or S")
             })?;
-        return match hemi {
-            "N" => Ok(Crs::Epsg(32600 + z)),
-            "S" => Ok(Crs::Epsg(32700 + z)),
-            _ => Err(format!(
-                "line {n}: CRS '{line}': UTM zone '{zone}' must end in N or S"
-            )),
+        let code = match hemi {
+            "N" => 32600 + z,
+            "S" => 32700 + z,
+            _ => {
+                return Err(format!(
+                    "line {n}: CRS '{line}': UTM zone '{zone}' must end in N or S"
+                ));
+            }
         };
+        return Crs::from_epsg(code).map_err(|e| format!("line {n}: CRS '{line}': {e}"));
     }
     let unquoted = line
         .strip_prefix('\'')

@@ -26,9 +26,10 @@ fn odm_documented_example_gives_one_point_per_distinct_unnamed_position() {
     assert_eq!(g.format, GcpFormat::Odm);
     assert_eq!(
         g.crs,
-        Some(Crs::Proj(
-            "+proj=utm +zone=10 +ellps=WGS84 +datum=WGS84 +units=m +no_defs".into()
-        ))
+        Some(
+            Crs::from_proj_string("+proj=utm +zone=10 +ellps=WGS84 +datum=WGS84 +units=m +no_defs")
+                .unwrap()
+        )
     );
     // Columns 1-3 are the point, 4-5 the pixel, 6 the image; no names, three positions.
     assert_eq!(g.points.len(), 3);
@@ -61,7 +62,7 @@ fn odm_epsg_4326_lines_of_one_name_are_one_point_longitude_first() {
              -116.7504805 43.06475631 2088.227 1737.22 1763.28 DJI_0172.JPG 101 extra words\n\
              -116.7504805 43.06475631 2088.227 1660.24 2912.50 DJI_0350.JPG 101 # trailing\n";
     let g = gcp_from_text(t, "gcp_list.txt").unwrap();
-    assert_eq!(g.crs, Some(Crs::Epsg(4326)));
+    assert_eq!(g.crs, Some(Crs::from_epsg(4326).unwrap()));
     assert_eq!(g.points.len(), 2);
     assert_eq!(g.points[0].name, "100");
     assert_eq!(g.points[0].xyz, [-116.7499838, 43.06477015, 2090.149]);
@@ -86,13 +87,16 @@ fn odm_crs_line_variants() {
             .unwrap()
             .crs
     };
-    assert_eq!(crs("WGS84 UTM 32N"), Some(Crs::Epsg(32632)));
-    assert_eq!(crs("WGS84 UTM 32S"), Some(Crs::Epsg(32732)));
-    assert_eq!(crs("WGS84 UTM 7N"), Some(Crs::Epsg(32607)));
-    assert_eq!(crs("EPSG:32610"), Some(Crs::Epsg(32610)));
+    assert_eq!(crs("WGS84 UTM 32N"), Some(Crs::from_epsg(32632).unwrap()));
+    assert_eq!(crs("WGS84 UTM 32S"), Some(Crs::from_epsg(32732).unwrap()));
+    assert_eq!(crs("WGS84 UTM 7N"), Some(Crs::from_epsg(32607).unwrap()));
+    assert_eq!(crs("EPSG:32610"), Some(Crs::from_epsg(32610).unwrap()));
     let proj = "+proj=utm +zone=37 +south +ellps=WGS84 +datum=WGS84 +units=m +no_defs";
-    assert_eq!(crs(proj), Some(Crs::Proj(proj.into())));
-    assert_eq!(crs(&format!("'{proj}'")), Some(Crs::Proj(proj.into())));
+    assert_eq!(crs(proj), Some(Crs::from_proj_string(proj).unwrap()));
+    assert_eq!(
+        crs(&format!("'{proj}'")),
+        Some(Crs::from_proj_string(proj).unwrap())
+    );
     for bad in ["WGS84 UTM 61N", "WGS84 UTM 32X", "EPSG:abc", "NAD83 please"] {
         let e = err(&format!("{bad}{body}"), "gcp_list.txt");
         names_all(&e, "gcp_list.txt", "line 1", &format!("'{bad}'"));

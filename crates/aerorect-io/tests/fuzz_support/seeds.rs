@@ -6,7 +6,8 @@
 
 use super::mutate::Field;
 use aerorect_core::ImageSize;
-use aerorect_io::{Crs, GeoReference, write_image_geo};
+use aerorect_geo::Crs;
+use aerorect_io::{GeoReference, write_image_geo};
 use aerorect_raster::{AnyRaster, Raster};
 use std::path::{Path, PathBuf};
 use tiff::encoder::{Rational, TiffEncoder, colortype};
@@ -398,7 +399,12 @@ pub fn all(dir: &Path) -> Vec<Seed> {
         ),
         img(
             "geo-epsg.tif",
-            written(dir, "e.tif", &u8i, Some(&geo(Crs::Epsg(32635), Some(0.0)))),
+            written(
+                dir,
+                "e.tif",
+                &u8i,
+                Some(&geo(Crs::from_epsg(32635).unwrap(), Some(0.0))),
+            ),
         ),
         img(
             "dem-wkt.tif",
@@ -406,7 +412,7 @@ pub fn all(dir: &Path) -> Vec<Seed> {
                 dir,
                 "f.tif",
                 &f32i,
-                Some(&geo(Crs::Wkt(LO25_WKT.into()), Some(-9999.0))),
+                Some(&geo(Crs::from_wkt(LO25_WKT).unwrap(), Some(-9999.0))),
             ),
         ),
         img(
@@ -415,7 +421,7 @@ pub fn all(dir: &Path) -> Vec<Seed> {
                 dir,
                 "g.tif",
                 &u16i,
-                Some(&geo(Crs::Proj(TMERC.into()), None)),
+                Some(&geo(Crs::from_proj_string(TMERC).unwrap(), None)),
             ),
         ),
         img(

@@ -154,7 +154,7 @@ pub(super) fn resolve(
     co: &ControlOptions,
     frames: &[Frame],
     rec: &Recorded,
-    world: &Projection,
+    world: &Crs,
 ) -> Result<Resolved, Error> {
     co.validate()?;
     let file = co.file.path.display().to_string();
@@ -169,22 +169,14 @@ pub(super) fn resolve(
             )));
         }
     }
-    let from = match &co.file.crs {
-        Some(crs) => Some(
-            Projection::new(&crs.to_proj_string()?)
-                .map_err(Error::context(format!("{file}: its CRS {crs}")))?,
-        ),
-        None => None,
-    };
     for p in &co.file.points {
-        let [x, y] = match &from {
-            Some(f) if f != world => {
-                f.transform(world, p.xyz[0], p.xyz[1])
-                    .map_err(Error::context(format!(
-                        "{file} line {}: point '{}'",
-                        p.line, p.name
-                    )))?
-            }
+        let [x, y] = match &co.file.crs {
+            Some(f) if !f.same_definition(world) => f
+                .transform(world, p.xyz[0], p.xyz[1])
+                .map_err(Error::context(format!(
+                    "{file} line {}: point '{}'",
+                    p.line, p.name
+                )))?,
             _ => [p.xyz[0], p.xyz[1]],
         };
         // A file's zero sigma (a point taken as exact) is held to a millimetre.

@@ -24,7 +24,7 @@ pub(super) struct Rendered {
 pub(super) fn flight_crs(
     frames: &[(PathBuf, PhotoMetadata)],
     opts: &DroneOptions,
-) -> Result<(Crs, Projection), Error> {
+) -> Result<Crs, Error> {
     if let Some(c) = &opts.crs {
         return Ok(c.clone());
     }
@@ -32,8 +32,7 @@ pub(super) fn flight_crs(
         .iter()
         .find_map(|(_, m)| Some((m.longitude_deg?, m.latitude_deg?)))
         .ok_or_else(|| Error::Invalid("no frame of the flight has a GPS position".into()))?;
-    let (p, epsg) = Projection::utm_for(lon, lat).map_err(Error::from)?;
-    Ok((Crs::Epsg(epsg), p))
+    Crs::utm_for(lon, lat).map_err(Error::from)
 }
 
 /// How frames are rendered on the matching grid: bilinear, prefiltered, NaN where no data.
@@ -85,7 +84,7 @@ pub(super) fn plan_frame(
 /// (heights above the take-off point).
 pub(super) fn ground_fn(
     opts: &DroneOptions,
-    world: &Projection,
+    world: &Crs,
 ) -> Box<dyn Fn(f64, f64) -> f64 + Send + Sync> {
     if let Some(dem) = &opts.dem {
         let dem = std::sync::Arc::clone(dem);

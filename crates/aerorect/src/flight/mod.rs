@@ -57,8 +57,8 @@ use crate::Error;
 use crate::drone::{DroneOptions, DronePlanInfo, georeference, plan_from_metadata};
 use crate::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
 use aerorect_core::{Camera, ImageSize};
-use aerorect_geo::{OrthoGrid, Pose, Projection};
-use aerorect_io::{Crs, PhotoMetadata};
+use aerorect_geo::{Crs, OrthoGrid, Pose};
+use aerorect_io::PhotoMetadata;
 use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
 use aerorect_raster::{AnyRaster, Interp, Raster, WarpOptions};
 use aerorect_solve::adjust::{

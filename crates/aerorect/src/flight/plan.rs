@@ -14,7 +14,6 @@ pub struct FlightPlan {
     pub(super) gsd: f64,
     pub(super) ground: Box<dyn Fn(f64, f64) -> f64 + Send + Sync>,
     pub(super) rec: Recorded,
-    pub(super) world: Projection,
     pub(super) crs: Crs,
     pub(super) started: std::time::Instant,
     /// The plan's warnings (the matching grid coarsened, marks left out).
@@ -58,9 +57,9 @@ impl FlightPlan {
                 ))
             })
             .collect::<Result<_, Error>>()?;
-        let (crs, world) = flight_crs(&metas, opts)?;
+        let crs = flight_crs(&metas, opts)?;
         let opts = DroneOptions {
-            crs: Some((crs.clone(), world.clone())),
+            crs: Some(crs.clone()),
             ..opts.clone()
         };
         // The matching grid: the finest nadir GSD times up to 4 (frames keep about 600 px across).
@@ -74,19 +73,18 @@ impl FlightPlan {
         let (gsd, frames, mut warnings) = plan_matching(&metas, &opts, gsd)?;
         let rec = recorded(&frames);
         let control = match &fo.control {
-            Some(co) => Some(control::resolve(co, &frames, &rec, &world)?),
+            Some(co) => Some(control::resolve(co, &frames, &rec, &crs)?),
             None => None,
         };
         warnings.extend(control.iter().flat_map(|c| c.warnings.iter().cloned()));
         Ok(Self {
-            ground: ground_fn(&opts, &world),
+            ground: ground_fn(&opts, &crs),
             control,
             rec,
             frames,
             opts,
             fo: fo.clone(),
             gsd,
-            world,
             crs,
             started,
             warnings,
@@ -116,7 +114,7 @@ impl FlightPlan {
         let req = OrthoRequest {
             camera: &o.cameras[k],
             pose: o.poses[k],
-            world: &self.world,
+            world: &self.crs,
             ground: &ground,
             gsd_m: f.coarse_plan.grid.gsd,
             // The GSD was chosen for the recorded orientation to fit the budget; an adjusted
@@ -313,7 +311,6 @@ impl FlightPlan {
             poses,
             cameras,
             report,
-            world: self.world,
             crs: self.crs,
         }
     }
@@ -352,7 +349,6 @@ impl FlightPlan {
             frame: f,
             pose: *pose,
             camera,
-            world: &self.world,
             crs: &self.crs,
         };
         oriented.write_staged(output, opts, staged)

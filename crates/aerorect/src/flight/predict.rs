@@ -63,8 +63,7 @@ impl FlightPlan {
             .as_ref()
             .and_then(|c| c.file.crs.as_ref())
             .unwrap_or(&self.crs);
-        let crs_line = crs.to_proj_string().unwrap_or_else(|_| crs.to_string());
-        let mut out = format!("{crs_line}\n");
+        let mut out = format!("{}\n", crs.definition());
         for p in predictions {
             out += &format!(
                 "{} {} {} {:.2} {:.2} {} {}\n",

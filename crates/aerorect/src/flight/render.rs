@@ -13,7 +13,6 @@ pub struct AdjustedFlight {
     pub poses: Vec<Pose>,
     pub cameras: Vec<Camera>,
     pub report: FlightReport,
-    pub(super) world: Projection,
     pub(super) crs: Crs,
 }
 
@@ -22,7 +21,6 @@ pub(super) struct Oriented<'a> {
     pub(super) frame: &'a Frame,
     pub(super) pose: Pose,
     pub(super) camera: &'a Camera,
-    pub(super) world: &'a Projection,
     pub(super) crs: &'a Crs,
 }
 
@@ -37,7 +35,7 @@ impl Oriented<'_> {
         let req = OrthoRequest {
             camera: self.camera,
             pose: self.pose,
-            world: self.world,
+            world: self.crs,
             ground: &ground,
             gsd_m: opts.gsd_m.unwrap_or(own_gsd),
             limits: opts.limits,
@@ -94,7 +92,6 @@ impl AdjustedFlight {
             frame: &self.frames[k],
             pose: self.poses[k],
             camera: &self.cameras[k],
-            world: &self.world,
             crs: &self.crs,
         }
     }

@@ -75,7 +75,7 @@ pub fn frame_options(opts: &DroneOptions) -> DroneOptions {
 
 fn write(
     frames: Vec<super::MosaicFrame>,
-    crs: aerorect_io::Crs,
+    crs: aerorect_geo::Crs,
     out: &Path,
     mopts: &MosaicOptions,
     cog: bool,

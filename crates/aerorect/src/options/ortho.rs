@@ -9,8 +9,8 @@ use crate::photo_source::SenseflyRoll;
 use crate::photo_source::{load_geo_file, prepare_flight};
 use crate::sane::{check_gsd_m, check_height_m, check_lever_arm_m};
 use aerorect_core::RectifyLimits;
-use aerorect_geo::{Mounting, Projection};
-use aerorect_io::{CameraFile, CogOptions, Crs, EoFormat, PoseRecord};
+use aerorect_geo::{Crs, Mounting};
+use aerorect_io::{CameraFile, CogOptions, EoFormat, PoseRecord};
 use aerorect_raster::{Interp, WarpOptions};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -61,16 +61,16 @@ pub fn parse_interp(name: &str) -> Result<Interp, Error> {
     })
 }
 
-/// A projected CRS from text (EPSG:code, WKT or PROJ); errors name the text, shortened.
-pub fn projected_crs(text: &str) -> Result<(Crs, Projection), Error> {
+/// A projected CRS from text (EPSG:code, WKT or PROJ): the one reading of `crs` and of a pose
+/// table's `.prj`; the caller names where the text came from.
+pub fn projected_crs(text: &str) -> Result<Crs, Error> {
     let c = Crs::parse(text)?;
-    let p = Projection::new(&c.to_proj_string()?)?;
-    if p.is_geographic() {
+    if c.is_geographic() {
         return Err(Error::Invalid(
-            "geographic: orthos need a projected CRS in metres".into(),
+            "a geographic CRS (degrees): orthos need a projected CRS in metres".into(),
         ));
     }
-    Ok((c, p))
+    Ok(c)
 }
 
 /// `text` cut to 80 characters for a message.
@@ -186,7 +186,7 @@ impl OrthoRequest {
 
     /// The output CRS: `crs`, else the pose table's `.prj` (an error names the one it came
     /// from and its text).
-    fn output_crs(&self, poses: Option<&Path>) -> Result<Option<(Crs, Projection)>, Error> {
+    fn output_crs(&self, poses: Option<&Path>) -> Result<Option<Crs>, Error> {
         if let Some(text) = &self.crs {
             return projected_crs(text)
                 .map(Some)
@@ -236,5 +236,66 @@ impl OrthoRequest {
         Ok(Some(
             rows.into_iter().map(|r| (r.filename.clone(), r)).collect(),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::options::Spelling;
+
+    const FLAG: Spelling = Spelling {
+        prefix: "--",
+        dashes: true,
+        before_value: " ",
+    };
+
+    fn refused(r: OrthoRequest) -> String {
+        let e = r.resolve(None).expect_err("refused");
+        e.spelled(&FLAG).full_message()
+    }
+
+    #[test]
+    fn values_are_refused_naming_the_option_before_any_file_is_read() {
+        // The DEM does not exist: the bad GSD is said first, and no file is opened for it.
+        let r = OrthoRequest {
+            gsd_m: Some(-1.0),
+            dem: Some("no/such/dem.tif".into()),
+            ..OrthoRequest::default()
+        };
+        let m = refused(r);
+        assert!(m.starts_with("--gsd-m -1: GSD -1 m must be"), "{m}");
+        let m = refused(OrthoRequest {
+            lever_arm_m: Some([0.0, 2e3, 0.0]),
+            ..OrthoRequest::default()
+        });
+        assert!(m.starts_with("--lever-arm-m '0,2000,0': lever arm"), "{m}");
+        let m = refused(OrthoRequest {
+            pose: Some([0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0]),
+            ..OrthoRequest::default()
+        });
+        assert_eq!(m, "--pose NaN: not a finite number");
+    }
+
+    #[test]
+    fn the_crs_must_be_projected_and_its_text_is_named() {
+        let with = |t: &str| OrthoRequest {
+            crs: Some(t.into()),
+            ..OrthoRequest::default()
+        };
+        let m = refused(with("EPSG:4326"));
+        assert_eq!(
+            m,
+            "--crs 'EPSG:4326': a geographic CRS (degrees): orthos need a projected CRS in metres"
+        );
+        assert!(refused(with("EPSG:1")).starts_with("--crs 'EPSG:1': CRS: EPSG:1 is an unknown"));
+        // A long text is shortened in the message; a good one is the EPSG table's zone.
+        let long = format!("+proj=longlat +datum=WGS84 +no_defs{}", "x".repeat(90));
+        assert!(refused(with(&long)).contains("+no_defsxxx"));
+        assert!(refused(with(&long)).contains("...'"));
+        let utm = "+proj=utm +zone=35 +datum=WGS84 +units=m +no_defs";
+        let opts = with(utm).resolve(None).expect("a UTM zone");
+        let zone = Crs::from_epsg(32635).expect("in the table");
+        assert!(opts.crs.is_some_and(|c| c.same_as(&zone)));
     }
 }
