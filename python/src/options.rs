@@ -6,7 +6,7 @@ use crate::py_err;
 use aerorect::core::RectifyLimits;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
 use aerorect::drone::DroneOptions;
-use aerorect::options::{FlightRequest, OrthoRequest, Spelling, parse_interp};
+use aerorect::options::{FlightRequest, PhotoRequest, Spelling, parse_interp};
 use aerorect::photo_source::SenseflyRoll;
 use aerorect::raster::WarpOptions;
 use pyo3::prelude::*;
@@ -96,7 +96,7 @@ impl PhotoArgs {
     }
 
     /// The georeferencing request these arguments make.
-    fn request(&self) -> anyhow::Result<OrthoRequest> {
+    fn request(&self) -> anyhow::Result<PhotoRequest> {
         let warp = WarpOptions {
             interp: match &self.interp {
                 None => aerorect::raster::Interp::Bilinear,
@@ -114,7 +114,7 @@ impl PhotoArgs {
                 anyhow::bail!("sensefly_roll='{other}': expected 'as_recorded' or 'flipped'")
             }
         };
-        Ok(OrthoRequest {
+        Ok(PhotoRequest {
             gsd_m: self.gsd_m,
             ground_height_m: self.ground_height_m,
             vertical_offset_m: self.vertical_offset_m,

@@ -7,7 +7,7 @@ use crate::outputs::Files;
 use aerorect::core::RectifyLimits;
 use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo_staged};
 use aerorect::io::StagedOutputs;
-use aerorect::options::{FlightRequest, OrthoRequest, Spelling};
+use aerorect::options::{FlightRequest, PhotoRequest, Spelling};
 use aerorect::raster::WarpOptions;
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -44,14 +44,14 @@ impl GeoArgs {
         common: (Option<f64>, Option<f64>, Option<&Path>, Option<&Path>),
         limits: RectifyLimits,
         warp: WarpOptions,
-    ) -> Result<OrthoRequest> {
+    ) -> Result<PhotoRequest> {
         let (gsd_m, ground_height_m, camera, poses) = common;
         let three = |flag: &str, t: &Option<String>| {
             t.as_deref()
                 .map(|t| numbers::<3>(flag, t, "three numbers"))
                 .transpose()
         };
-        Ok(OrthoRequest {
+        Ok(PhotoRequest {
             gsd_m,
             ground_height_m,
             vertical_offset_m: self.vertical_offset_m,

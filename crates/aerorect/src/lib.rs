@@ -1,37 +1,34 @@
 //! aerorect: the geometry of airborne camera images.
 //!
 //! The facade joins the pure geometry (`aerorect-core`), the pixel loops (`aerorect-raster`),
-//! the estimators (`aerorect-solve`) and the file adapters (`aerorect-io`) into pipelines:
-//! [`rectify`], [`simulate`], [`evaluate`], the attitude-error [`sensitivity`] experiment and
-//! the [`demo`]. Each layer is also re-exported whole (`aerorect::core`, `aerorect::raster`,
+//! the estimators (`aerorect-solve`), georeferencing (`aerorect-geo`) and the file adapters
+//! (`aerorect-io`) into pipelines, a folder per job: georeferenced orthos of photos
+//! ([`ortho`]), a flight made consistent from its overlaps ([`flight`]), the [`mosaic`],
+//! image motion ([`motion`]), lens calibration and undistortion ([`lens`]), and the paper's
+//! method and experiments as published ([`paper`]). What a front end asks for is checked in
+//! [`options`]. Each layer is also re-exported whole (`aerorect::core`, `aerorect::raster`,
 //! `aerorect::solve`, `aerorect::io`, `aerorect::geo`), so the front ends (the CLI, the Python
 //! package) depend on this crate alone.
 
-pub mod batch;
-pub mod calibration;
-pub mod compare;
-pub mod demo;
-pub mod drone;
-mod drone_options;
 pub mod error;
-pub mod evaluate;
-pub mod features;
 pub mod flight;
-pub mod gcp;
-pub mod georef;
-pub mod lens_compare;
+pub mod lens;
 pub mod mosaic;
 pub mod motion;
 pub mod options;
-pub mod overlap;
-pub mod photo_source;
-pub mod rectify;
-pub mod register;
-pub mod report_html;
+pub mod ortho;
+pub mod paper;
 pub mod sane;
-pub mod sensitivity;
-pub mod simulate;
-pub mod undistort;
+
+// Each module also by its short path (`aerorect::drone`, `aerorect::rectify`), as the front
+// ends, examples and tests name them.
+pub use flight::sift as features;
+pub use lens::{calibration, undistort};
+pub(crate) use ortho::drone_options;
+pub use ortho::{batch, drone, georef, overlap, photo_source, report_html};
+pub use paper::{
+    compare, demo, evaluate, gcp, lens_compare, rectify, register, sensitivity, simulate,
+};
 
 pub use aerorect_core as core;
 pub use aerorect_geo as geo;

@@ -4,8 +4,7 @@
 
 use aerorect::core::{CameraRotation, ImageSize, Intrinsics};
 use aerorect::drone::{
-    CameraSource, DroneOptions, camera_from_metadata, parse_dewarp, plan_from_metadata,
-    rectify_photo,
+    CameraSource, DroneOptions, camera_from_metadata, plan_from_metadata, rectify_photo,
 };
 use aerorect::io::PhotoMetadata;
 
@@ -72,7 +71,16 @@ fn camera_sources_in_order_of_trust() {
         .unwrap_err()
         .full_message();
     assert!(e.contains("DJI_9.JPG") && e.contains("XYZ"), "{e}");
-    assert!(parse_dewarp("2018;1,2,3", SIZE).is_err());
+    // A DewarpData of three numbers is refused, naming the photo and the text.
+    let mut short = dewarp.clone();
+    short.dji.dewarp_data = Some("2018;1,2,3".into());
+    let e = camera_from_metadata(&short, SIZE, "DJI_8.JPG")
+        .unwrap_err()
+        .full_message();
+    assert!(
+        e.contains("DJI_8.JPG") && e.contains("'2018;1,2,3' has 3 numbers"),
+        "{e}"
+    );
 }
 
 /// Pixel-unit tags written for 4000 x 2250 on a 1000 x 562 image: focal lengths divided by 4,

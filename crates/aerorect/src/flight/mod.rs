@@ -28,6 +28,7 @@ mod frames;
 mod plan;
 mod predict;
 mod render;
+pub mod sift;
 mod solve;
 mod ties;
 pub(crate) mod timing;

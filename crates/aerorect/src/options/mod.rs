@@ -12,7 +12,7 @@ mod flight;
 mod ortho;
 
 pub use flight::FlightRequest;
-pub use ortho::{OrthoRequest, parse_interp, projected_crs};
+pub use ortho::{PhotoRequest, parse_interp, projected_crs};
 
 use crate::Error;
 use aerorect_core::error::Num;
@@ -131,10 +131,11 @@ impl Error {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    const FLAG: Spelling = Spelling {
+    /// The CLI's spelling, for the tests.
+    pub(crate) const FLAG: Spelling = Spelling {
         prefix: "--",
         dashes: true,
         before_value: " ",

@@ -9,6 +9,7 @@ use crate::photo_source::SenseflyRoll;
 use crate::photo_source::{load_geo_file, prepare_flight};
 use crate::sane::{check_gsd_m, check_height_m, check_lever_arm_m};
 use aerorect_core::RectifyLimits;
+use aerorect_core::error::Num;
 use aerorect_geo::{Crs, Mounting};
 use aerorect_io::{CameraFile, CogOptions, EoFormat, PoseRecord};
 use aerorect_raster::{Interp, WarpOptions};
@@ -18,7 +19,7 @@ use std::sync::Arc;
 
 /// The georeferencing options as a front end was given them (Python's keyword names).
 #[derive(Debug, Clone, Default)]
-pub struct OrthoRequest {
+pub struct PhotoRequest {
     /// Output ground sample distance, metres (default: each frame's own at nadir).
     pub gsd_m: Option<f64>,
     /// Ground elevation against the photos' absolute altitude.
@@ -82,10 +83,10 @@ fn short(text: &str) -> String {
     format!("'{s}'")
 }
 
-impl OrthoRequest {
+impl PhotoRequest {
     /// Refuses values outside their sane ranges, reading no file.
     pub fn validate(&self) -> Result<(), Error> {
-        let at = |key, v: f64, e| OptionError::value(key, aerorect_core::error::Num(v), e);
+        let at = |key, v: f64, e| OptionError::value(key, Num(v), e);
         if let Some(g) = self.gsd_m {
             check_gsd_m(g).map_err(|e| at("gsd_m", g, e))?;
         }
@@ -94,7 +95,7 @@ impl OrthoRequest {
         }
         let v = self.vertical_offset_m;
         check_height_m("vertical offset", v).map_err(|e| at("vertical_offset_m", v, e))?;
-        let three = |t: [f64; 3]| format!("'{},{},{}'", t[0], t[1], t[2]);
+        let three = |t: [f64; 3]| format!("'{},{},{}'", Num(t[0]), Num(t[1]), Num(t[2]));
         for (key, t) in [
             ("boresight_deg", self.boresight_deg),
             ("lever_arm_m", self.lever_arm_m),
@@ -242,15 +243,9 @@ impl OrthoRequest {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::options::Spelling;
+    use crate::options::tests::FLAG;
 
-    const FLAG: Spelling = Spelling {
-        prefix: "--",
-        dashes: true,
-        before_value: " ",
-    };
-
-    fn refused(r: OrthoRequest) -> String {
+    fn refused(r: PhotoRequest) -> String {
         let e = r.resolve(None).expect_err("refused");
         e.spelled(&FLAG).full_message()
     }
@@ -258,30 +253,30 @@ mod tests {
     #[test]
     fn values_are_refused_naming_the_option_before_any_file_is_read() {
         // The DEM does not exist: the bad GSD is said first, and no file is opened for it.
-        let r = OrthoRequest {
+        let r = PhotoRequest {
             gsd_m: Some(-1.0),
             dem: Some("no/such/dem.tif".into()),
-            ..OrthoRequest::default()
+            ..PhotoRequest::default()
         };
         let m = refused(r);
         assert!(m.starts_with("--gsd-m -1: GSD -1 m must be"), "{m}");
-        let m = refused(OrthoRequest {
+        let m = refused(PhotoRequest {
             lever_arm_m: Some([0.0, 2e3, 0.0]),
-            ..OrthoRequest::default()
+            ..PhotoRequest::default()
         });
         assert!(m.starts_with("--lever-arm-m '0,2000,0': lever arm"), "{m}");
-        let m = refused(OrthoRequest {
+        let m = refused(PhotoRequest {
             pose: Some([0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0]),
-            ..OrthoRequest::default()
+            ..PhotoRequest::default()
         });
         assert_eq!(m, "--pose NaN: not a finite number");
     }
 
     #[test]
     fn the_crs_must_be_projected_and_its_text_is_named() {
-        let with = |t: &str| OrthoRequest {
+        let with = |t: &str| PhotoRequest {
             crs: Some(t.into()),
-            ..OrthoRequest::default()
+            ..PhotoRequest::default()
         };
         let m = refused(with("EPSG:4326"));
         assert_eq!(

@@ -14,7 +14,7 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// OpenCV's aero1.jpg (Debian opencv-doc), used as the nadir standard scene.
-pub const SCENE_JPEG: &[u8] = include_bytes!("../../../data/aero1.jpg");
+pub const SCENE_JPEG: &[u8] = include_bytes!("../../../../data/aero1.jpg");
 
 /// The demo camera: 6 mm lens, 15 um pixels, 320 x 240 (fx = fy = 400 px, 43.6 x 33.4 degrees).
 pub const CAMERA_TOML: &str =

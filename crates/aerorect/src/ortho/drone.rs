@@ -7,10 +7,10 @@ use crate::Error;
 pub use crate::drone_options::DroneOptions;
 use crate::georef::{Ground, OrthoPlan, OrthoRequest, plan_ortho};
 use crate::photo_source::{self, PhotoAttitude};
-use aerorect_core::distortion::{Distortion, OpenCv};
+use aerorect_core::distortion::Distortion;
 use aerorect_core::{Camera, CameraRotation, ImageSize, Intrinsics};
 use aerorect_geo::{Crs, Pose, convergence_deg, grid_from_enu};
-use aerorect_io::{GeoReference, PhotoMetadata, PoseRecord};
+use aerorect_io::{CameraFormat, GeoReference, PhotoMetadata, PoseRecord};
 use aerorect_raster::WarpOptions;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -35,35 +35,6 @@ pub struct PhotoCamera {
     /// The image size the metadata's pixel values were written for.
     pub tagged_size: [usize; 2],
     pub warnings: Vec<String>,
-}
-
-/// DJI's DewarpData "date;fx,fy,cx,cy,k1,k2,p1,p2,k3" for an image of `size`: cx/cy are offsets
-/// from the image centre ((W - 1) / 2, (H - 1) / 2).
-pub fn parse_dewarp(text: &str, size: ImageSize) -> Result<(Intrinsics, Distortion), String> {
-    let body = text.split(';').next_back().unwrap_or(text);
-    let v: Vec<f64> = body
-        .split(',')
-        .map(|t| t.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("DewarpData '{text}' is not nine numbers"))?;
-    let [fx, fy, dcx, dcy, k1, k2, p1, p2, k3] = v[..] else {
-        return Err(format!(
-            "DewarpData '{text}' has {} numbers, not nine",
-            v.len()
-        ));
-    };
-    let [cx, cy] = size.centre();
-    let intr = Intrinsics::new(fx, fy, cx + dcx, cy + dcy)
-        .map_err(|e| format!("DewarpData '{text}': {e}"))?;
-    let d = Distortion::OpenCv(OpenCv {
-        k1,
-        k2,
-        p1,
-        p2,
-        k3,
-        ..OpenCv::default()
-    });
-    Ok((intr, d))
 }
 
 /// The size the metadata's pixel values refer to: EXIF PixelXDimension x PixelYDimension, else
@@ -105,9 +76,9 @@ fn camera_from_tags(
     let dji = &meta.dji;
     let [cx, cy] = size.centre();
     if let Some(text) = &dji.dewarp_data {
-        let (k, d) =
-            parse_dewarp(text, size).map_err(|e| Error::Invalid(format!("{file}: {e}")))?;
-        return Ok((k, Some(d), CameraSource::DewarpData, vec![]));
+        // The one DewarpData reader: aerorect-io's camera format.
+        let c = aerorect_io::camera_from_text(text, CameraFormat::DjiDewarp, Some(size), file)?;
+        return Ok((c.intrinsics, c.distortion, CameraSource::DewarpData, vec![]));
     }
     if let Some(f) = dji.calibrated_focal_length_px {
         // DJI's optical centre is measured from the image's outer corner (W / 2 at the middle).
