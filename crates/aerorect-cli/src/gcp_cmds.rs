@@ -86,8 +86,7 @@ pub fn gcp_predict(a: GcpPredictArgs) -> Result<()> {
         for p in here {
             let name = format!("{}_{stem}.png", safe_name(&p.point));
             let side = a.chip_px as u32;
-            let png = aerorect::io::thumbnail_png(&chip(&image, p.pixel, a.chip_px)?, side)
-                .map_err(anyhow::Error::msg)?;
+            let png = aerorect::io::thumbnail_png(&chip(&image, p.pixel, a.chip_px)?, side, &name)?;
             staged.bytes(&dir.join(name), &png)?;
         }
     }

@@ -335,8 +335,16 @@ pub fn resolved_path(p: &Path) -> Option<PathBuf> {
 }
 
 /// A PNG of `raster` scaled to fit `max_side` (8-bit: 16-bit samples are shifted, float
-/// samples clamped to [0, 1]); for report thumbnails.
-pub fn thumbnail_png(raster: &AnyRaster, max_side: u32) -> Result<Vec<u8>, String> {
+/// samples clamped to [0, 1]); for report thumbnails. `name` says what it is a thumbnail of,
+/// for messages.
+pub fn thumbnail_png(raster: &AnyRaster, max_side: u32, name: &str) -> Result<Vec<u8>, IoError> {
+    thumbnail(raster, max_side).map_err(|reason| IoError::Encode {
+        source_name: format!("{name}: thumbnail"),
+        reason,
+    })
+}
+
+fn thumbnail(raster: &AnyRaster, max_side: u32) -> Result<Vec<u8>, String> {
     use image::{DynamicImage, ImageBuffer, ImageFormat, Luma, Rgb, Rgba};
     let size = raster.size();
     let to8: Vec<u8> = match raster {
@@ -349,7 +357,7 @@ pub fn thumbnail_png(raster: &AnyRaster, max_side: u32) -> Result<Vec<u8>, Strin
             .collect(),
     };
     let (w, h) = (size.width as u32, size.height as u32);
-    let bad = || "thumbnail: buffer size mismatch".to_string();
+    let bad = || "buffer size mismatch".to_string();
     let img = match raster.bands() {
         1 => DynamicImage::ImageLuma8(
             ImageBuffer::<Luma<u8>, _>::from_raw(w, h, to8).ok_or_else(bad)?,
@@ -360,7 +368,7 @@ pub fn thumbnail_png(raster: &AnyRaster, max_side: u32) -> Result<Vec<u8>, Strin
         4 => DynamicImage::ImageRgba8(
             ImageBuffer::<Rgba<u8>, _>::from_raw(w, h, to8).ok_or_else(bad)?,
         ),
-        b => return Err(format!("thumbnail of {b} bands")),
+        b => return Err(format!("{b} bands (1, 3 or 4 make a PNG)")),
     };
     let thumb = img.thumbnail(max_side, max_side);
     let mut out = std::io::Cursor::new(Vec::new());

@@ -260,10 +260,11 @@ pub fn run_adjusted_batch(
         let section = FlightSection {
             report: &flight.report,
             ties: &flight.ties,
-            overview_png: Some(
-                aerorect_io::thumbnail_png(&AnyRaster::U8(overview), 800)
-                    .map_err(Error::Invalid)?,
-            ),
+            overview_png: Some(aerorect_io::thumbnail_png(
+                &AnyRaster::U8(overview),
+                800,
+                "the flight's overview",
+            )?),
         };
         let done: Vec<&PhotoResult> = done.iter().collect();
         let seconds = flight.report.seconds + done.iter().map(|d| d.seconds).sum::<f64>();

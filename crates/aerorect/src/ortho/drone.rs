@@ -636,13 +636,10 @@ pub fn ortho_photo(
     let out = plan.run(&image)?;
     stages.warp = lap(&mut lap_t);
     let thumbnails = match thumbnail_side {
-        Some(s) => {
-            let err = |e: String| Error::Invalid(format!("{file}: thumbnail: {e}"));
-            Some((
-                aerorect_io::thumbnail_png(&image, s).map_err(err)?,
-                aerorect_io::thumbnail_png(&out, s).map_err(err)?,
-            ))
-        }
+        Some(s) => Some((
+            aerorect_io::thumbnail_png(&image, s, &file)?,
+            aerorect_io::thumbnail_png(&out, s, &format!("{file} (its ortho)"))?,
+        )),
         None => None,
     };
     let r = PhotoResult {
