@@ -77,6 +77,9 @@ mkdir -p "$fix/adir"
     printf 'II*\0 this is not really a tiff' >text.tif
     printf 'filename,x,y,z,omega,phi,kappa\na,536138.4,5972535.9,310,0,0,0\n' >gposes.csv
     printf 'garbage, not a CRS' >gposes.prj
+    printf 'EPSG:32635\n536138.4 5972535.9 230.0 320 240\n' >gcp_bad.txt
+    printf 'EPSG:32635\n536138.4 5972535.9 230.0 320 240 a.jpg p1\n536148.4 5972535.9 230.0 340 240 b.jpg p2\n' >gcp_ok.txt
+    printf 'image,X,Y,u,v\nleft01.jpg,0,0,10,10\n' >corners_bad.csv
     python3 - "$DATA/aero1.jpg" <<'EOF'
 import sys
 
