@@ -54,6 +54,9 @@ ATT="azimuth=10,elevation=25,image_rotation=1,pitch=2,roll=-1,yaw=30"
 DATA=$repo/data
 SHARED=${AERORECT_SHARED:-$(cd "$repo/.." && pwd)/shared/data}
 export ATT DATA SHARED
+# No backtraces: a user's panic or abort message, not the frames inlining happened to keep
+# (which differ between builds of the same code).
+export RUST_BACKTRACE=0
 
 fix="$out/fixtures"
 mkdir -p "$fix/adir"
