@@ -29,7 +29,7 @@ def test_batch_frames_are_the_cli_bytes(tmp_path, cli):
 
 
 @pytest.mark.parametrize("kwargs,flags,key,flag", [
-    (dict(gsd_m=-1.0), ["--gsd-m", "-1"], "gsd_m=-1", "--gsd-m -1"),
+    (dict(gsd_m=-1.0), ["--gsd-m=-1"], "gsd_m=-1", "--gsd-m -1"),
     (dict(vertical_offset_m=1e300), ["--vertical-offset-m", "1e300"],
      "vertical_offset_m=1e300", "--vertical-offset-m 1e300"),
     (dict(jobs=0), ["--jobs", "0"], "jobs=0", "--jobs 0"),
