@@ -2,7 +2,7 @@
 //! frames, skips and report; failures raise, naming every failed photo.
 
 use crate::flight::warn_all;
-use crate::options::{PhotoArgs, keyworded};
+use crate::options::PhotoArgs;
 use crate::{py_err, to_py};
 use aerorect::batch::{BatchRequest, FrameOutcome, run_batch};
 use pyo3::prelude::*;
@@ -45,7 +45,7 @@ pub fn batch<'py>(
         force,
         report_html,
     };
-    req.validate(args.cog).map_err(|e| py_err(keyworded(e)))?;
+    req.validate(args.cog).map_err(py_err)?;
     let (summary, warnings) = py
         .detach(|| -> anyhow::Result<_> {
             let (o, warnings) = args.flight_frames(&paths)?;

@@ -1,11 +1,11 @@
 //! A flight: the joint adjustment (`batch --adjust`) and the mosaic.
 
-use crate::options::{PhotoArgs, keyworded};
+use crate::options::PhotoArgs;
 use crate::{py_err, to_py};
 use aerorect::batch::run_adjusted_batch;
 use aerorect::drone::DroneOptions;
 use aerorect::io::StagedOutputs;
-use aerorect::mosaic::{mosaic_adjusted, mosaic_options, run_mosaic};
+use aerorect::mosaic::{check_mosaic_name, mosaic_adjusted, mosaic_options, run_mosaic};
 use anyhow::{Result, bail};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -90,8 +90,8 @@ impl AdjustedFlight {
         cog: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let max = self.opts.limits.max_output_px;
-        let mopts =
-            mosaic_options(blend, feather_px, max, Some(&out)).map_err(|e| py_err(keyworded(e)))?;
+        let mopts = mosaic_options(blend, feather_px, max).map_err(py_err)?;
+        check_mosaic_name(&out).map_err(py_err)?;
         let r = py
             .detach(|| mosaic_adjusted(&self.flight, &out, (&self.opts, &mopts, cog)))
             .map_err(py_err)?;
@@ -315,8 +315,8 @@ pub fn mosaic<'py>(
     feather_px: usize,
 ) -> PyResult<Bound<'py, PyAny>> {
     let args = PhotoArgs::from_dict(opts)?;
-    let mopts = mosaic_options(blend, feather_px, args.max_output_px(), Some(&out))
-        .map_err(|e| py_err(keyworded(e)))?;
+    let mopts = mosaic_options(blend, feather_px, args.max_output_px()).map_err(py_err)?;
+    check_mosaic_name(&out).map_err(py_err)?;
     let (r, warnings) = py
         .detach(|| -> Result<_> {
             let (o, warnings) = args.flight_frames(&paths)?;

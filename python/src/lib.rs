@@ -64,6 +64,7 @@ pub(crate) fn to_py<'py>(
 
 #[pymodule]
 fn _aerorect(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    options::KEYWORDS.use_for_process();
     m.add("AerorectError", m.py().get_type::<AerorectError>())?;
     m.add("AerorectFileError", m.py().get_type::<AerorectFileError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -3,11 +3,12 @@
 //! where the tiles come together, the same file `aerorect mosaic` writes.
 
 use crate::arrays::{array_from_raster, raster_from_array};
-use crate::options::{PhotoArgs, keyworded};
+use crate::options::PhotoArgs;
 use crate::{py_err, to_py};
 use aerorect::io::GeoReference;
 use aerorect::mosaic::{
-    MosaicFrame, MosaicPlan, MosaicRun, Window, frames_from_photos, mosaic_options,
+    MosaicFrame, MosaicPlan, MosaicRun, Window, check_mosaic_name, frames_from_photos,
+    mosaic_options,
 };
 use aerorect::raster::AnyRaster;
 use anyhow::{Result, bail};
@@ -39,8 +40,7 @@ pub fn plan_mosaic(
     feather_px: usize,
 ) -> PyResult<MosaicTiles> {
     let args = PhotoArgs::from_dict(opts)?;
-    let mopts = mosaic_options(blend, feather_px, args.max_output_px(), None)
-        .map_err(|e| py_err(keyworded(e)))?;
+    let mopts = mosaic_options(blend, feather_px, args.max_output_px()).map_err(py_err)?;
     py.detach(|| -> Result<_> {
         let (mut o, _) = args.flight_frames(&paths)?;
         o.warp.nodata = 0.0;
@@ -120,8 +120,7 @@ impl MosaicTiles {
     ) -> PyResult<Bound<'py, PyAny>> {
         let t0 = std::time::Instant::now();
         // The output's name only (the tiles' options were the plan's).
-        let max = aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
-        mosaic_options("feather", 16, max, Some(&out)).map_err(|e| py_err(keyworded(e)))?;
+        check_mosaic_name(&out).map_err(py_err)?;
         for f in &self.plan.frames {
             if aerorect::io::same_file(&f.path, &out) {
                 return Err(py_err(anyhow::anyhow!(

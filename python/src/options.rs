@@ -21,11 +21,6 @@ pub const KEYWORDS: Spelling = Spelling {
     before_value: "=",
 };
 
-/// A facade error with the options it names spelled as keyword arguments.
-pub fn keyworded(e: aerorect::Error) -> anyhow::Error {
-    e.spelled(&KEYWORDS).into()
-}
-
 /// The keyword arguments, by the facade's option keys.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -100,7 +95,7 @@ impl PhotoArgs {
         let warp = WarpOptions {
             interp: match &self.interp {
                 None => aerorect::raster::Interp::Bilinear,
-                Some(t) => parse_interp(t).map_err(keyworded)?,
+                Some(t) => parse_interp(t)?,
             },
             nodata: self.nodata,
             alpha: self.alpha,
@@ -139,13 +134,13 @@ impl PhotoArgs {
 
     /// The options of one photo (`file`: the photo a `pose` is for).
     pub fn options(&self, file: Option<&Path>) -> anyhow::Result<DroneOptions> {
-        self.request()?.resolve(file).map_err(keyworded)
+        Ok(self.request()?.resolve(file)?)
     }
 
     /// The options every frame of a flight shares, with the flight's checks; the warnings go
     /// to Python's `warnings`.
     pub fn flight_frames(&self, paths: &[PathBuf]) -> anyhow::Result<(DroneOptions, Vec<String>)> {
-        self.request()?.resolve_flight(paths).map_err(keyworded)
+        Ok(self.request()?.resolve_flight(paths)?)
     }
 
     /// The adjustment's options.
@@ -165,6 +160,6 @@ impl PhotoArgs {
             gcp_vertical_offset_m: self.gcp_vertical_offset_m,
         }
         .resolve()
-        .map_err(keyworded)
+        .map_err(Into::into)
     }
 }

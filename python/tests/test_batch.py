@@ -25,7 +25,11 @@ def test_batch_frames_are_the_cli_bytes(tmp_path, cli):
     # Run again: every frame is whole, so every frame is skipped, as the CLI says.
     again = aerorect.batch(photos, tmp_path / "py", gsd_m=0.2)
     assert [f["status"] for f in again["frames"]] == ["skipped"] * 3
-    assert "exists" in again["frames"][0]["why"]
+    # The library's advice names the option as each front end spells it.
+    assert again["frames"][0]["why"] == f"{tmp_path / 'py' / 'f0.tif'} exists (use force to rewrite)"
+    cli_again = run(cli, "batch", *photos, "--out-dir", tmp_path / "cli", "--gsd-m", "0.2")
+    assert (f"{tmp_path / 'cli' / 'f0.tif'} exists (use --force to rewrite)"
+            in cli_again.stdout + cli_again.stderr)
 
 
 @pytest.mark.parametrize("kwargs,flags,key,flag", [

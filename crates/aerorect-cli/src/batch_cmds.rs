@@ -2,7 +2,7 @@
 //! frame from one adjustment of the whole flight). The runs are the facade's
 //! (`aerorect::batch`); this file turns flags into their requests and prints.
 
-use crate::drone_cmds::{FlightArgs, flagged, result_line};
+use crate::drone_cmds::{FlightArgs, result_line};
 use crate::flight_print::print_adjustment;
 use crate::outputs::Files;
 use aerorect::batch::{BatchRequest, BatchSummary, FrameOutcome, run_adjusted_batch, run_batch};
@@ -72,7 +72,7 @@ impl BatchArgs {
 
 pub fn batch(a: BatchArgs) -> Result<()> {
     let req = a.request();
-    req.validate(a.cog).map_err(flagged)?;
+    req.validate(a.cog)?;
     batch_files(&a, &req)?.check()?;
     if a.flight.adjust {
         a.flight.validate_flight()?;

@@ -7,23 +7,11 @@ use crate::outputs::Files;
 use aerorect::core::RectifyLimits;
 use aerorect::drone::{DroneOptions, PhotoResult, rectify_photo_staged};
 use aerorect::io::StagedOutputs;
-use aerorect::options::{FlightRequest, PhotoRequest, Spelling};
+use aerorect::options::{FlightRequest, PhotoRequest};
 use aerorect::raster::WarpOptions;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::path::{Path, PathBuf};
-
-/// How the CLI spells the facade's option keys: `--gsd-m 1e308`.
-pub(crate) const FLAGS: Spelling = Spelling {
-    prefix: "--",
-    dashes: true,
-    before_value: " ",
-};
-
-/// A facade error with the options it names spelled as flags.
-pub(crate) fn flagged(e: aerorect::Error) -> anyhow::Error {
-    e.spelled(&FLAGS).into()
-}
 
 /// Numbers separated by commas, `n` of them (`what` says which), as a flag gives them.
 fn numbers<const N: usize>(flag: &str, text: &str, what: &str) -> Result<[f64; N]> {
@@ -113,7 +101,7 @@ pub fn rectify_from_metadata(a: &RectifyArgs) -> Result<()> {
         cog_needs_tif("OUTPUT", &a.output)?;
         req.cog = true;
     }
-    let opts = req.resolve(Some(&a.input)).map_err(flagged)?;
+    let opts = req.resolve(Some(&a.input))?;
     let mut staged = StagedOutputs::new();
     let r = rectify_photo_staged(&a.input, &a.output, &opts, None, &mut staged)?;
     if let Some(p) = &a.report {
@@ -258,7 +246,7 @@ impl FlightArgs {
             self.poses.as_deref(),
         );
         let req = self.geo.request(common, limits, warp)?;
-        let (opts, warnings) = req.resolve_flight(inputs).map_err(flagged)?;
+        let (opts, warnings) = req.resolve_flight(inputs)?;
         for w in warnings {
             eprintln!("warning: {w}");
         }
@@ -285,12 +273,12 @@ impl FlightArgs {
 
     /// The adjustment's values checked, reading no file.
     pub(crate) fn validate_flight(&self) -> Result<()> {
-        self.flight_request().validate().map_err(flagged)
+        Ok(self.flight_request().validate()?)
     }
 
     /// The adjustment's options (the ground control files read).
     pub(crate) fn flight_options(&self) -> Result<aerorect::flight::FlightOptions> {
-        self.flight_request().resolve().map_err(flagged)
+        Ok(self.flight_request().resolve()?)
     }
 }
 

@@ -103,8 +103,16 @@ fn capped_threads(n: usize) -> usize {
     }
 }
 
+/// How the CLI spells the library's option keys: `--gsd-m 1e308`.
+const FLAGS: aerorect::options::Spelling = aerorect::options::Spelling {
+    prefix: "--",
+    dashes: true,
+    before_value: " ",
+};
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    FLAGS.use_for_process();
     signals::remove_partial_outputs_on_signal();
     aerorect::io::set_max_image_pixels(cli.max_image_px);
     if let Some(n) = cli.threads.map(capped_threads)

@@ -1,11 +1,11 @@
 //! `mosaic`: many drone photos on one grid, optionally after the flight's joint adjustment.
 
-use crate::drone_cmds::{FlightArgs, flagged};
+use crate::drone_cmds::FlightArgs;
 use crate::flight_print::print_adjustment;
 use crate::outputs::Files;
 use aerorect::core::RectifyLimits;
 use aerorect::core::rectify::DEFAULT_MAX_OUTPUT_PX;
-use aerorect::mosaic::{mosaic_options, run_mosaic};
+use aerorect::mosaic::{check_mosaic_name, mosaic_options, run_mosaic};
 use aerorect::raster::{Interp, WarpOptions};
 use anyhow::Result;
 use clap::Args;
@@ -53,11 +53,11 @@ fn mosaic_files(a: &MosaicArgs) -> Files {
 }
 
 pub fn mosaic_cmd(a: MosaicArgs) -> Result<()> {
-    let mopts = mosaic_options(&a.blend, a.feather_px, a.max_output_px, None).map_err(flagged)?;
+    let mopts = mosaic_options(&a.blend, a.feather_px, a.max_output_px)?;
     mosaic_files(&a).check()?;
     aerorect::io::refuse_duplicate_photos(&a.inputs)?;
     // The output's name is checked after the files (an --out aimed at a photo is said first).
-    mosaic_options(&a.blend, a.feather_px, a.max_output_px, Some(&a.out)).map_err(flagged)?;
+    check_mosaic_name(&a.out)?;
     let t0 = std::time::Instant::now();
     let opts = a.flight.options(
         &a.inputs,

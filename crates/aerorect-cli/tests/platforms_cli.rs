@@ -276,6 +276,12 @@ fn bad_inputs_name_the_photos_and_write_nothing() {
             &["rectify", "none.jpg", "none.tif", "--camera", "cam.toml"],
             &d,
         ),
-        &["none.jpg", "no attitude", "no GPS position"],
+        &[
+            "none.jpg",
+            "no attitude",
+            "no GPS position",
+            "not in --geo or --poses",
+            "give --attitude, --geo or --poses",
+        ],
     );
 }

@@ -15,6 +15,7 @@ pub mod intrinsics;
 pub mod motion;
 pub mod orientation;
 pub mod rectify;
+pub mod spelling;
 pub mod transform;
 
 pub use attitude::SixAngleAttitude;

@@ -4,6 +4,7 @@
 use crate::error::IoError;
 use aerorect_core::SixAngleAttitude;
 use aerorect_core::attitude::SixAngleDegrees;
+use aerorect_core::spelling::Spelling;
 use std::path::Path;
 
 /// Reads `arg` as a file when one exists at that path, else as an inline key=value list.
@@ -15,19 +16,25 @@ pub fn read_attitude(arg: &str) -> Result<SixAngleAttitude, IoError> {
             toml::from_str(&text).map_err(|e| IoError::field(arg, e.message()))?;
         (d, arg.to_string())
     } else if arg.contains('=') {
-        (parse_inline(arg)?, format!("--attitude '{arg}'"))
+        (parse_inline(arg)?, inline_name(arg))
     } else {
         return Err(IoError::field(
-            format!("--attitude '{arg}'"),
+            inline_name(arg),
             "neither an existing file nor a list azimuth=..,elevation=..,image_rotation=..,pitch=..,roll=..,yaw=..",
         ));
     };
     SixAngleAttitude::from_degrees(&degrees).map_err(|e| IoError::field(source, e))
 }
 
+/// The option that gave `arg` and its value, as the front end spells them
+/// (`--attitude 'azimuth=..'`).
+fn inline_name(arg: &str) -> String {
+    Spelling::current().with_value("attitude", &format!("'{arg}'"))
+}
+
 /// Parses `azimuth=1,elevation=2,...`: all six keys, each once, nothing else.
 pub fn parse_inline(arg: &str) -> Result<SixAngleDegrees, IoError> {
-    let src = format!("--attitude '{arg}'");
+    let src = inline_name(arg);
     let mut values: [Option<f64>; 6] = [None; 6];
     for item in arg.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let (key, value) = item

@@ -104,7 +104,9 @@ impl MosaicOptions {
             ));
         }
         if self.blend == Blend::Feather && self.feather_px == 0 {
-            return bad("--blend feather needs a feather width of at least 1 px".into());
+            return Err(Error::advice(
+                "`blend` feather needs a feather width (`feather_px`) of at least 1 px",
+            ));
         }
         if self.cache_frames == 0 {
             return bad("the frame cache must hold at least one frame".into());
@@ -198,10 +200,10 @@ fn check_mosaic_size(
         mm += 1.0;
     }
     let fits = mm / 1000.0;
-    Err(Error::Invalid(format!(
+    Err(Error::advice(format!(
         "the mosaic would be {} x {} px ({:.0} m x {:.0} m at {gsd} m/px), over the limit of \
-         {limit:.0} px ({frames} frame(s) x --max-output-px {max_output_px}): are the frames' \
-         positions right? A GSD of {fits} m (--gsd-m) would fit",
+         {limit:.0} px ({frames} frame(s) x `max_output_px` {max_output_px}): are the frames' \
+         positions right? A GSD of {fits} m (`gsd_m`) would fit",
         size.width, size.height, w_m, h_m,
     )))
 }
@@ -360,7 +362,7 @@ fn best_of(cands: &[usize], scores: &[Vec<f64>], n: usize) -> Vec<Option<usize>>
 mod request;
 mod run;
 
-pub use request::{frame_options, mosaic_adjusted, mosaic_options, run_mosaic};
+pub use request::{check_mosaic_name, frame_options, mosaic_adjusted, mosaic_options, run_mosaic};
 
 pub use run::{
     COG_MAX_PX, FrameUse, MosaicReport, MosaicRun, frames_from_photos, mosaic, mosaic_cog,

@@ -166,8 +166,8 @@ pub fn motion_sim(
             Displacement::Fourier => 2 * cfg.size,
         };
         if scene.width() < need || scene.height() < need {
-            return Err(Error::Invalid(format!(
-                "{name}: {} x {} is too small for {} x {} frames with their shift margin (needs {need} x {need}); give a smaller --size",
+            return Err(Error::advice(format!(
+                "{name}: {} x {} is too small for {} x {} frames with their shift margin (needs {need} x {need}); give a smaller `size`",
                 scene.width(),
                 scene.height(),
                 cfg.size,

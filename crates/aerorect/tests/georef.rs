@@ -207,7 +207,7 @@ fn dem_holes_warn_or_refuse() {
         .unwrap_err()
         .full_message();
     assert!(
-        e.contains("hills") && e.contains("nodata") && e.contains("--strict"),
+        e.contains("hills") && e.contains("nodata") && e.contains("refused by strict"),
         "{e}"
     );
     let lenient = Ground::Dem {

@@ -17,6 +17,7 @@ mod yaml_guard;
 use crate::IoError;
 use crate::camera::{CameraFile, camera_toml};
 use aerorect_core::distortion::{Distortion, OpenCv, OpenCvTerms};
+use aerorect_core::spelling::Spelling;
 use aerorect_core::{Camera, ImageSize, Intrinsics};
 use std::path::Path;
 
@@ -182,7 +183,9 @@ pub fn camera_from_text(
         CameraFormat::Metashape => metashape::read(text, &src),
         CameraFormat::DjiDewarp => {
             let size = size.ok_or_else(|| {
-                src.err("DewarpData does not state the image size: give it (--image-size WxH)")
+                src.err(Spelling::current().keys_in(
+                    "DewarpData does not state the image size: give it (`image_size` WxH)",
+                ))
             })?;
             dewarp::read(text, size, &src)
         }

@@ -236,12 +236,9 @@ pub fn run(kind: Kind, bytes: &[u8], dir: &Path) -> Vec<Call> {
             );
         }
         Kind::AttitudeInline => {
-            call(
-                &mut out,
-                "read_attitude(inline)",
-                Some("--attitude"),
-                || aerorect_io::read_attitude(&text),
-            );
+            call(&mut out, "read_attitude(inline)", Some("attitude"), || {
+                aerorect_io::read_attitude(&text)
+            });
         }
         Kind::Checkpoints | Kind::Gcps | Kind::ControlPoints | Kind::Poses => {
             let p = file("table.csv");

@@ -25,6 +25,7 @@ pub use problem::{
 
 use aerorect_core::ImageSize;
 use aerorect_core::error::Num;
+use aerorect_core::spelling::Spelling;
 use thiserror::Error;
 
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -56,7 +57,7 @@ pub enum CalibrationError {
          use several images of the plane or a 3-D field, or fix fx and fy"
     )]
     PlanarSingleImage,
-    #[error("unknown parameter name '{0}' (in --fix)")]
+    #[error("unknown parameter name '{name}' (in {fix})", name = .0, fix = Spelling::current().name("fix"))]
     UnknownParameter(String),
     #[error("the starting values could not be found: {0}")]
     Initialisation(String),

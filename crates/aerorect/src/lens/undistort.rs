@@ -62,8 +62,8 @@ fn fitted(camera: &Camera) -> Result<(Intrinsics, ImageSize), Error> {
     // NaN-safe: a non-finite size fails `is_finite` and is refused too.
     let pixels = nw * nh;
     if !pixels.is_finite() || pixels > MAX_FIT_GROWTH * size.pixels() as f64 {
-        return Err(Error::Invalid(format!(
-            "--fit would make a {nw} x {nh} image: the lens model is not plausible for this frame"
+        return Err(Error::advice(format!(
+            "`fit` would make a {nw} x {nh} image: the lens model is not plausible for this frame"
         )));
     }
     let mut out = *k;

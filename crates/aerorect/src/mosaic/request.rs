@@ -9,12 +9,11 @@ use crate::options::OptionError;
 use std::path::{Path, PathBuf};
 
 /// The mosaic's options: `blend` by name (feather, none), the seam's cross-fade, the largest
-/// frame ortho; `out` (when given) must be a .tif or .tiff.
+/// frame ortho.
 pub fn mosaic_options(
     blend: &str,
     feather_px: usize,
     max_output_px: u64,
-    out: Option<&Path>,
 ) -> Result<MosaicOptions, Error> {
     let blend: Blend = blend.parse().map_err(Error::Invalid)?;
     let m = MosaicOptions {
@@ -24,14 +23,17 @@ pub fn mosaic_options(
         ..MosaicOptions::default()
     };
     m.validate()?;
-    let ext = out.and_then(|o| o.extension()).and_then(|e| e.to_str());
-    if let Some(out) = out
-        && !ext.is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff"))
-    {
-        let why = Error::Invalid("the mosaic is a GeoTIFF: give a .tif or .tiff name".into());
-        return Err(OptionError::value("out", out.display(), why).into());
-    }
     Ok(m)
+}
+
+/// Refuses a mosaic name that is not a GeoTIFF's (`.tif`, `.tiff`).
+pub fn check_mosaic_name(out: &Path) -> Result<(), Error> {
+    let ext = out.extension().and_then(|e| e.to_str());
+    if ext.is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff")) {
+        return Ok(());
+    }
+    let why = Error::Invalid("the mosaic is a GeoTIFF: give a .tif or .tiff name".into());
+    Err(OptionError::value("out", out.display(), why).into())
 }
 
 /// The mosaic of `inputs` written to `out` (a COG when `cog`): each frame planned from `opts`

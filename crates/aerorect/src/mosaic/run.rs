@@ -370,8 +370,8 @@ pub fn mosaic_cog(
     let (plan, geo) = prepare(frames, crs, out, opts)?;
     let size = plan.grid.size;
     if size.pixels() > COG_MAX_PX {
-        return Err(Error::Invalid(format!(
-            "the mosaic is {} x {} px ({:.0} Mpx): a cloud-optimised GeoTIFF is composited in memory, up to {} Mpx; write the tiled GeoTIFF (without --cog) or use a coarser GSD",
+        return Err(Error::advice(format!(
+            "the mosaic is {} x {} px ({:.0} Mpx): a cloud-optimised GeoTIFF is composited in memory, up to {} Mpx; write the tiled GeoTIFF (without `cog`) or use a coarser GSD",
             size.width,
             size.height,
             size.pixels() as f64 / 1e6,
@@ -474,8 +474,8 @@ pub fn frames_from_photos(
     let mut frames = Vec::with_capacity(planned.len());
     for ((plan, info), (path, _, _)) in planned.into_iter().zip(&inputs) {
         if info.geo.crs != crs {
-            return Err(Error::Invalid(format!(
-                "{}: in {:?}, the first frame in {crs:?}: give one output CRS (--crs)",
+            return Err(Error::advice(format!(
+                "{}: in {:?}, the first frame in {crs:?}: give one output CRS (`crs`)",
                 path.display(),
                 info.geo.crs
             )));

@@ -5,8 +5,14 @@
 //! A request names its options by the facade's keys (Python's keyword names: `gsd_m`,
 //! `attitude_sigma_deg`), and a refused value is an [`OptionError`] naming the key and the
 //! value. Each front end spells the key its own way ([`Spelling`]: `--gsd-m 1e308` for the CLI,
-//! `gsd_m=1e308` for Python) with [`crate::Error::spelled`]. Values are checked before any
-//! photo is decoded.
+//! `gsd_m=1e308` for Python): it says how once, at start ([`Spelling::use_for_process`]), and
+//! every message that names an option is written that way, however deep it was raised.
+//! [`crate::Error::spelled`] spells one error explicitly. Values are checked before any photo
+//! is decoded.
+//!
+//! A message whose remedy is an option (`give camera`) names it in backticks in the text it is
+//! built from ([`crate::Error::advice`]); the library's messages never hold a front end's
+//! spelling of an option.
 
 mod flight;
 mod ortho;
@@ -16,12 +22,13 @@ pub use ortho::{PhotoRequest, parse_interp, projected_crs};
 
 use crate::Error;
 use aerorect_core::error::Num;
+pub use aerorect_core::spelling::Spelling;
 
 /// An option refused before any work: its key, the value as given, and why.
 #[derive(Debug, thiserror::Error)]
 pub enum OptionError {
     /// `{option} {value}: {source}` (`{option}: {source}` for an empty value).
-    #[error("{}", Spelling::KEY.with_value(option, value))]
+    #[error("{}", Spelling::current().with_value(option, value))]
     Value {
         option: &'static str,
         value: String,
@@ -30,17 +37,22 @@ pub enum OptionError {
     },
     /// Two options that cannot be given together: `{a} {why} {b}...`, as `text` says with
     /// `{a}` and `{b}` standing for their names.
-    #[error("{}", fill(text, a, b))]
+    #[error("{}", fill(text, a, b, &Spelling::current()))]
     Pair {
         a: &'static str,
         b: &'static str,
         text: String,
     },
+    /// A problem whose remedy is an option: `text` names each option key in backticks
+    /// ("no focal length ...; give `camera`"), written as the front end spells it.
+    #[error("{}", Spelling::current().keys_in(text))]
+    Advice { text: String },
 }
 
 /// `text` with `{a}` and `{b}` replaced by the names.
-fn fill(text: &str, a: &str, b: &str) -> String {
-    text.replace("{a}", a).replace("{b}", b)
+fn fill(text: &str, a: &str, b: &str, spelling: &Spelling) -> String {
+    text.replace("{a}", &spelling.name(a))
+        .replace("{b}", &spelling.name(b))
 }
 
 impl OptionError {
@@ -69,53 +81,19 @@ impl OptionError {
                 context: spelling.with_value(option, &value),
                 source,
             },
-            OptionError::Pair { a, b, text } => {
-                Error::Invalid(fill(&text, &spelling.name(a), &spelling.name(b)))
-            }
+            OptionError::Pair { a, b, text } => Error::Invalid(fill(&text, a, b, spelling)),
+            OptionError::Advice { text } => Error::Invalid(spelling.keys_in(&text)),
         }
-    }
-}
-
-/// How a front end writes an option's key and value.
-#[derive(Debug, Clone, Copy)]
-pub struct Spelling {
-    /// Before the key: `--` for flags.
-    pub prefix: &'static str,
-    /// Underscores written as dashes (`gsd-m`).
-    pub dashes: bool,
-    /// Between the name and its value: `" "` for flags, `"="` for keyword arguments.
-    pub before_value: &'static str,
-}
-
-impl Spelling {
-    /// The facade's own spelling (its keys, as Python names its keyword arguments), with the
-    /// value after a space.
-    pub const KEY: Spelling = Spelling {
-        prefix: "",
-        dashes: false,
-        before_value: " ",
-    };
-
-    /// The option's name.
-    pub fn name(&self, key: &str) -> String {
-        let key = if self.dashes {
-            key.replace('_', "-")
-        } else {
-            key.to_string()
-        };
-        format!("{}{key}", self.prefix)
-    }
-
-    /// The option's name and its value (the name alone for an empty value).
-    pub fn with_value(&self, key: &str, value: &str) -> String {
-        if value.is_empty() {
-            return self.name(key);
-        }
-        format!("{}{}{value}", self.name(key), self.before_value)
     }
 }
 
 impl Error {
+    /// A problem whose remedy is an option: `text` names each option key in backticks
+    /// (`"...; give `camera`"`), which every front end writes its own way.
+    pub fn advice(text: impl Into<String>) -> Error {
+        Error::Option(OptionError::Advice { text: text.into() })
+    }
+
     /// This error with the options it names spelled as a front end writes them (at the top or
     /// under contexts); other errors are returned as they are.
     pub fn spelled(self, spelling: &Spelling) -> Error {
@@ -168,6 +146,17 @@ pub(crate) mod tests {
             pair().spelled(&FLAG).to_string(),
             "--hold-positions and --adjust-positions-m exclude each other"
         );
+        let advice =
+            || Error::advice("no focal length; give `camera` or `image_size` (`Not a key`)");
+        assert_eq!(
+            advice().spelled(&FLAG).to_string(),
+            "no focal length; give --camera or --image-size (`Not a key`)"
+        );
+        assert_eq!(
+            advice().to_string(),
+            "no focal length; give camera or image_size (`Not a key`)"
+        );
+        assert_eq!(Spelling::KEY.keys_in("a `b"), "a `b");
         let under = Error::context("flight")(pair()).spelled(&KEYWORD);
         assert_eq!(
             under.full_message(),

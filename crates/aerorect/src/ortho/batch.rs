@@ -5,6 +5,7 @@
 use crate::Error;
 use crate::drone::{DroneOptions, PhotoResult, rectify_photo};
 use crate::flight::{AdjustedFlight, FlightOptions, adjust_flight};
+use crate::options::Spelling;
 use crate::report_html::{FlightSection, render};
 use aerorect_io::StagedOutputs;
 use aerorect_raster::AnyRaster;
@@ -164,8 +165,9 @@ fn process(req: &BatchRequest, input: &Path, opts: &DroneOptions) -> FrameOutcom
         match aerorect_io::check_image_whole(&output) {
             Ok(()) => {
                 return FrameOutcome::Skipped(format!(
-                    "{} exists (use --force to rewrite)",
-                    output.display()
+                    "{} exists (use {} to rewrite)",
+                    output.display(),
+                    Spelling::current().name("force")
                 ));
             }
             Err(e) => broken = Some(e),

@@ -112,8 +112,8 @@ fn camera_from_tags(
         );
         return Ok((k, None, CameraSource::Equivalent35mm, vec![w]));
     }
-    Err(Error::Invalid(format!(
-        "{file}: no focal length in pixels: no DJI calibration tags, camera '{make} {model}' is not in the sensor database, and no 35 mm equivalent; give --camera"
+    Err(Error::advice(format!(
+        "{file}: no focal length in pixels: no DJI calibration tags, camera '{make} {model}' is not in the sensor database, and no 35 mm equivalent; give `camera`"
     )))
 }
 
@@ -168,13 +168,13 @@ fn heights(
     let relative = meta.dji.relative_altitude_m.or(meta.body.height_m);
     let need_abs = |why: &str| {
         abs.ok_or_else(|| {
-            Error::Invalid(format!(
-                "{file}: {why} needs XMP AbsoluteAltitude or EXIF GPSAltitude"
+            Error::advice(format!(
+                "{file}: `{why}` needs XMP AbsoluteAltitude or EXIF GPSAltitude"
             ))
         })
     };
     let (h, ground) = if let Some(dem) = &opts.dem {
-        let a = need_abs("--dem")?;
+        let a = need_abs("dem")?;
         let z = a + opts.vertical_offset_m;
         let fallback = relative.map(|r| a - r);
         let src = format!(
@@ -195,7 +195,7 @@ fn heights(
             g,
         )
     } else if let Some(g) = opts.ground_height_m {
-        let a = need_abs("--ground-height-m")?;
+        let a = need_abs("ground_height_m")?;
         let src = format!("AbsoluteAltitude {a} m over ground at {g} m");
         (
             Heights {
@@ -207,8 +207,8 @@ fn heights(
         )
     } else {
         let r = relative.ok_or_else(|| {
-            Error::Invalid(format!(
-                "{file}: no height above the take-off point (XMP drone-dji:RelativeAltitude or sensefly:Height); give --ground-height-m (the ground's height in the altitude's datum) or --dem"
+            Error::advice(format!(
+                "{file}: no height above the take-off point (XMP drone-dji:RelativeAltitude or sensefly:Height); give `ground_height_m` (the ground's height in the altitude's datum) or `dem`"
             ))
         })?;
         let src = "RelativeAltitude (above the take-off point)".to_string();
@@ -452,8 +452,8 @@ pub fn plan_from_pose(
     file: &str,
 ) -> Result<(OrthoPlan, DronePlanInfo), Error> {
     let Some(crs) = opts.crs.clone() else {
-        return Err(Error::Invalid(format!(
-            "{file}: a pose needs the CRS it is in (--crs, or a .prj beside the pose table)"
+        return Err(Error::advice(format!(
+            "{file}: a pose needs the CRS it is in (`crs`, or a .prj beside the pose table)"
         )));
     };
     let camera = photo_camera(meta, size, opts, file)?;
@@ -479,8 +479,8 @@ pub fn plan_from_pose(
             format!("pose z {} m over ground at {g} m", pose.z),
         ),
         (None, None) => {
-            return Err(Error::Invalid(format!(
-                "{file}: a pose needs the ground: --dem or --ground-height-m"
+            return Err(Error::advice(format!(
+                "{file}: a pose needs the ground: `dem` or `ground_height_m`"
             )));
         }
     };
@@ -621,7 +621,7 @@ pub fn ortho_photo(
     let image = aerorect_io::read_image(input)?;
     opts.warp
         .nodata_as_for(&image)
-        .map_err(Error::context(format!("--nodata {}", opts.warp.nodata)))?;
+        .map_err(|e| crate::options::OptionError::value("nodata", opts.warp.nodata, e))?;
     let size = image.size();
     stages.read = lap(&mut lap_t);
     let posed = opts.poses.as_deref().map(|p| pose_for(p, input));

@@ -397,7 +397,7 @@ fn plan_terrain(
             dem.name, sampling.filled, sampling.nodes
         );
         if strict {
-            return Err(Error::Invalid(format!("{msg} (refused by --strict)")));
+            return Err(Error::advice(format!("{msg} (refused by `strict`)")));
         }
         warnings.push(msg);
     }
@@ -421,8 +421,8 @@ fn plan_terrain(
     }
     let grid = OrthoGrid::covering(bounds_of(hits.iter().copied()), req.gsd_m);
     if grid.size.pixels() as u64 > req.limits.max_output_px {
-        return Err(Error::Invalid(format!(
-            "the ortho over the DEM would be {} x {} px, over the limit of {} px (--max-output-px)",
+        return Err(Error::advice(format!(
+            "the ortho over the DEM would be {} x {} px, over the limit of {} px (`max_output_px`)",
             grid.size.width, grid.size.height, req.limits.max_output_px
         )));
     }
@@ -437,7 +437,7 @@ fn plan_terrain(
         let count = hidden.iter().filter(|&&h| h).count();
         if count > 0 {
             warnings.push(format!(
-                "{count} output pixels are hidden behind nearer terrain (--occlusion): left empty"
+                "{count} output pixels are hidden behind nearer terrain (the occlusion test): left empty"
             ));
         }
         OrthoMap::Visible(Box::new(Visible { map, hidden }))

@@ -134,10 +134,10 @@ fn gps_track_attitude(
     opts: &DroneOptions,
     file: &str,
 ) -> Result<PhotoAttitude, Error> {
-    let none = "no attitude: no XMP drone-dji:GimbalYawDegree / GimbalPitchDegree, no senseFly or Pix4D (Camera:) Yaw/Pitch/Roll, not in --geo or --poses";
+    let none = "no attitude: no XMP drone-dji:GimbalYawDegree / GimbalPitchDegree, no senseFly or Pix4D (Camera:) Yaw/Pitch/Roll, not in `geo` or `poses`";
     if meta.latitude_deg.is_none() || meta.longitude_deg.is_none() {
-        return Err(Error::Invalid(format!(
-            "{file}: {none}, and no GPS position to start it from; give --attitude, --geo or --poses"
+        return Err(Error::advice(format!(
+            "{file}: {none}, and no GPS position to start it from; give `attitude`, `geo` or `poses`"
         )));
     }
     let name = Path::new(file)
@@ -145,8 +145,8 @@ fn gps_track_attitude(
         .and_then(|n| n.to_str())
         .unwrap_or(file);
     let Some(&heading) = opts.track_headings.as_deref().and_then(|t| t.get(name)) else {
-        return Err(Error::Invalid(format!(
-            "{file}: {none}, and no neighbouring photo to take a heading from its GPS track; give it with its flight (batch, mosaic), or --attitude, --geo or --poses"
+        return Err(Error::advice(format!(
+            "{file}: {none}, and no neighbouring photo to take a heading from its GPS track; give it with its flight (batch, mosaic), or `attitude`, `geo` or `poses`"
         )));
     };
     let rotation = rotation_from_body_ypr(heading, 0.0, 0.0)

@@ -151,8 +151,8 @@ fn within_limit(
     let (w, h) = (grid.1.width as u64, grid.1.height as u64);
     match w.checked_mul(h) {
         Some(pixels) if pixels <= limits.max_output_px => Ok(grid),
-        pixels => Err(Error::Invalid(format!(
-            "--grid {w} x {h} = {} px exceeds the limit of {} px (--max-output-px)",
+        pixels => Err(Error::advice(format!(
+            "`grid` {w} x {h} = {} px exceeds the limit of {} px (`max_output_px`)",
             pixels.map_or("more than 2^64".to_string(), |p| p.to_string()),
             limits.max_output_px
         ))),

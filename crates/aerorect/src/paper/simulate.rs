@@ -96,8 +96,8 @@ impl SimulatePlan {
         if (1..=limit).contains(&n) {
             return Ok(());
         }
-        Err(Error::Invalid(format!(
-            "--checkpoints {n}: give 1 to {limit} for a {} x {} frame \
+        Err(Error::advice(format!(
+            "`checkpoints` {n}: give 1 to {limit} for a {} x {} frame \
              (one per 16 px, at most {MAX_CHECKPOINTS})",
             s.width, s.height
         )))
