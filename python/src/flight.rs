@@ -119,19 +119,46 @@ fn progress_from(json: Option<&str>) -> Result<aerorect::flight::FlightProgress>
 impl FlightPlan {
     /// Reads every frame's metadata and plans it on the matching grid (`opts`: as
     /// `adjust_flight`'s).
+    /// `sensefly_roll_choice`: what `choose_sensefly_roll` decided (another process's plan),
+    /// so this plan reads the roll that way and reports the choice.
     #[new]
-    #[pyo3(signature = (paths, opts=None))]
+    #[pyo3(signature = (paths, opts=None, sensefly_roll_choice=None))]
     fn new(
         py: Python<'_>,
         paths: Vec<PathBuf>,
         opts: Option<&Bound<'_, PyDict>>,
+        sensefly_roll_choice: Option<&str>,
     ) -> PyResult<Self> {
         let args = PhotoArgs::from_dict(opts)?;
         py.detach(|| -> Result<_> {
             // The warnings were the caller's when it adjusted or planned the flight first.
             let (o, _) = args.flight_frames(&paths)?;
-            let plan = aerorect::flight::FlightPlan::new(&paths, &o, &args.flight_options()?)?;
+            let mut plan = aerorect::flight::FlightPlan::new(&paths, &o, &args.flight_options()?)?;
+            if let Some(choice) = sensefly_roll_choice {
+                plan = plan.with_sensefly_roll(aerorect::flight::from_exact_json(choice)?)?;
+            }
             Ok(Self { plan, opts: o })
+        })
+        .map_err(py_err)
+    }
+
+    /// The reading of senseFly's roll the first round's feature matches (`first_round`'s)
+    /// agree with, as exact JSON for `FlightPlan(..., sensefly_roll_choice=)`; `None` when
+    /// the flight does not leave the reading to its images.
+    fn choose_sensefly_roll(
+        &self,
+        py: Python<'_>,
+        matches: Vec<String>,
+    ) -> PyResult<Option<String>> {
+        py.detach(|| -> Result<_> {
+            let matched = matches
+                .iter()
+                .map(|m| aerorect::flight::from_exact_json(m))
+                .collect::<Result<Vec<_>, _>>()?;
+            match self.plan.choose_sensefly_roll(&matched)? {
+                Some(c) => Ok(Some(aerorect::flight::exact_json(&c)?)),
+                None => Ok(None),
+            }
         })
         .map_err(py_err)
     }

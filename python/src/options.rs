@@ -103,11 +103,12 @@ impl PhotoArgs {
             ..WarpOptions::default()
         };
         let sensefly_roll = match self.sensefly_roll.as_deref() {
-            None | Some("as_recorded") => SenseflyRoll::AsRecorded,
+            None | Some("auto") => SenseflyRoll::Auto,
+            Some("as_recorded") => SenseflyRoll::AsRecorded,
             Some("flipped") => SenseflyRoll::Flipped,
-            Some(other) => {
-                anyhow::bail!("sensefly_roll='{other}': expected 'as_recorded' or 'flipped'")
-            }
+            Some(other) => anyhow::bail!(
+                "sensefly_roll='{other}': expected 'auto', 'as_recorded' or 'flipped'"
+            ),
         };
         Ok(PhotoRequest {
             gsd_m: self.gsd_m,

@@ -159,10 +159,11 @@ pub struct GeoArgs {
     /// height and angles from it; a photo it does not list is an error.
     #[arg(long = "geo", value_name = "FILE")]
     pub geo_file: Option<PathBuf>,
-    /// How senseFly's roll is read: as recorded (Pix4D's convention; OpenSfM, Orthority) or
-    /// flipped (ODM). The default is the reading the snowpeak eBee flight's own overlaps agree
-    /// with (CONVENTIONS.md, "senseFly roll").
-    #[arg(long, value_enum, default_value_t = RollReading::AsRecorded)]
+    /// How senseFly's roll is read: as recorded (Pix4D's convention; OpenSfM, Orthority),
+    /// flipped (ODM), or auto: a flight's first round is adjusted under both and the reading
+    /// its ties turn the frames less from is kept (the report's `sensefly_roll` says how it
+    /// went); a photo on its own is read as recorded (CONVENTIONS.md, "senseFly roll").
+    #[arg(long, value_enum, default_value_t = RollReading::Auto)]
     pub sensefly_roll: RollReading,
 }
 
@@ -170,6 +171,7 @@ pub struct GeoArgs {
 #[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum RollReading {
     #[default]
+    Auto,
     AsRecorded,
     Flipped,
 }
@@ -177,6 +179,7 @@ pub enum RollReading {
 impl From<RollReading> for SenseflyRoll {
     fn from(r: RollReading) -> Self {
         match r {
+            RollReading::Auto => SenseflyRoll::Auto,
             RollReading::AsRecorded => SenseflyRoll::AsRecorded,
             RollReading::Flipped => SenseflyRoll::Flipped,
         }

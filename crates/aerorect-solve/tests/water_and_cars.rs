@@ -79,7 +79,10 @@ fn ties_on_water_and_moving_cars_are_down_weighted_not_followed() {
     let clean = solve(&fl.recorded, &fl.ties, 3.0);
     let clean_err = errors_deg(&fl.truth, &clean.frames);
     let (ties, lake, road) = water_and_cars(&fl.ties, 7);
-    assert!(lake >= 20 && road >= 10, "{lake} views on the lake, {road} on the road");
+    assert!(
+        lake >= 20 && road >= 10,
+        "{lake} views on the lake, {road} on the road"
+    );
     let robust = solve(&fl.recorded, &ties, 3.0);
     let quadratic = solve(&fl.recorded, &ties, 1e9);
     let robust_err = errors_deg(&fl.truth, &robust.frames);
@@ -110,8 +113,16 @@ fn ties_on_water_and_moving_cars_are_down_weighted_not_followed() {
     assert!(moved(&robust_err) < 1.0, "{robust_err:?}");
     assert!(px(worst(&robust_err)) < 1.0, "{robust_err:?}");
     // The moved views are the ones down-weighted (a few good ones may join them).
-    assert!(outliers * 10 >= (lake + road) * 7, "{outliers} of {}", lake + road);
-    assert!(outliers <= (lake + road) * 2, "{outliers} of {}", lake + road);
+    assert!(
+        outliers * 10 >= (lake + road) * 7,
+        "{outliers} of {}",
+        lake + road
+    );
+    assert!(
+        outliers <= (lake + road) * 2,
+        "{outliers} of {}",
+        lake + road
+    );
     // Without the robust loss the same ties bend the frames more than twice as far.
     assert!(moved(&quadratic_err) > 2.0 * moved(&robust_err));
 }

@@ -78,7 +78,9 @@ fn sensefly_height_is_the_flat_default_and_without_it_the_ground_is_asked_for() 
         .unwrap_err()
         .full_message();
     assert!(
-        e.contains("IMG_1.JPG") && e.contains("sensefly:Height") && e.contains("give ground_height_m"),
+        e.contains("IMG_1.JPG")
+            && e.contains("sensefly:Height")
+            && e.contains("give ground_height_m"),
         "{e}"
     );
     m.body.height_m = Some(151.2);

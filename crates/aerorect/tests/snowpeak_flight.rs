@@ -1,4 +1,5 @@
 //! (extended) The senseFly eBee photos of ../shared/data/flights/snowpeak as a flight: the
+//! roll's sign is read as the flight's own ties agree (as recorded), the
 //! consecutive frames (2188/2189, 2212/2213 across strips, 2280/2281/2282) tie by their
 //! features from the XMP angles alone and from the flight's geoinfo.txt alone, and after the
 //! adjustment the overlap correlator on the written frames (an estimator the adjustment does
@@ -12,6 +13,7 @@
 
 use aerorect::drone::{DroneOptions, rectify_photo};
 use aerorect::flight::{FlightOptions, MIN_FEATURE_INLIERS, adjust_flight};
+use aerorect::photo_source::SenseflyRoll;
 use aerorect_testkit::shared_data as shared;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -71,6 +73,16 @@ fn snowpeak_frames_tie_from_xmp_and_agree_after_the_adjustment() {
         r.adjustment.rms_after_px < 1.5,
         "{}",
         r.adjustment.rms_after_px
+    );
+    // The roll's sign, left to the images, is the reading phase correlation of the orthos
+    // under each reading chose on these pairs (CONVENTIONS.md, "senseFly roll").
+    let roll = r.sensefly_roll.as_ref().unwrap();
+    eprintln!("senseFly roll: {roll:?}");
+    let (a, f) = (roll.as_recorded.as_ref(), roll.flipped.as_ref());
+    assert_eq!(roll.reading, SenseflyRoll::AsRecorded, "{roll:?}");
+    assert!(
+        f.unwrap().median_turn_deg > a.unwrap().median_turn_deg,
+        "{roll:?}"
     );
     let dir = tempfile::tempdir().unwrap();
     let out = |tag: &str, n: &str| dir.path().join(format!("{tag}{n}.tif"));

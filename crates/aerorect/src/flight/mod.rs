@@ -14,7 +14,8 @@
 //! pair's tie points as the adjustment takes them), `solve` (a round's adjustment), `checks`
 //! (the GPS fixes and recorded attitudes against the images after it), `plan`
 //! (the steps as pure functions, for Dask), `exchange` (what travels between processes),
-//! `render` (the adjusted frames onto the output grid), `control` (ground control points as
+//! `roll` (senseFly's roll sign, by the first round's ties), `render` (the adjusted frames
+//! onto the output grid), `control` (ground control points as
 //! tie points held to their surveyed positions) and `accuracy` (the report against them).
 
 mod accuracy;
@@ -28,6 +29,7 @@ mod frames;
 mod plan;
 mod predict;
 mod render;
+mod roll;
 pub mod sift;
 mod solve;
 mod ties;
@@ -45,6 +47,7 @@ pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource};
 pub use plan::{FlightPlan, FlightProgress, Orientation};
 pub use predict::{MarkPrediction, chip};
 pub use render::AdjustedFlight;
+pub use roll::{FLIP_MARGIN, RollChoice, RollTrial};
 pub use ties::{PairMatch, PairTie, TieVector};
 
 use checks::*;
@@ -275,6 +278,9 @@ pub struct FlightReport {
     /// The flight against its ground control and check points (with `control`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub accuracy: Option<AccuracyReport>,
+    /// How senseFly's roll was read when the flight left it to its images.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensefly_roll: Option<RollChoice>,
     pub adjustment: AdjustReport,
     pub poses: Vec<AdjustedPose>,
     pub seconds: f64,
@@ -289,6 +295,8 @@ pub fn adjust_flight(
 ) -> Result<AdjustedFlight, Error> {
     fo.validate()?;
     let plan = timing::time("plan (wall)", || FlightPlan::new(inputs, opts, fo))?;
+    let features = timing::time("features round (wall)", || plan.first_round_matches())?;
+    let plan = plan.with_sensefly_roll_chosen(&features)?;
     let render_all = |o: Option<&Orientation>| -> Result<Vec<Rendered>, Error> {
         timing::time("render (wall)", || {
             (0..plan.len())
@@ -297,7 +305,6 @@ pub fn adjust_flight(
                 .collect()
         })
     };
-    let features = timing::time("features round (wall)", || plan.first_round_matches())?;
     let mut progress = FlightProgress::default();
     if !features.is_empty() {
         let round = plan.adjust_round(&mut progress, features.clone())?;

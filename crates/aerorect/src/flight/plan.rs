@@ -20,6 +20,8 @@ pub struct FlightPlan {
     pub(super) warnings: Vec<String>,
     /// The ground control in the flight's CRS, on its frames.
     pub(super) control: Option<control::Resolved>,
+    /// How senseFly's roll was read, when the images decided it.
+    pub(super) roll: Option<RollChoice>,
 }
 
 /// Every frame's pose and camera (a round's adjusted orientation).
@@ -88,6 +90,7 @@ impl FlightPlan {
             crs,
             started,
             warnings,
+            roll: None,
         })
     }
 
@@ -288,6 +291,7 @@ impl FlightPlan {
             blocks,
             gps: round.gps,
             accuracy: round.accuracy,
+            sensefly_roll: self.roll.clone(),
             pairs: round.reports,
             adjustment: round.adjusted.report,
             poses: adjusted_poses(&self.frames, &poses, &cameras),

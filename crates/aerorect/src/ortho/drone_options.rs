@@ -13,12 +13,17 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// How senseFly's roll is read. Peer tools disagree (ODM flips its sign, OpenSfM and Orthority
-/// do not) and nothing records how the camera sits in the airframe: the default was chosen by
-/// the images (CONVENTIONS.md, "senseFly roll").
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+/// do not) and nothing records how the camera sits in the airframe, so by default the images
+/// decide (CONVENTIONS.md, "senseFly roll").
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum SenseflyRoll {
-    /// The recorded roll, as Pix4D's convention reads it (OpenSfM, Orthority).
+    /// A flight's first round is adjusted under both readings and the one its ties turn the
+    /// frames less from is kept (`aerorect::flight`, `sensefly_roll` in its report); a photo
+    /// on its own is read as recorded.
     #[default]
+    Auto,
+    /// The recorded roll, as Pix4D's convention reads it (OpenSfM, Orthority).
     AsRecorded,
     /// The recorded roll negated (ODM).
     Flipped,
