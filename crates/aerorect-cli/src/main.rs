@@ -32,7 +32,7 @@ use std::process::ExitCode;
 struct Cli {
     /// Worker threads for pixel loops and the binarised JTC's two frame orders (default: all
     /// cores).
-    #[arg(long, global = true)]
+    #[arg(long, global = true, value_parser = at_least_one_thread)]
     threads: Option<usize>,
     /// The most pixels of one decoded input image (frames, references, DEMs): larger headers
     /// are refused before anything is allocated.
@@ -86,6 +86,15 @@ enum Command {
     /// Where each ground control point falls in each photo by the current orientation, with a
     /// chip of the photo around it (marking help for --gcps).
     GcpPredict(gcp_cmds::GcpPredictArgs),
+}
+
+/// `--threads`: a count of one or more (0 would silently mean "all cores" to the pool).
+fn at_least_one_thread(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(0) => Err("at least one thread".into()),
+        Ok(n) => Ok(n),
+        Err(e) => Err(e.to_string()),
+    }
 }
 
 /// `--threads n`, at most four times the cores (more only adds start-up time: 100 000 threads

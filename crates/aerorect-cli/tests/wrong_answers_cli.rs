@@ -526,3 +526,33 @@ fn register_names_only_the_option_out_of_range() {
         assert!(others.iter().all(|o| !err.contains(o)), "{err}");
     }
 }
+
+#[test]
+fn absurd_counts_and_sizes_are_refused_before_any_work() {
+    let (_t, d) = fixture();
+    let before = files(&d);
+    // Before: `--size 100000` planned 10^10-pixel transforms and aborted (exit 134) on the
+    // allocation; `--trials 0` wrote an empty table; `--threads 0` meant all cores.
+    let sim = |extra: &[&str]| {
+        let mut args = vec!["motion-sim", "scene.jpg", "--plot", "p.svg"];
+        args.extend_from_slice(extra);
+        aerorect(&args, &d)
+    };
+    fails(
+        &sim(&["--size", "100000"]),
+        &[
+            "scene",
+            "too small for 100000 x 100000",
+            "give a smaller --size",
+        ],
+    );
+    fails(
+        &sim(&["--trials", "0"]),
+        &["--trials 0", "at least one trial"],
+    );
+    fails(
+        &sim(&["--threads", "0"]),
+        &["--threads", "at least one thread"],
+    );
+    assert_eq!(files(&d), before);
+}

@@ -130,6 +130,37 @@ pub struct MotionSimConfig {
     pub dump_dir: Option<std::path::PathBuf>,
 }
 
+impl MotionSimConfig {
+    /// Refuses no trials, and frames no scene holds with their shift margin (before any
+    /// estimator is planned: a frame size the scenes cannot hold would be planned in vain,
+    /// and a huge one would exhaust memory).
+    fn check(&self, scenes: &[(String, Raster<f32>)]) -> Result<(), Error> {
+        if self.trials == 0 {
+            let why = Error::Invalid("at least one trial per cell".into());
+            return Err(crate::options::OptionError::value("trials", 0, why).into());
+        }
+        // Linear shifts read max_shift + 1 px around the window; Fourier shifts a 2n window.
+        let need = match self.displacement {
+            Displacement::Linear => (self.max_shift.ceil() as usize + 2)
+                .saturating_mul(2)
+                .saturating_add(self.size),
+            Displacement::Fourier => self.size.saturating_mul(2),
+        };
+        for (name, scene) in scenes {
+            if scene.width() < need || scene.height() < need {
+                return Err(Error::advice(format!(
+                    "{name}: {} x {} is too small for {} x {} frames with their shift margin (needs {need} x {need}); give a smaller `size`",
+                    scene.width(),
+                    scene.height(),
+                    self.size,
+                    self.size
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// One cell of the table.
 #[derive(Debug, Clone, Serialize)]
 pub struct MotionSimRow {
@@ -152,6 +183,7 @@ pub fn motion_sim(
     scenes: &[(String, Raster<f32>)],
     cfg: &MotionSimConfig,
 ) -> Result<Vec<MotionSimRow>, Error> {
+    cfg.check(scenes)?;
     let size = ImageSize::new(cfg.size, cfg.size);
     let mut estimators = cfg
         .methods
@@ -160,20 +192,6 @@ pub fn motion_sim(
         .collect::<Result<Vec<_>, _>>()?;
     let mut rows = vec![];
     for (name, scene) in scenes {
-        // Linear shifts read max_shift + 1 px around the window; Fourier shifts a 2n window.
-        let need = match cfg.displacement {
-            Displacement::Linear => cfg.size + 2 * (cfg.max_shift.ceil() as usize + 2),
-            Displacement::Fourier => 2 * cfg.size,
-        };
-        if scene.width() < need || scene.height() < need {
-            return Err(Error::advice(format!(
-                "{name}: {} x {} is too small for {} x {} frames with their shift margin (needs {need} x {need}); give a smaller `size`",
-                scene.width(),
-                scene.height(),
-                cfg.size,
-                cfg.size
-            )));
-        }
         let (x0, y0) = (
             (scene.width() - cfg.size) / 2,
             (scene.height() - cfg.size) / 2,

@@ -50,6 +50,18 @@ pub fn check_lever_arm_m(arm: [f64; 3]) -> Result<[f64; 3], Error> {
     )))
 }
 
+/// A boresight (the camera's mounting rotation, degrees about its x, y, z): each component
+/// within +-180 degrees (beyond is the same rotation written another way, or a typo).
+pub fn check_boresight_deg(b: [f64; 3]) -> Result<[f64; 3], Error> {
+    if b.iter().all(|x| x.is_finite() && x.abs() <= 180.0) {
+        return Ok(b);
+    }
+    let [x, y, z] = b.map(Num);
+    Err(Error::Invalid(format!(
+        "boresight ({x}, {y}, {z}) deg: each angle must be a finite number within +-180 deg"
+    )))
+}
+
 /// The error for a camera that is not above the ground it is planned over, when the GSD
 /// would have come from its height: names the photo, the camera's height and where it came
 /// from (which names the DEM file for a DEM), and the ground's height.

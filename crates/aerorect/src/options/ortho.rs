@@ -7,7 +7,7 @@ use crate::drone::DroneOptions;
 use crate::georef::load_dem;
 use crate::photo_source::SenseflyRoll;
 use crate::photo_source::{load_geo_file, prepare_flight};
-use crate::sane::{check_gsd_m, check_height_m, check_lever_arm_m};
+use crate::sane::{check_boresight_deg, check_gsd_m, check_height_m, check_lever_arm_m};
 use aerorect_core::RectifyLimits;
 use aerorect_core::error::Num;
 use aerorect_geo::{Crs, Mounting};
@@ -107,6 +107,9 @@ impl PhotoRequest {
         }
         if let Some(arm) = self.lever_arm_m {
             check_lever_arm_m(arm).map_err(|e| OptionError::value("lever_arm_m", three(arm), e))?;
+        }
+        if let Some(b) = self.boresight_deg {
+            check_boresight_deg(b).map_err(|e| OptionError::value("boresight_deg", three(b), e))?;
         }
         if let Some(bad) = self
             .pose
@@ -265,6 +268,11 @@ mod tests {
             ..PhotoRequest::default()
         });
         assert!(m.starts_with("--lever-arm-m '0,2000,0': lever arm"), "{m}");
+        let m = refused(PhotoRequest {
+            boresight_deg: Some([0.0, 400.0, 0.0]),
+            ..PhotoRequest::default()
+        });
+        assert!(m.starts_with("--boresight-deg '0,400,0': boresight"), "{m}");
         let m = refused(PhotoRequest {
             pose: Some([0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0]),
             ..PhotoRequest::default()
