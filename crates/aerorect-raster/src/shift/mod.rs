@@ -17,6 +17,7 @@ mod jtc_oracle;
 mod jtc_paper;
 mod pair;
 mod phase;
+mod phase_kernels;
 pub mod sim;
 
 pub use jtc::JointTransformCorrelator;
