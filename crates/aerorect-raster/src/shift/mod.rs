@@ -15,6 +15,8 @@ mod jtc_cross;
 #[cfg(test)]
 mod jtc_oracle;
 mod jtc_paper;
+mod jtc_paper_joint;
+mod jtc_paper_threshold;
 mod pair;
 mod phase;
 mod phase_kernels;
