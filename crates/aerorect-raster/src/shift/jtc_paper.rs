@@ -23,6 +23,8 @@
 
 use super::fft2::Plans;
 use super::jtc_common::{JtcOptions, Plane, SubPixel, prepare};
+use super::jtc_paper_joint::Joint;
+use super::jtc_paper_threshold::median;
 use super::{ShiftError, ShiftEstimate, check_frame};
 use rustfft::num_complex::Complex32;
 
@@ -39,86 +41,6 @@ pub(crate) struct PaperJtc {
     t: Vec<f32>,
     /// Reference first (`[0]`: the shift of the current frame), current first (`[1]`).
     orders: [Order; 2],
-}
-
-/// The joint image's geometry: 6w x 2h, half spectrum of 3w + 1 columns of 2h.
-#[derive(Debug, Clone, Copy)]
-struct Joint {
-    w: usize,
-    h: usize,
-    filter: bool,
-}
-
-impl Joint {
-    fn hh(self) -> usize {
-        2 * self.h
-    }
-
-    fn hw(self) -> usize {
-        3 * self.w + 1
-    }
-
-    /// Whether column u's filtered values need no reflection (and there is a filter).
-    fn interior(self, u: usize) -> bool {
-        self.filter && u > 0 && u < 3 * self.w
-    }
-
-    /// E(u, v) = 2 P(u, v) - P(u - 1, v) - P(u + 1, v) with P(-u, -v) = P(u, v) beyond the half
-    /// spectrum's ends (or P without the filter), at one frequency of the power spectrum `p`.
-    fn filtered(self, p: &[f32], u: usize, v: usize) -> f32 {
-        let (hh, hw) = (self.hh(), self.hw());
-        if !self.filter {
-            return p[u * hh + v];
-        }
-        let mirror = || (hh - v) % hh;
-        let lo = if u == 0 {
-            p[hh + mirror()]
-        } else {
-            p[(u - 1) * hh + v]
-        };
-        let hi = if u + 1 == hw {
-            p[(hw - 2) * hh + mirror()]
-        } else {
-            p[(u + 1) * hh + v]
-        };
-        2.0 * p[u * hh + v] - lo - hi
-    }
-
-    /// Columns u - 1, u and u + 1 of the power spectrum `p` (u an interior column).
-    fn neighbours(self, p: &[f32], u: usize) -> [&[f32]; 3] {
-        let hh = self.hh();
-        [u - 1, u, u + 1].map(|c| &p[c * hh..(c + 1) * hh])
-    }
-
-    /// Column u of the filtered spectrum.
-    fn filtered_column(self, p: &[f32], u: usize, out: &mut [f32]) {
-        let hh = self.hh();
-        if !self.filter {
-            out.copy_from_slice(&p[u * hh..(u + 1) * hh]);
-        } else if self.interior(u) {
-            let [lo, mid, hi] = self.neighbours(p, u);
-            for (((e, &b), &a), &c) in out.iter_mut().zip(mid).zip(lo).zip(hi) {
-                *e = 2.0 * b - a - c;
-            }
-        } else {
-            for (v, e) in out.iter_mut().enumerate() {
-                *e = self.filtered(p, u, v);
-            }
-        }
-    }
-
-    /// Appends column u's share of the threshold's sample: the filtered values at every 8th
-    /// index u * 2h + v of the u-major half spectrum.
-    fn sample_column(self, p: &[f32], u: usize, sample: &mut Vec<f32>) {
-        let hh = self.hh();
-        let start = (8 - (u * hh) % 8) % 8;
-        if self.interior(u) {
-            let [lo, mid, hi] = self.neighbours(p, u);
-            sample.extend((start..hh).step_by(8).map(|v| 2.0 * mid[v] - lo[v] - hi[v]));
-        } else {
-            sample.extend((start..hh).step_by(8).map(|v| self.filtered(p, u, v)));
-        }
-    }
 }
 
 /// One frame order's work, all five stages.
@@ -372,28 +294,6 @@ impl Order {
         }
     }
 }
-
-/// The element of rank n / 2 of `sample` in `f32::total_cmp`'s order (its upper median), selected
-/// on `ordered_key`s in `keys` (integer comparisons instead of `total_cmp`'s).
-fn median(sample: &[f32], keys: &mut Vec<u32>) -> f32 {
-    keys.clear();
-    keys.extend(sample.iter().map(|&v| ordered_key(v)));
-    let n = keys.len();
-    from_ordered_key(*keys.select_nth_unstable(n / 2).1)
-}
-
-/// An f32's bits as a u32 whose order is `f32::total_cmp`'s: negatives' bits flipped, the sign
-/// bit set on the others.
-fn ordered_key(v: f32) -> u32 {
-    let b = v.to_bits();
-    if b >> 31 == 1 { !b } else { b | 1 << 31 }
-}
-
-/// The f32 of an `ordered_key`.
-fn from_ordered_key(k: u32) -> f32 {
-    f32::from_bits(if k >> 31 == 1 { k & !(1 << 31) } else { !k })
-}
-
 /// `cols[k * stride + y] = rows[y * hw + u0 + k]` for k in 0..n (n <= 8) and every row y. A
 /// whole batch goes by 8 x 8 tiles of fixed size, so that each column receives runs of eight
 /// values.
@@ -435,39 +335,6 @@ mod tests {
     use super::super::jtc_common::SubPixel;
     use super::super::jtc_oracle::{joint_image_f64, pairs};
     use super::*;
-
-    /// `median` against sorting with `total_cmp`, on samples with ties, signed zeros,
-    /// infinities and odd and even lengths; the keys keep `total_cmp`'s order.
-    #[test]
-    fn the_median_is_total_cmp_s() {
-        use rand::{Rng, SeedableRng};
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
-        let special = [
-            0.0,
-            -0.0,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::MIN_POSITIVE,
-            -1e-40,
-        ];
-        let mut keys = Vec::new();
-        for n in 1..300 {
-            let sample: Vec<f32> = (0..n)
-                .map(|i| match i % 5 {
-                    0 => special[rng.random_range(0..special.len())],
-                    1 => rng.random_range(-3..3) as f32,
-                    _ => rng.random_range(-1e6f32..1e6),
-                })
-                .collect();
-            let mut sorted = sample.clone();
-            sorted.sort_by(f32::total_cmp);
-            let m = median(&sample, &mut keys);
-            assert_eq!(m.to_bits(), sorted[n / 2].to_bits(), "n {n}");
-            for w in sorted.windows(2) {
-                assert!(ordered_key(w[0]) <= ordered_key(w[1]), "{} {}", w[0], w[1]);
-            }
-        }
-    }
 
     /// The smallest frames and odd sizes (odd half-spectrum widths, a last unpaired column, an
     /// odd number of plane rows): a frame against itself has moved by exactly 0 and a pair's

@@ -15,8 +15,11 @@ mod jtc_cross;
 #[cfg(test)]
 mod jtc_oracle;
 mod jtc_paper;
+mod jtc_paper_joint;
+mod jtc_paper_threshold;
 mod pair;
 mod phase;
+mod phase_kernels;
 pub mod sim;
 
 pub use jtc::JointTransformCorrelator;

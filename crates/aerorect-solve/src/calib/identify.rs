@@ -9,7 +9,9 @@
 //! views correlates them at 0.9990 and keeps them free.
 
 use super::CalibrationError;
-use super::problem::{CalibrationOptions, CalibrationReport, Observation, calibrate_once};
+use super::inputs::{CalibrationOptions, Observation};
+use super::problem::calibrate_once;
+use super::report::CalibrationReport;
 
 /// Correlation above which a term is taken as undetermined.
 const UNDETERMINED_RHO: f64 = 0.9999;

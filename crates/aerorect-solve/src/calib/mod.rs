@@ -11,17 +11,19 @@ mod blocks;
 mod coverage;
 mod identify;
 mod init;
+mod inputs;
 mod jacobian;
 mod lm;
 #[cfg(test)]
 mod oracle;
 mod problem;
+mod report;
+mod start;
 
 pub use coverage::{COVERAGE_GRID, Coverage, coverage};
 pub use identify::calibrate;
-pub use problem::{
-    CalibrationOptions, CalibrationReport, Correlation, Observation, ParameterValue, ViewReport,
-};
+pub use inputs::{CalibrationOptions, Observation};
+pub use report::{CalibrationReport, Correlation, ParameterValue, ViewReport};
 
 use aerorect_core::ImageSize;
 use aerorect_core::error::Num;

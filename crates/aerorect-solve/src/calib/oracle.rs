@@ -4,9 +4,10 @@
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)]
 
 use super::blocks::BlockNormal;
+use super::inputs::{CalibrationOptions, Observation};
 use super::lm::NormalEquations;
 use super::lm::{Dense, Problem, minimise};
-use super::problem::{Calib, CalibrationOptions, Observation, plan, point_shift};
+use super::problem::{Calib, plan, point_shift};
 use aerorect_core::ImageSize;
 use aerorect_core::distortion::Distortion;
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
