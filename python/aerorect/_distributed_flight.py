@@ -41,8 +41,10 @@ _FLIGHTS: dict = {}
 _FLIGHTS_LOCK = threading.Lock()
 
 
-def _flight(photos: Tuple[str, ...], opts_json: str):
-    key = (photos, opts_json)
+def _flight(photos: Tuple[str, ...], opts_json: str, roll=None):
+    """The worker's plan of the flight; `roll`: the senseFly roll reading the first round
+    chose (`_flight_roll`), so that every later task reads the roll that way."""
+    key = (photos, opts_json, roll)
     with _FLIGHTS_LOCK:
         if key not in _FLIGHTS:
             for _, old in _FLIGHTS.values():
@@ -51,7 +53,7 @@ def _flight(photos: Tuple[str, ...], opts_json: str):
             local = _Local()
             try:
                 o = _local_options(json.loads(opts_json), local)
-                plan = _aerorect.FlightPlan([local.input(p) for p in photos], o)
+                plan = _aerorect.FlightPlan([local.input(p) for p in photos], o, roll)
             except BaseException:
                 local.close()
                 raise
@@ -59,14 +61,14 @@ def _flight(photos: Tuple[str, ...], opts_json: str):
         return _FLIGHTS[key][0]
 
 
-def _flight_pairs(photos, opts_json, progress):
+def _flight_pairs(photos, opts_json, progress, roll=None):
     """The overlapping pairs of a round (a task)."""
-    return _flight(photos, opts_json).pairs(progress)
+    return _flight(photos, opts_json, roll).pairs(progress)
 
 
-def _flight_pair(pair, photos, opts_json, progress):
+def _flight_pair(pair, photos, opts_json, progress, roll=None):
     """One pair rendered and matched (a task): its tie points, exact JSON."""
-    return _flight(photos, opts_json).pair_match(pair[0], pair[1], progress)
+    return _flight(photos, opts_json, roll).pair_match(pair[0], pair[1], progress)
 
 
 def _flight_feature_pairs(photos, opts_json):
@@ -89,19 +91,25 @@ def _flight_first_round(matches):
     return _aerorect.FlightPlan.first_round(list(matches))
 
 
-def _flight_adjust(photos, opts_json, progress, matches):
+def _flight_roll(photos, opts_json, matches):
+    """The senseFly roll reading the first round's feature matches agree with (a task on one
+    worker): the choice's exact JSON, or None when the flight does not leave it open."""
+    return _flight(photos, opts_json).choose_sensefly_roll(list(matches))
+
+
+def _flight_adjust(photos, opts_json, progress, matches, roll=None):
     """A round's adjustment (a task on one worker): (progress, done, report, poses CSV)."""
-    return _flight(photos, opts_json).adjust(progress, list(matches))
+    return _flight(photos, opts_json, roll).adjust(progress, list(matches))
 
 
-def _flight_write(k, out, photos, opts_json, progress):
+def _flight_write(k, out, photos, opts_json, progress, roll=None):
     """Frame k with the adjusted orientation (a task): `(k, None)`, or `(k, message)`."""
     local = _Local()
     try:
         lout = local.output(out)
         if _is_url(out):
             os.makedirs(os.path.dirname(lout), exist_ok=True)
-        _flight(photos, opts_json).write_frame(k, progress, lout)
+        _flight(photos, opts_json, roll).write_frame(k, progress, lout)
         local.upload(lout, out)
         return k, None
     except (AerorectError, AerorectFileError) as e:
@@ -126,16 +134,20 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
         pair_tasks += len(fmatches)
         features = client.submit(_flight_first_round, fmatches, pure=False).result()
         del feats, fmatches
+    roll = None
     if features:
-        step = client.submit(_flight_adjust, *key, progress, features, pure=False)
+        # senseFly's roll sign, when the flight leaves it to its images (as adjust_flight).
+        roll = client.submit(_flight_roll, *key, features, pure=False).result()
+        step = client.submit(_flight_adjust, *key, progress, features, roll=roll, pure=False)
         progress, done, report_json, poses_csv = step.result()
     # Later rounds: correlation of the rendered frames, the feature ties kept beside it.
     while not done:
-        pairs = client.submit(_flight_pairs, *key, progress, pure=False).result()
+        pairs = client.submit(_flight_pairs, *key, progress, roll=roll, pure=False).result()
         matches = client.map(_flight_pair, [tuple(p) for p in pairs], photos=key[0],
-                             opts_json=key[1], progress=progress, pure=False)
+                             opts_json=key[1], progress=progress, roll=roll, pure=False)
         pair_tasks += len(matches)
-        step = client.submit(_flight_adjust, *key, progress, matches + features, pure=False)
+        step = client.submit(_flight_adjust, *key, progress, matches + features, roll=roll,
+                             pure=False)
         progress, done, report_json, poses_csv = step.result()
         del matches, step
     stage = _join(out_dir, ".aerorect-staging-" + uuid.uuid4().hex)
@@ -146,7 +158,7 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
                   for o in outs]
         written = client.gather(client.map(_flight_write, range(len(photos)), staged,
                                            photos=key[0], opts_json=key[1],
-                                           progress=progress, pure=False))
+                                           progress=progress, roll=roll, pure=False))
         failed = [(photos[k], why) for k, why in written if why is not None]
         if failed:
             lines = "\n".join(f"failed: {p}: {why}" for p, why in failed)
@@ -154,7 +166,7 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
                 f"{len(failed)} of {len(photos)} frames failed (listed below); nothing "
                 f"written: the adjusted frames and adjustment.json land together\n{lines}"
             )
-        wkt = client.submit(_flight_crs, *key, pure=False).result()
+        wkt = client.submit(_flight_crs, *key, roll=roll, pure=False).result()
         texts = dict(zip(ADJUSTMENT_FILES, (report_json, poses_csv, wkt)))
         for name, text in texts.items():
             _put_text(_join(stage, name), text)
@@ -170,5 +182,5 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
     return report
 
 
-def _flight_crs(photos, opts_json):
-    return _flight(photos, opts_json).crs_wkt()
+def _flight_crs(photos, opts_json, roll=None):
+    return _flight(photos, opts_json, roll).crs_wkt()
