@@ -10,7 +10,7 @@
 
 use super::CalibrationError;
 use super::inputs::{CalibrationOptions, Observation};
-use super::problem::calibrate_once;
+use super::plan::calibrate_once;
 use super::report::CalibrationReport;
 
 /// Correlation above which a term is taken as undetermined.

@@ -16,6 +16,7 @@ mod jacobian;
 mod lm;
 #[cfg(test)]
 mod oracle;
+mod plan;
 mod problem;
 mod report;
 mod start;
