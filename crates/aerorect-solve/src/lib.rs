@@ -21,6 +21,16 @@ pub enum SolveError {
     NotFinite { index: usize },
     #[error("the points are degenerate (collinear or repeated): the solution is not unique")]
     Degenerate,
+    /// An adjustment frame that names a camera the adjustment was not given.
+    #[error("frame {frame} names camera {camera}, but {cameras} camera(s) were given")]
+    UnknownCamera {
+        frame: usize,
+        camera: usize,
+        cameras: usize,
+    },
+    /// A tie point the adjustment cannot take, and why.
+    #[error("tie point {index}: {why}")]
+    BadTie { index: usize, why: String },
 }
 
 /// Hartley's normalisation: centroid to the origin, mean distance sqrt(2).

@@ -146,7 +146,38 @@ fn ties_that_name_no_frame_are_refused() {
         position_sigma_m: None,
         attitude_sigma_deg: None,
     };
-    assert!(adjust(&[f], &[camera(800.0)], &[t], &AdjustOptions::default()).is_err());
+    let e = adjust(
+        &[f.clone()],
+        &[camera(800.0)],
+        &[t.clone()],
+        &AdjustOptions::default(),
+    );
+    assert_eq!(
+        e.unwrap_err().to_string(),
+        "tie point 0: 1 view(s), at least 2 needed"
+    );
+    let two = TiePoint {
+        observations: vec![t.observations[0].clone(), t.observations[0].clone()],
+        ..t
+    };
+    let e = adjust(
+        &[f.clone()],
+        &[camera(800.0)],
+        &[two],
+        &AdjustOptions::default(),
+    );
+    assert_eq!(
+        e.unwrap_err().to_string(),
+        "tie point 0: a view in frame 3, of 1 frames"
+    );
+    // A frame naming a camera that was not given is said so (it was "the points are
+    // degenerate").
+    let f1 = AdjustFrame { camera: 1, ..f };
+    let e = adjust(&[f1], &[camera(800.0)], &[], &AdjustOptions::default());
+    assert_eq!(
+        e.unwrap_err().to_string(),
+        "frame 0 names camera 1, but 1 camera(s) were given"
+    );
 }
 
 #[test]

@@ -358,26 +358,51 @@ fn check_input(
     cameras: &[Camera],
     ties: &[TiePoint],
 ) -> Result<(), SolveError> {
-    if frames.iter().any(|f| f.camera >= cameras.len()) {
-        return Err(SolveError::Degenerate);
+    if let Some((frame, f)) = frames
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.camera >= cameras.len())
+    {
+        return Err(SolveError::UnknownCamera {
+            frame,
+            camera: f.camera,
+            cameras: cameras.len(),
+        });
     }
     for (index, t) in ties.iter().enumerate() {
-        let control_ok = t.control.is_none_or(|c| {
-            c.ground.iter().all(|v| v.is_finite())
-                && c.sigma_m.iter().all(|s| s.is_finite() && *s > 0.0)
-        });
-        let fewest = if t.control.is_some() { 1 } else { 2 };
-        let bad = t.observations.len() < fewest
-            || !control_ok
-            || t.observations.iter().any(|o| {
-                o.frame >= frames.len()
-                    || o.weight.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-                    || !o.pixel.iter().all(|v| v.is_finite())
-            })
-            || !t.ground.iter().all(|v| v.is_finite());
-        if bad {
-            return Err(SolveError::NotFinite { index });
+        if let Some(why) = tie_problem(t, frames.len()) {
+            return Err(SolveError::BadTie { index, why });
         }
     }
     Ok(())
+}
+
+/// Why the adjustment cannot take tie point `t` (with `frames` frames), if it cannot.
+fn tie_problem(t: &TiePoint, frames: usize) -> Option<String> {
+    let fewest = if t.control.is_some() { 1 } else { 2 };
+    if t.observations.len() < fewest {
+        return Some(format!(
+            "{} view(s), at least {fewest} needed",
+            t.observations.len()
+        ));
+    }
+    if let Some(c) = &t.control
+        && !(c.ground.iter().all(|v| v.is_finite())
+            && c.sigma_m.iter().all(|s| s.is_finite() && *s > 0.0))
+    {
+        return Some("its surveyed position or deviation is not a finite (positive) number".into());
+    }
+    if let Some(o) = t.observations.iter().find(|o| o.frame >= frames) {
+        return Some(format!("a view in frame {}, of {frames} frames", o.frame));
+    }
+    if t.observations.iter().any(|o| {
+        o.weight.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            || !o.pixel.iter().all(|v| v.is_finite())
+    }) {
+        return Some("a view's pixel is not finite or its weight is not positive".into());
+    }
+    if !t.ground.iter().all(|v| v.is_finite()) {
+        return Some("its first ground guess is not finite".into());
+    }
+    None
 }
