@@ -147,9 +147,9 @@ fn ties_that_name_no_frame_are_refused() {
         attitude_sigma_deg: None,
     };
     let e = adjust(
-        &[f.clone()],
+        std::slice::from_ref(&f),
         &[camera(800.0)],
-        &[t.clone()],
+        std::slice::from_ref(&t),
         &AdjustOptions::default(),
     );
     assert_eq!(
@@ -157,11 +157,11 @@ fn ties_that_name_no_frame_are_refused() {
         "tie point 0: 1 view(s), at least 2 needed"
     );
     let two = TiePoint {
-        observations: vec![t.observations[0].clone(), t.observations[0].clone()],
+        observations: vec![t.observations[0], t.observations[0]],
         ..t
     };
     let e = adjust(
-        &[f.clone()],
+        std::slice::from_ref(&f),
         &[camera(800.0)],
         &[two],
         &AdjustOptions::default(),
