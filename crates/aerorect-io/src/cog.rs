@@ -15,7 +15,7 @@
 pub(crate) mod layout;
 mod pyramid;
 
-use crate::error::IoError;
+use crate::error::{CodecError, IoError};
 use crate::geotiff::{GDAL_NODATA, GeoReference, GeoTagValue};
 use aerorect_raster::{AnyRaster, Raster, Sample};
 use layout::{Ifd, NEW_SUBFILE_TYPE, Value};
@@ -263,17 +263,15 @@ fn write_typed<W: Write + Seek, T: CogSample>(
     nodata: Option<f64>,
     geo_tags: &[(u16, Value)],
     opts: &CogOptions,
-) -> Result<(), String> {
+) -> Result<(), CodecError> {
     let nodata = nodata.and_then(T::from_f64_exact);
-    let levels = pyramid::levels(raster, &opts.mask, nodata, opts.tile, opts.overviews)
-        .map_err(|e| e.to_string())?;
+    let levels = pyramid::levels(raster, &opts.mask, nodata, opts.tile, opts.overviews)?;
     let ifds = ifds(&levels, geo_tags, opts);
     let big = opts
         .bigtiff
         .unwrap_or_else(|| needs_bigtiff(&ifds, &levels, opts));
     let lay = layout::layout(&ifds, big);
-    let io = |e: std::io::Error| e.to_string();
-    w.write_all(&lay.bytes).map_err(io)?;
+    w.write_all(&lay.bytes)?;
     let mut pos = lay.bytes.len() as u64;
     let per_level = if levels[0].mask.is_some() { 2 } else { 1 };
     let mut offsets = vec![Vec::new(); ifds.len()];
@@ -284,11 +282,11 @@ fn write_typed<W: Write + Seek, T: CogSample>(
             let row: Vec<(Vec<u8>, Option<Vec<u8>>)> = (0..across)
                 .into_par_iter()
                 .map(|tx| encode_tile(level, tx, ty, opts))
-                .collect::<Result<_, String>>()?;
+                .collect::<Result<_, CodecError>>()?;
             for (img, mask) in row {
                 let ifd = li * per_level;
                 for (k, data) in std::iter::once(img).chain(mask).enumerate() {
-                    w.write_all(&data).map_err(io)?;
+                    w.write_all(&data)?;
                     offsets[ifd + k].push(pos);
                     counts[ifd + k].push(data.len() as u64);
                     pos += data.len() as u64;
@@ -298,16 +296,14 @@ fn write_typed<W: Write + Seek, T: CogSample>(
     }
     for (i, (o, c)) in offsets.iter().zip(&counts).enumerate() {
         let (Some(ob), Some(cb)) = (lay.array(o), lay.array(c)) else {
-            return Err(format!(
-                "the file passes 4 GiB ({pos} bytes): write it as BigTIFF"
-            ));
+            return Err(format!("the file passes 4 GiB ({pos} bytes): write it as BigTIFF").into());
         };
-        w.seek(SeekFrom::Start(lay.offsets_at[i])).map_err(io)?;
-        w.write_all(&ob).map_err(io)?;
-        w.seek(SeekFrom::Start(lay.counts_at[i])).map_err(io)?;
-        w.write_all(&cb).map_err(io)?;
+        w.seek(SeekFrom::Start(lay.offsets_at[i]))?;
+        w.write_all(&ob)?;
+        w.seek(SeekFrom::Start(lay.counts_at[i]))?;
+        w.write_all(&cb)?;
     }
-    w.seek(SeekFrom::End(0)).map_err(io)?;
+    w.seek(SeekFrom::End(0))?;
     Ok(())
 }
 
@@ -421,7 +417,7 @@ fn encode_tile<T: CogSample>(
     tx: usize,
     ty: usize,
     opts: &CogOptions,
-) -> Result<(Vec<u8>, Option<Vec<u8>>), String> {
+) -> Result<(Vec<u8>, Option<Vec<u8>>), CodecError> {
     let t = opts.tile;
     let img = match opts.compression {
         CogCompression::Deflate => deflate(
@@ -448,13 +444,13 @@ fn encode_tile<T: CogSample>(
     Ok((img, mask))
 }
 
-fn deflate(bytes: &[u8], level: u32) -> Result<Vec<u8>, String> {
+fn deflate(bytes: &[u8], level: u32) -> Result<Vec<u8>, CodecError> {
     let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::new(level));
-    z.write_all(bytes).map_err(|e| e.to_string())?;
-    z.finish().map_err(|e| e.to_string())
+    z.write_all(bytes)?;
+    Ok(z.finish()?)
 }
 
-fn jpeg(bytes: &[u8], tile: usize, bands: usize, quality: u8) -> Result<Vec<u8>, String> {
+fn jpeg(bytes: &[u8], tile: usize, bands: usize, quality: u8) -> Result<Vec<u8>, CodecError> {
     use image::ImageEncoder;
     let colour = if bands == 3 {
         image::ExtendedColorType::Rgb8
@@ -462,8 +458,11 @@ fn jpeg(bytes: &[u8], tile: usize, bands: usize, quality: u8) -> Result<Vec<u8>,
         image::ExtendedColorType::L8
     };
     let mut out = Vec::new();
-    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, quality)
-        .write_image(bytes, tile as u32, tile as u32, colour)
-        .map_err(|e| e.to_string())?;
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, quality).write_image(
+        bytes,
+        tile as u32,
+        tile as u32,
+        colour,
+    )?;
     Ok(out)
 }

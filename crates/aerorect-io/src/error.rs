@@ -10,9 +10,15 @@ pub enum IoError {
         error: std::io::Error,
     },
     #[error("{source_name}: cannot decode image: {reason}")]
-    Decode { source_name: String, reason: String },
+    Decode {
+        source_name: String,
+        reason: CodecError,
+    },
     #[error("{source_name}: cannot write image: {reason}")]
-    Encode { source_name: String, reason: String },
+    Encode {
+        source_name: String,
+        reason: CodecError,
+    },
     /// A metadata tag (EXIF, XMP) that cannot be read.
     #[error("{source_name}: {error}")]
     Metadata {
@@ -47,17 +53,17 @@ impl IoError {
         }
     }
 
-    pub(crate) fn decode(path: &Path, reason: impl ToString) -> Self {
+    pub(crate) fn decode(path: &Path, reason: impl Into<CodecError>) -> Self {
         IoError::Decode {
             source_name: path.display().to_string(),
-            reason: reason.to_string(),
+            reason: reason.into(),
         }
     }
 
-    pub(crate) fn encode(path: &Path, reason: impl ToString) -> Self {
+    pub(crate) fn encode(path: &Path, reason: impl Into<CodecError>) -> Self {
         IoError::Encode {
             source_name: path.display().to_string(),
-            reason: reason.to_string(),
+            reason: reason.into(),
         }
     }
 
@@ -76,5 +82,45 @@ impl IoError {
             source_name: source_name.to_string(),
             message: message.to_string(),
         }
+    }
+}
+
+/// Why an image could not be decoded or encoded: the codec's or the writer's own error, kept as
+/// its type (its text is the message), or one of the readers' and writers' own checks.
+#[derive(Debug, Error)]
+pub enum CodecError {
+    #[error(transparent)]
+    Tiff(#[from] tiff::TiffError),
+    #[error(transparent)]
+    Image(#[from] image::ImageError),
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    #[error(transparent)]
+    Raster(#[from] aerorect_raster::RasterError),
+    #[error(transparent)]
+    Crs(#[from] aerorect_geo::CrsError),
+    /// The GeoKeys of a CRS that cannot be written.
+    #[error(transparent)]
+    GeoKeys(Box<IoError>),
+    /// A check of the reader or writer itself (a layout TIFF cannot hold, an unknown format).
+    #[error("{0}")]
+    Check(String),
+}
+
+impl From<IoError> for CodecError {
+    fn from(e: IoError) -> Self {
+        CodecError::GeoKeys(Box::new(e))
+    }
+}
+
+impl From<String> for CodecError {
+    fn from(text: String) -> Self {
+        CodecError::Check(text)
+    }
+}
+
+impl From<&str> for CodecError {
+    fn from(text: &str) -> Self {
+        CodecError::Check(text.to_string())
     }
 }

@@ -5,7 +5,7 @@
 //! Convention: PixelIsArea; `top_left` is the outer corner of pixel (0, 0), so on a north-up
 //! grid the centre of pixel (c, r) is (x0 + (c + 0.5) sx, y0 - (r + 0.5) sy).
 
-use crate::error::IoError;
+use crate::error::{CodecError, IoError};
 use crate::geokeys::{self, GEO_ASCII_PARAMS, GEO_DOUBLE_PARAMS, GEO_KEY_DIRECTORY};
 use aerorect_geo::Crs;
 use serde::Serialize;
@@ -85,8 +85,8 @@ impl GeoReference {
     /// The GeoTIFF tags of this grid, in tag order: the scale and tie point (north-up) or the
     /// transformation, the GeoKeys and GDAL_NODATA. Written by the `tiff` crate's encoder
     /// ([`Self::write_tags`]) and by the cloud-optimised writer's own IFDs (`cog`).
-    pub(crate) fn tags(&self) -> Result<Vec<(u16, GeoTagValue)>, String> {
-        let (dir, doubles, ascii) = geokeys::encode(&self.crs).map_err(|e| e.to_string())?;
+    pub(crate) fn tags(&self) -> Result<Vec<(u16, GeoTagValue)>, CodecError> {
+        let (dir, doubles, ascii) = geokeys::encode(&self.crs)?;
         let mut tags = Vec::new();
         if self.is_north_up() {
             let scale = vec![self.pixel_size[0], self.pixel_size[1], 0.0];
@@ -117,15 +117,14 @@ impl GeoReference {
     pub(crate) fn write_tags<W: std::io::Write + std::io::Seek, K: tiff::encoder::TiffKind>(
         &self,
         enc: &mut tiff::encoder::DirectoryEncoder<'_, W, K>,
-    ) -> Result<(), String> {
+    ) -> Result<(), CodecError> {
         for (tag, value) in self.tags()? {
             let t = Tag::Unknown(tag);
             match &value {
                 GeoTagValue::Doubles(v) => enc.write_tag(t, &v[..]),
                 GeoTagValue::Shorts(v) => enc.write_tag(t, &v[..]),
                 GeoTagValue::Ascii(s) => enc.write_tag(t, s.as_str()),
-            }
-            .map_err(|e| e.to_string())?;
+            }?;
         }
         Ok(())
     }

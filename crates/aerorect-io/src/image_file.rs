@@ -1,7 +1,7 @@
 //! Reading and writing images; the format is found from the file's first bytes when reading
 //! and from the extension when writing (.tif/.tiff, .png).
 
-use crate::error::IoError;
+use crate::error::{CodecError, IoError};
 use crate::image_limits::{check_claimed_bytes, check_image_pixels};
 use crate::staged::StagedOutputs;
 use crate::tiff_file;
@@ -121,10 +121,10 @@ pub(crate) fn check_header(path: &Path) -> Result<(), IoError> {
         .map_err(|e| IoError::decode(path, e))
 }
 
-fn raster_from_dynamic(img: DynamicImage) -> Result<AnyRaster, String> {
+fn raster_from_dynamic(img: DynamicImage) -> Result<AnyRaster, CodecError> {
     let size = ImageSize::new(img.width() as usize, img.height() as usize);
     let bands = img.color().channel_count() as usize;
-    let err = |e: aerorect_raster::RasterError| e.to_string();
+    let err = CodecError::from;
     Ok(match img {
         DynamicImage::ImageLuma8(b) => {
             AnyRaster::U8(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
@@ -156,7 +156,7 @@ fn raster_from_dynamic(img: DynamicImage) -> Result<AnyRaster, String> {
         DynamicImage::ImageRgba32F(b) => {
             AnyRaster::F32(Raster::from_interleaved(size, bands, b.as_raw()).map_err(err)?)
         }
-        other => return Err(format!("unsupported pixel layout {:?}", other.color())),
+        other => return Err(format!("unsupported pixel layout {:?}", other.color()).into()),
     })
 }
 
@@ -269,7 +269,7 @@ fn xml_escape(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-fn write_png<W: Write>(w: W, raster: &AnyRaster) -> Result<(), String> {
+fn write_png<W: Write>(w: W, raster: &AnyRaster) -> Result<(), CodecError> {
     use image::{ExtendedColorType, ImageEncoder, codecs::png::PngEncoder};
     let size = raster.size();
     let (bytes, color): (Vec<u8>, ExtendedColorType) = match (raster, raster.bands()) {
@@ -295,11 +295,11 @@ fn write_png<W: Write>(w: W, raster: &AnyRaster) -> Result<(), String> {
         (AnyRaster::F32(_), _) => {
             return Err("PNG cannot hold 32-bit float samples: write a .tif".into());
         }
-        (_, b) => return Err(format!("PNG holds 1 to 4 bands, this image has {b}")),
+        (_, b) => return Err(format!("PNG holds 1 to 4 bands, this image has {b}").into()),
     };
     PngEncoder::new(w)
         .write_image(&bytes, size.width as u32, size.height as u32, color)
-        .map_err(|e| e.to_string())
+        .map_err(CodecError::from)
 }
 
 /// Writes through `write` into a temporary file beside `path`, then renames it into place.
@@ -344,7 +344,7 @@ pub fn thumbnail_png(raster: &AnyRaster, max_side: u32, name: &str) -> Result<Ve
     })
 }
 
-fn thumbnail(raster: &AnyRaster, max_side: u32) -> Result<Vec<u8>, String> {
+fn thumbnail(raster: &AnyRaster, max_side: u32) -> Result<Vec<u8>, CodecError> {
     use image::{DynamicImage, ImageBuffer, ImageFormat, Luma, Rgb, Rgba};
     let size = raster.size();
     let to8: Vec<u8> = match raster {
@@ -357,7 +357,7 @@ fn thumbnail(raster: &AnyRaster, max_side: u32) -> Result<Vec<u8>, String> {
             .collect(),
     };
     let (w, h) = (size.width as u32, size.height as u32);
-    let bad = || "buffer size mismatch".to_string();
+    let bad = || CodecError::from("buffer size mismatch");
     let img = match raster.bands() {
         1 => DynamicImage::ImageLuma8(
             ImageBuffer::<Luma<u8>, _>::from_raw(w, h, to8).ok_or_else(bad)?,
@@ -368,12 +368,10 @@ fn thumbnail(raster: &AnyRaster, max_side: u32) -> Result<Vec<u8>, String> {
         4 => DynamicImage::ImageRgba8(
             ImageBuffer::<Rgba<u8>, _>::from_raw(w, h, to8).ok_or_else(bad)?,
         ),
-        b => return Err(format!("{b} bands (1, 3 or 4 make a PNG)")),
+        b => return Err(format!("{b} bands (1, 3 or 4 make a PNG)").into()),
     };
     let thumb = img.thumbnail(max_side, max_side);
     let mut out = std::io::Cursor::new(Vec::new());
-    thumb
-        .write_to(&mut out, ImageFormat::Png)
-        .map_err(|e| e.to_string())?;
+    thumb.write_to(&mut out, ImageFormat::Png)?;
     Ok(out.into_inner())
 }

@@ -15,6 +15,7 @@
 
 use crate::cog::CogSample;
 use crate::cog::layout::{self, Ifd, Value};
+use crate::error::CodecError;
 use crate::geotiff::GeoReference;
 use aerorect_raster::{AnyRaster, Raster};
 use rayon::prelude::*;
@@ -56,7 +57,7 @@ pub(crate) fn write<W: Write + Seek>(
     raster: &AnyRaster,
     geo: Option<&GeoReference>,
     big: Option<bool>,
-) -> Result<(), String> {
+) -> Result<(), CodecError> {
     let geo_tags: Vec<(u16, Value)> = match geo {
         Some(g) => g.tags()?.into_iter().map(|(t, v)| (t, v.into())).collect(),
         None => Vec::new(),
@@ -102,25 +103,20 @@ fn write_typed<W: Write + Seek, T: StripSample>(
     r: &Raster<T>,
     geo_tags: &[(u16, Value)],
     big: Option<bool>,
-) -> Result<(), String> {
+) -> Result<(), CodecError> {
     let (width, height, bands) = (r.width(), r.height(), r.bands());
     if !(1..=4).contains(&bands) {
-        return Err(format!(
-            "TIFF output holds 1 to 4 bands, this image has {bands}"
-        ));
+        return Err(format!("TIFF output holds 1 to 4 bands, this image has {bands}").into());
     }
     if width == 0 || height == 0 {
-        return Err(format!(
-            "an empty image ({width} x {height}) cannot be a TIFF"
-        ));
+        return Err(format!("an empty image ({width} x {height}) cannot be a TIFF").into());
     }
     let sample_bytes = usize::from(T::BITS / 8);
     let strips = Strips::of(width, height, bands, sample_bytes);
     let ifd = ifd_of::<T>(r, strips, geo_tags)?;
     let raw = (width * height * bands * sample_bytes) as u64;
     let lay = layout::layout(&[ifd], big.unwrap_or(raw >= CLASSIC_LIMIT_BYTES));
-    let io = |e: std::io::Error| e.to_string();
-    w.write_all(&lay.bytes).map_err(io)?;
+    w.write_all(&lay.bytes)?;
     let mut pos = lay.bytes.len() as u64;
     let (mut offsets, mut counts) = (Vec::new(), Vec::new());
     let batch = rayon::current_num_threads().max(1) * STRIPS_PER_THREAD;
@@ -130,22 +126,20 @@ fn write_typed<W: Write + Seek, T: StripSample>(
             .map(|s| compress::<T>(&strip_bytes(r, strips, s)))
             .collect::<Result<_, _>>()?;
         for d in done {
-            w.write_all(&d).map_err(io)?;
+            w.write_all(&d)?;
             offsets.push(pos);
             counts.push(d.len() as u64);
             pos += d.len() as u64;
         }
     }
     let (Some(ob), Some(cb)) = (lay.array(&offsets), lay.array(&counts)) else {
-        return Err(format!(
-            "the file passes 4 GiB ({pos} bytes): write it as BigTIFF"
-        ));
+        return Err(format!("the file passes 4 GiB ({pos} bytes): write it as BigTIFF").into());
     };
-    w.seek(SeekFrom::Start(lay.offsets_at[0])).map_err(io)?;
-    w.write_all(&ob).map_err(io)?;
-    w.seek(SeekFrom::Start(lay.counts_at[0])).map_err(io)?;
-    w.write_all(&cb).map_err(io)?;
-    w.seek(SeekFrom::End(0)).map_err(io)?;
+    w.seek(SeekFrom::Start(lay.offsets_at[0]))?;
+    w.write_all(&ob)?;
+    w.seek(SeekFrom::Start(lay.counts_at[0]))?;
+    w.write_all(&cb)?;
+    w.seek(SeekFrom::End(0))?;
     Ok(())
 }
 
@@ -154,12 +148,12 @@ fn ifd_of<T: StripSample>(
     r: &Raster<T>,
     strips: Strips,
     geo_tags: &[(u16, Value)],
-) -> Result<Ifd, String> {
+) -> Result<Ifd, CodecError> {
     let bands = r.bands();
     let long = |v: usize| {
         u32::try_from(v)
             .map(|v| Value::Long(vec![v]))
-            .map_err(|_| format!("{v} pixels is too large a side for a TIFF"))
+            .map_err(|_| CodecError::from(format!("{v} pixels is too large a side for a TIFF")))
     };
     let mut tags = vec![
         (256, long(r.width())?),
@@ -226,7 +220,7 @@ fn interleave<T: StripSample, const N: usize>(planes: &[&[T]], w: usize, px: &mu
 }
 
 /// One strip's zlib stream: `fdeflate` after the predictor, else zlib level 1.
-fn compress<T: StripSample>(bytes: &[u8]) -> Result<Vec<u8>, String> {
+fn compress<T: StripSample>(bytes: &[u8]) -> Result<Vec<u8>, CodecError> {
     if T::PREDICTOR == 2 {
         return Ok(fdeflate::compress_to_vec(bytes));
     }
@@ -234,8 +228,8 @@ fn compress<T: StripSample>(bytes: &[u8]) -> Result<Vec<u8>, String> {
         Vec::with_capacity(bytes.len() / 2),
         flate2::Compression::new(DEFLATE_LEVEL),
     );
-    z.write_all(bytes).map_err(|e| e.to_string())?;
-    z.finish().map_err(|e| e.to_string())
+    z.write_all(bytes)?;
+    Ok(z.finish()?)
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@
 //! uncompressed image would not fit a classic TIFF's 4 GiB. Written to a temporary file and
 //! renamed, so a failure (of the writer or of the tile source) leaves nothing behind.
 
-use crate::error::IoError;
+use crate::error::{CodecError, IoError};
 use crate::geotiff::GeoReference;
 use aerorect_core::ImageSize;
 use aerorect_raster::AnyRaster;
@@ -46,13 +46,13 @@ pub fn write_tiled_tiff<E: From<IoError>>(
             let s = ImageSize::new(tile.min(size.width - c), tile.min(size.height - r));
             match tile_at(c, r, s) {
                 Ok(t) if t.size() == s => Ok(Some(t)),
-                Ok(t) => Err(format!(
+                Ok(t) => Err(CodecError::from(format!(
                     "tile at ({c}, {r}) is {} x {}, expected {} x {}",
                     t.size().width,
                     t.size().height,
                     s.width,
                     s.height
-                )),
+                ))),
                 Err(e) => {
                     failed = Some(e);
                     Ok(None)
@@ -64,10 +64,10 @@ pub fn write_tiled_tiff<E: From<IoError>>(
             Ok(Some(first)) => {
                 let bytes = size.pixels() as u128 * first.bands() as u128 * sample_bytes(&first);
                 if bytes > CLASSIC_LIMIT_BYTES {
-                    let enc = TiffEncoder::new_big(w).map_err(|e| e.to_string());
+                    let enc = TiffEncoder::new_big(w).map_err(CodecError::from);
                     enc.and_then(|e| encode::<_, TiffKindBig>(e, layout, geo, first, &mut next))
                 } else {
-                    let enc = TiffEncoder::new(w).map_err(|e| e.to_string());
+                    let enc = TiffEncoder::new(w).map_err(CodecError::from);
                     enc.and_then(|e| {
                         encode::<_, TiffKindStandard>(e, layout, geo, first, &mut next)
                     })
@@ -103,7 +103,7 @@ fn sample_bytes(r: &AnyRaster) -> u128 {
     }
 }
 
-type NextTile<'a> = dyn FnMut(usize, usize) -> Result<Option<AnyRaster>, String> + 'a;
+type NextTile<'a> = dyn FnMut(usize, usize) -> Result<Option<AnyRaster>, CodecError> + 'a;
 
 fn encode<W: Write + Seek, K: TiffKind>(
     mut enc: TiffEncoder<W, K>,
@@ -111,13 +111,11 @@ fn encode<W: Write + Seek, K: TiffKind>(
     geo: Option<&GeoReference>,
     first: AnyRaster,
     next: &mut NextTile<'_>,
-) -> Result<(), String> {
-    let e = |e: tiff::TiffError| e.to_string();
+) -> Result<(), CodecError> {
+    let e = CodecError::from;
     let (bands, kind) = (first.bands(), first.sample_name());
     if !(1..=4).contains(&bands) {
-        return Err(format!(
-            "TIFF output holds 1 to 4 bands, this image has {bands}"
-        ));
+        return Err(format!("TIFF output holds 1 to 4 bands, this image has {bands}").into());
     }
     let (bits, format, integer) = match first {
         AnyRaster::U8(_) => (8u16, 1u16, true),
@@ -142,13 +140,12 @@ fn encode<W: Write + Seek, K: TiffKind>(
                     "tile at ({c}, {r}) has {} {} bands, the first had {bands} {kind}",
                     t.bands(),
                     t.sample_name(),
-                ));
+                )
+                .into());
             }
             let raw = tile_bytes(&t, tile);
             let mut packed = Vec::with_capacity(raw.len() / 2);
-            Deflate::with_level(DeflateLevel::Fast)
-                .write_to(&mut packed, &raw)
-                .map_err(|e| e.to_string())?;
+            Deflate::with_level(DeflateLevel::Fast).write_to(&mut packed, &raw)?;
             let at = dir.write_data(&packed[..]).map_err(e)?;
             offsets.push(K::convert_offset(at).map_err(e)?);
             counts.push(K::convert_offset(packed.len() as u64).map_err(e)?);
