@@ -119,3 +119,41 @@ pub(super) fn on_ground(
     }
     Some([p[0], p[1], z])
 }
+
+/// The cells per side of the grid over a pair's overlap that [`spread`] keeps one tie per
+/// cell of: at most 36 ties per pair. A pair's redundant ties (features: up to 150, half of
+/// them a few pixels apart; correlation: patches overlapping by half) add to the solve's time
+/// in proportion, and little to its geometry: six by six spread over the overlap hold the
+/// pair's relative rotation as well (the attitude errors after adjustment are the same).
+pub const SPREAD_CELLS: usize = 6;
+
+/// The indices (ascending) of a well-spread subset of `points` (a pair's ties in one frame's
+/// pixels): over a [`SPREAD_CELLS`]-square grid on their bounding box, the point of the
+/// highest `score` in each cell (the first of equals).
+pub(super) fn spread(points: &[[f64; 2]], score: impl Fn(usize) -> f64) -> Vec<usize> {
+    let n = SPREAD_CELLS;
+    if points.len() <= n * n {
+        return (0..points.len()).collect();
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in points {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let cell = |p: &[f64; 2], k: usize| {
+        let span = (hi[k] - lo[k]).max(1e-9);
+        (((p[k] - lo[k]) / span * n as f64) as usize).min(n - 1)
+    };
+    let mut best: Vec<Option<usize>> = vec![None; n * n];
+    for (i, p) in points.iter().enumerate() {
+        let c = cell(p, 1) * n + cell(p, 0);
+        if best[c].is_none_or(|b| score(i) > score(b)) {
+            best[c] = Some(i);
+        }
+    }
+    let mut out: Vec<usize> = best.into_iter().flatten().collect();
+    out.sort_unstable();
+    out
+}
