@@ -139,6 +139,20 @@ pub struct AdjustOptions<'a> {
     /// GPS fixes the images contradict: each frame's position prior (relative to the datum)
     /// takes Huber's loss at this many of its sigmas; `None` keeps it quadratic.
     pub position_huber: Option<f64>,
+    /// Where the solve starts: a previous adjustment's corrections of the same frames and
+    /// cameras (its [`Adjusted::corrections`]; the priors stay on the recorded values). A
+    /// flight's later rounds start where the last ended, so they need a few iterations, not
+    /// the whole way from the recorded attitudes again. `None` starts at the recorded values.
+    pub start: Option<&'a Corrections>,
+}
+
+/// An adjustment's corrections to the recorded frames and cameras, as the solver holds them:
+/// where a later solve of the same frames may start ([`AdjustOptions::start`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Corrections {
+    frames: Vec<FrameBlock>,
+    cameras: Vec<CameraBlock>,
+    datum: DatumBlock,
 }
 
 impl Default for AdjustOptions<'_> {
@@ -158,6 +172,7 @@ impl Default for AdjustOptions<'_> {
             datum: Datum::Recorded,
             datum_shift_sigma_m: 1000.0,
             position_huber: None,
+            start: None,
         }
     }
 }
@@ -238,6 +253,8 @@ pub struct Adjusted {
     pub frames: Vec<AdjustFrame>,
     pub cameras: Vec<Camera>,
     pub report: AdjustReport,
+    /// The corrections as the solver holds them (a later solve's start).
+    pub corrections: Corrections,
 }
 
 /// Adjusts the frames and cameras to the tie points.
@@ -299,6 +316,7 @@ pub fn adjust(
     if p.cost(&s).is_none() {
         return Err(SolveError::Degenerate);
     }
+    let (s, rms_start) = warm_start(&p, s, before.1);
     // Frames far from their ties (hundreds of pixels, an attitude recorded degrees off) put
     // every residual in Huber's linear arm, where the steps crawl: the threshold starts wide
     // enough to hold the typical residual and narrows fourfold per stage to its own.
@@ -308,7 +326,7 @@ pub fn adjust(
         iterations: 0,
         termination: Termination::MaxIterations,
     };
-    for huber in huber_stages(opts.huber, before.1 / opts.pixel_sigma) {
+    for huber in huber_stages(opts.huber, rms_start / opts.pixel_sigma) {
         p.huber = huber;
         let mut solver = solve::Solver {
             problem: &p,
@@ -338,6 +356,83 @@ pub fn adjust(
             .collect(),
     };
     Ok(report::finish(&p, &out.state, fit))
+}
+
+/// The state [`AdjustOptions::start`] gives (its free parameters; the held ones stay at
+/// zero) and its overall RMS, where its cost is defined; else `s` (the recorded values, of
+/// overall RMS `rms`).
+fn warm_start(p: &Problem<'_>, s: State, rms: f64) -> (State, f64) {
+    let Some(c) = p.opts.start else {
+        return (s, rms);
+    };
+    if c.frames.len() != s.frames.len() || c.cameras.len() != s.cameras.len() {
+        return (s, rms);
+    }
+    let from = State {
+        frames: c.frames.clone(),
+        cameras: c.cameras.clone(),
+        datum: c.datum,
+        points: Vec::new(),
+    };
+    let mut warm = s.clone();
+    for (_, q) in p.layout.free() {
+        *q.value_mut(&mut warm) = q.value(&from);
+    }
+    if p.cost(&warm).is_none() {
+        return (s, rms);
+    }
+    let rms_warm = p.rms(&warm).1;
+    (warm, rms_warm)
+}
+
+/// Values per frame, per camera and of the datum in [`Corrections::to_values`].
+const FRAME_VALUES: usize = 6;
+const CAMERA_VALUES: usize = 8;
+const DATUM_VALUES: usize = 7;
+
+impl Corrections {
+    /// Every value, frames first, then cameras, then the datum (to carry between processes).
+    pub fn to_values(&self) -> Vec<f64> {
+        let mut out = Vec::new();
+        for f in &self.frames {
+            out.extend(blocks::FRAME_PARAMS.iter().map(|&q| f.get(q)));
+        }
+        for c in &self.cameras {
+            out.extend(blocks::CAMERA_PARAMS.iter().map(|&q| c.get(q)));
+        }
+        out.extend(blocks::DATUM_PARAMS.iter().map(|&q| self.datum.get(q)));
+        out
+    }
+
+    /// The corrections of `frames` frames and `cameras` cameras from [`Self::to_values`];
+    /// none when the count does not match.
+    pub fn from_values(frames: usize, cameras: usize, v: &[f64]) -> Option<Self> {
+        let n = frames * FRAME_VALUES + cameras * CAMERA_VALUES + DATUM_VALUES;
+        if v.len() != n {
+            return None;
+        }
+        let (fv, rest) = v.split_at(frames * FRAME_VALUES);
+        let (cv, dv) = rest.split_at(cameras * CAMERA_VALUES);
+        let mut out = Self {
+            frames: vec![FrameBlock::default(); frames],
+            cameras: vec![CameraBlock::default(); cameras],
+            datum: DatumBlock::default(),
+        };
+        for (f, chunk) in out.frames.iter_mut().zip(fv.chunks_exact(FRAME_VALUES)) {
+            for (&q, &x) in blocks::FRAME_PARAMS.iter().zip(chunk) {
+                *f.get_mut(q) = x;
+            }
+        }
+        for (c, chunk) in out.cameras.iter_mut().zip(cv.chunks_exact(CAMERA_VALUES)) {
+            for (&q, &x) in blocks::CAMERA_PARAMS.iter().zip(chunk) {
+                *c.get_mut(q) = x;
+            }
+        }
+        for (&q, &x) in blocks::DATUM_PARAMS.iter().zip(dv) {
+            *out.datum.get_mut(q) = x;
+        }
+        Some(out)
+    }
 }
 
 /// The Huber thresholds of the stages: `last` alone when the typical residual (`rms`, sigma

@@ -173,5 +173,10 @@ pub(super) fn finish(p: &Problem<'_>, s: &State, fit: Fit) -> Adjusted {
             .map(|c| adjusted_camera(p, s, c))
             .collect(),
         report,
+        corrections: super::Corrections {
+            frames: s.frames.clone(),
+            cameras: s.cameras.clone(),
+            datum: s.datum,
+        },
     }
 }

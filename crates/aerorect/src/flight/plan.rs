@@ -38,6 +38,9 @@ pub struct FlightProgress {
     pub done: bool,
     /// When the last round ended (its successor's clock).
     pub(super) since: Option<std::time::Instant>,
+    /// The last round's corrections, where the next round's solve starts (within one
+    /// process: a round from [`FlightProgress::to_json`] starts at the recorded values).
+    pub(super) start: Option<Corrections>,
 }
 
 impl FlightPlan {
@@ -229,7 +232,10 @@ impl FlightPlan {
             };
             pairs.push((m, a, b));
         }
-        let round = timing::time("solve round (wall)", || match_and_adjust(pairs, self, mode))?;
+        let start = progress.start.as_ref();
+        let round = timing::time("solve round (wall)", || {
+            match_and_adjust(pairs, self, mode, start)
+        })?;
         let (poses, cameras) = round.orientation(&self.rec);
         let before = progress
             .orientation
@@ -243,6 +249,7 @@ impl FlightPlan {
             || (progress.rounds.len() > 1 && typical < self.fo.settled_deg)
             || self.fo.ties == TieSource::Features;
         progress.orientation = Some(Orientation { poses, cameras });
+        progress.start = Some(round.adjusted.corrections.clone());
         Ok(round)
     }
 

@@ -50,11 +50,13 @@ impl Round {
 }
 
 /// Adjusts the recorded orientation to the tie points of the matched pairs (each with its
-/// frames' names; `dem`: the ground is a DEM; `posed`: the frames come from a pose table).
+/// frames' names; `dem`: the ground is a DEM; `posed`: the frames come from a pose table),
+/// the solve starting from `start` (the last round's corrections) when given.
 pub(super) fn match_and_adjust(
     matched: Vec<(PairMatch, String, String)>,
     plan: &FlightPlan,
     (dem, posed): (bool, bool),
+    start: Option<&Corrections>,
 ) -> Result<Round, Error> {
     let (rec, fo, frames) = (&plan.rec, &plan.fo, &plan.frames);
     let ground = plan.ground.as_ref();
@@ -126,6 +128,7 @@ pub(super) fn match_and_adjust(
             },
         )),
         max_iterations: 100,
+        start,
         ..AdjustOptions::default()
     };
     let aopts = robust_gps(
