@@ -250,6 +250,40 @@ impl crate::lm::Model for Solver<'_, '_> {
         self.problem.cost(s)
     }
 
+    /// With [`super::AdjustOptions::settled`]: the step turned no frame by that many
+    /// degrees, moved no centre by that many millimetres and changed no camera parameter by
+    /// that many millionths.
+    fn settled(&self, before: &State, after: &State) -> bool {
+        let Some(deg) = self.problem.opts.settled else {
+            return false;
+        };
+        let largest = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+        };
+        let frames = before.frames.iter().zip(&after.frames).all(|(a, b)| {
+            (a.rotation - b.rotation).amax() < deg.to_radians()
+                && (a.position - b.position).amax() < deg * 1e-3
+        });
+        let cameras = before.cameras.iter().zip(&after.cameras).all(|(a, b)| {
+            let v = |c: &super::blocks::CameraBlock| {
+                [
+                    c.focal_scale,
+                    c.principal_point[0],
+                    c.principal_point[1],
+                    c.radial[0],
+                    c.radial[1],
+                    c.boresight.x,
+                    c.boresight.y,
+                    c.boresight.z,
+                ]
+            };
+            largest(&v(a), &v(b)) < deg * 1e-6
+        });
+        frames && cameras
+    }
+
     fn linearise(&mut self, s: &State) -> Option<f64> {
         self.linear = self.problem.linear(s);
         self.linear.as_ref().map(Linear::gradient_max_norm)

@@ -174,7 +174,7 @@ pub(super) fn pair_ties(
     if ties.len() >= MIN_CORRELATION_INLIERS {
         // The pair ties; the solve takes its ties spread over the overlap (the most
         // confident match per cell), and `inliers` counts those.
-        report.ties = spread(&at_a, |k| ties[k].weight)
+        report.ties = spread(&at_a, CORRELATION_SPREAD_CELLS, |k| ties[k].weight)
             .into_iter()
             .map(|k| ties[k])
             .collect();

@@ -208,10 +208,12 @@ mod tests {
             rounds: vec![],
             done: true,
             since: None,
-            start: None,
+            start: Corrections::from_values(1, 1, &[0.125; 6 + 8 + 7]),
         };
+        assert!(p.start.is_some());
         let back = FlightProgress::from_json(&p.to_json().unwrap()).unwrap();
         assert_eq!(back.orientation, p.orientation);
+        assert_eq!(back.start, p.start);
         assert!(back.done);
     }
 }

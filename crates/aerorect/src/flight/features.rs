@@ -39,7 +39,7 @@ impl TieSource {
 
 /// The most tie points one pair gives from its features, one per cell of a grid over the
 /// inliers ([`spread`]): enough to hold the pair, few enough that the solve stays small.
-pub const FEATURE_TIES_PER_PAIR: usize = SPREAD_CELLS * SPREAD_CELLS;
+pub const FEATURE_TIES_PER_PAIR: usize = FEATURE_SPREAD_CELLS * FEATURE_SPREAD_CELLS;
 
 /// The fewest verified matches that tie a pair by features: eight points fit a fundamental
 /// matrix exactly, and two frames that share nothing give 8-12 chance "inliers" of 20-45
@@ -121,7 +121,7 @@ impl FlightPlan {
         let weight = (0.5 / sigma).powi(2).min(1.0);
         let at_a: Vec<[f64; 2]> = inliers.iter().map(|&k| m.first_px[k]).collect();
         let (pose, camera) = (&self.rec.poses[i], &self.rec.cameras[self.rec.camera_of[i]]);
-        let ties: Vec<PairTie> = spread(&at_a, |_| 0.0)
+        let ties: Vec<PairTie> = spread(&at_a, FEATURE_SPREAD_CELLS, |_| 0.0)
             .into_iter()
             .map(|s| inliers[s])
             .filter_map(|k| {
