@@ -251,8 +251,8 @@ impl crate::lm::Model for Solver<'_, '_> {
     }
 
     /// With [`super::AdjustOptions::settled`]: the step turned no frame by that many
-    /// degrees, moved no centre by that many millimetres and changed no camera parameter by
-    /// that many millionths.
+    /// degrees, moved no centre by a millimetre and changed no camera parameter (focal scale,
+    /// radial terms, boresight radians, principal point pixels) by a millionth.
     fn settled(&self, before: &State, after: &State) -> bool {
         let Some(deg) = self.problem.opts.settled else {
             return false;
@@ -264,7 +264,7 @@ impl crate::lm::Model for Solver<'_, '_> {
         };
         let frames = before.frames.iter().zip(&after.frames).all(|(a, b)| {
             (a.rotation - b.rotation).amax() < deg.to_radians()
-                && (a.position - b.position).amax() < deg * 1e-3
+                && (a.position - b.position).amax() < 1e-3
         });
         let cameras = before.cameras.iter().zip(&after.cameras).all(|(a, b)| {
             let v = |c: &super::blocks::CameraBlock| {
@@ -279,7 +279,7 @@ impl crate::lm::Model for Solver<'_, '_> {
                     c.boresight.z,
                 ]
             };
-            largest(&v(a), &v(b)) < deg * 1e-6
+            largest(&v(a), &v(b)) < 1e-6
         });
         frames && cameras
     }
