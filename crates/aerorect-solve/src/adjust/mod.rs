@@ -147,8 +147,9 @@ pub struct AdjustOptions<'a> {
     /// flight's later rounds start where the last ended, so they need a few iterations, not
     /// the whole way from the recorded attitudes again. `None` starts at the recorded values.
     pub start: Option<&'a Corrections>,
-    /// Also stop when an accepted step turns no frame by this many degrees (and moves no
-    /// centre by a millimetre, no camera parameter by a millionth): with
+    /// From a warm [`Self::start`], also stop when an accepted step turns no frame by this
+    /// many degrees (and moves no centre by a millimetre, no camera parameter by a
+    /// millionth): with
     /// Huber's loss the cost's last relative decreases of 1e-6 took 42 iterations on a
     /// 1,000-frame block, turning frames by far less than their precision. `None`: the
     /// tolerances alone.
@@ -338,6 +339,7 @@ pub fn adjust(
             problem: &p,
             start: start.clone(),
             linear: None,
+            settled: opts.settled.filter(|_| warm),
         };
         out = crate::lm::minimise_damped(
             &mut solver,

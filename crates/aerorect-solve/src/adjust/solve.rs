@@ -241,6 +241,10 @@ pub(super) struct Solver<'p, 'a> {
     pub problem: &'p Problem<'a>,
     pub start: Vec<Vec3>,
     pub linear: Option<Linear>,
+    /// The stop rule of [`super::AdjustOptions::settled`] (degrees), for a solve that starts
+    /// near its minimum (a warm start), where the steps are Gauss-Newton's: from far, the
+    /// damped steps can be short while the solve still has far to go.
+    pub settled: Option<f64>,
 }
 
 impl crate::lm::Model for Solver<'_, '_> {
@@ -250,11 +254,11 @@ impl crate::lm::Model for Solver<'_, '_> {
         self.problem.cost(s)
     }
 
-    /// With [`super::AdjustOptions::settled`]: the step turned no frame by that many
+    /// With [`Solver::settled`]: the step turned no frame by that many
     /// degrees, moved no centre by a millimetre and changed no camera parameter (focal scale,
     /// radial terms, boresight radians, principal point pixels) by a millionth.
     fn settled(&self, before: &State, after: &State) -> bool {
-        let Some(deg) = self.problem.opts.settled else {
+        let Some(deg) = self.settled else {
             return false;
         };
         let largest = |a: &[f64], b: &[f64]| {
