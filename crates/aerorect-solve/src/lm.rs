@@ -107,9 +107,25 @@ const TRIES: usize = 20;
 /// Minimises the model's cost from `s`.
 pub(crate) fn minimise<M: Model>(
     m: &mut M,
+    s: M::State,
+    max_iterations: usize,
+    tol: Tolerances,
+) -> Outcome<M::State> {
+    minimise_damped(m, s, max_iterations, tol, INITIAL_DAMPING)
+}
+
+/// The damping the loop starts with.
+pub(crate) const INITIAL_DAMPING: f64 = 1e-3;
+
+/// [`minimise`] with the damping starting at `lambda` instead of [`INITIAL_DAMPING`]: small
+/// for a start already near the minimum, whose Gauss-Newton step is good (at 1e-3 a large,
+/// weakly conditioned block crawls there, the damping falling threefold per step).
+pub(crate) fn minimise_damped<M: Model>(
+    m: &mut M,
     mut s: M::State,
     max_iterations: usize,
     tol: Tolerances,
+    lambda: f64,
 ) -> Outcome<M::State> {
     let Some(mut cost) = m.cost(&s) else {
         return Outcome {
@@ -125,7 +141,7 @@ pub(crate) fn minimise<M: Model>(
             termination: Termination::Failed,
         };
     };
-    let mut lambda = 1e-3;
+    let mut lambda = lambda;
     let (mut iterations, mut termination) = (0, Termination::MaxIterations);
     while iterations < max_iterations {
         if gradient < tol.gradient {

@@ -8,6 +8,7 @@ use super::{
     GaugeHold, Termination,
 };
 use faer::linalg::solvers::Solve;
+use rayon::prelude::*;
 
 /// Residual RMS per frame (with counts and outliers) and overall.
 pub(super) type Rms = (Vec<(f64, usize, usize)>, f64);
@@ -41,14 +42,20 @@ pub(super) fn standard_deviations(p: &Problem<'_>, s: &State) -> Vec<(Param, f64
     };
     let (_, rms_all) = p.rms(s);
     let scale = (rms_all / p.opts.pixel_sigma).max(1.0);
-    // Columns of the identity, solved many at a time (the factor's blocked solve).
-    let mut diag = Vec::with_capacity(n);
-    for start in (0..n).step_by(256) {
-        let cols = 256.min(n - start);
-        let b = faer::Mat::<f64>::from_fn(n, cols, |i, j| f64::from(u8::from(i == start + j)));
-        let x = llt.solve(&b);
-        diag.extend((0..cols).map(|j| x[(start + j, j)].max(0.0).sqrt() * scale));
-    }
+    // Columns of the identity, solved many at a time (the factor's blocked solve), the
+    // blocks in parallel.
+    let starts: Vec<usize> = (0..n).step_by(256).collect();
+    let diag: Vec<f64> = starts
+        .par_iter()
+        .flat_map_iter(|&start| {
+            let cols = 256.min(n - start);
+            let b = faer::Mat::<f64>::from_fn(n, cols, |i, j| f64::from(u8::from(i == start + j)));
+            let x = llt.solve(&b);
+            (0..cols)
+                .map(|j| x[(start + j, j)].max(0.0).sqrt() * scale)
+                .collect::<Vec<f64>>()
+        })
+        .collect();
     free.into_iter().map(|(i, q)| (q, diag[i])).collect()
 }
 
@@ -173,5 +180,10 @@ pub(super) fn finish(p: &Problem<'_>, s: &State, fit: Fit) -> Adjusted {
             .map(|c| adjusted_camera(p, s, c))
             .collect(),
         report,
+        corrections: super::Corrections {
+            frames: s.frames.clone(),
+            cameras: s.cameras.clone(),
+            datum: s.datum,
+        },
     }
 }

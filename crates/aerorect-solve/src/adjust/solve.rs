@@ -12,6 +12,7 @@ use aerorect_core::Vec3;
 use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMat, Triplet};
 use nalgebra::{Matrix3, SMatrix, SVector};
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
@@ -61,57 +62,84 @@ impl Problem<'_> {
         })
     }
 
-    /// One tie point's blocks, its frame-camera products added to `lin`.
-    fn point_lin(&self, s: &State, tie: &TiePoint, x: &Vec3, lin: &mut Linear) -> Option<PointLin> {
+    /// One tie point's blocks, and each observation's frame-camera products (to be added
+    /// to the reduced system in observation order).
+    fn point_part(&self, s: &State, tie: &TiePoint, x: &Vec3) -> Option<PointPart> {
         let mut hpp = Matrix3::<f64>::zeros();
         let mut bp = Vec3::zeros();
         let mut hpc: BTreeMap<usize, Vec3> = BTreeMap::new();
+        let mut obs = Vec::with_capacity(tie.observations.len());
         for o in &tie.observations {
             let l = self.observation_lin(s, o, x)?;
             hpp += l.w * l.point.transpose() * l.point;
             bp -= l.w * l.point.transpose() * l.r;
             let cross = l.w * l.local.transpose() * l.point;
-            let hcc = l.w * l.local.transpose() * l.local;
-            let bc = -l.w * l.local.transpose() * l.r;
             for (a, i) in l.idx.iter().enumerate() {
                 let Some(i) = *i else { continue };
                 *hpc.entry(i).or_insert_with(Vec3::zeros) += cross.row(a).transpose();
-                lin.rhs[i] += bc[a];
             }
-            lin.entries.add_outer(&l.idx, |a, b| hcc[(a, b)]);
+            obs.push(ObservationPart {
+                hcc: l.w * l.local.transpose() * l.local,
+                bc: -l.w * l.local.transpose() * l.r,
+                idx: l.idx,
+            });
         }
+        let (hp, b) = self.point_prior_blocks(tie, x);
+        Some(PointPart {
+            point: PointLin {
+                hpp: hpp + hp,
+                bp: bp - b,
+                hpc: hpc.into_iter().collect(),
+            },
+            obs,
+        })
+    }
+
+    /// A tie point's prior (its surveyed position, or the terrain under it): what it adds to
+    /// H_pp and what it takes from b_p.
+    fn point_prior_blocks(&self, tie: &TiePoint, x: &Vec3) -> (Matrix3<f64>, Vec3) {
         if let Some(c) = &tie.control {
             // (x - surveyed) / sigma, axis by axis.
             let j = Matrix3::from_diagonal(&Vec3::from(c.sigma_m.map(|s| 1.0 / s)));
-            hpp += j.transpose() * j;
-            bp -= j.transpose() * self.point_prior(tie, x);
-        } else if let Some((h, sigma)) = self.opts.terrain {
+            return (j.transpose() * j, j.transpose() * self.point_prior(tie, x));
+        }
+        if let Some((h, sigma)) = self.opts.terrain {
             // d/dx of (z - h(x, y)) / sigma (the terrain by central differences).
             let e = 1e-2;
             let gx = (h(x.x + e, x.y) - h(x.x - e, x.y)) / (2.0 * e);
             let gy = (h(x.x, x.y + e) - h(x.x, x.y - e)) / (2.0 * e);
             let j = Vec3::new(-gx, -gy, 1.0) / sigma;
             let r = (x.z - h(x.x, x.y)) / sigma;
-            hpp += j * j.transpose();
-            bp -= j * r;
+            return (j * j.transpose(), j * r);
         }
-        Some(PointLin {
-            hpp,
-            bp,
-            hpc: hpc.into_iter().collect(),
-        })
+        (Matrix3::zeros(), Vec3::zeros())
     }
 
-    /// The undamped normal equations at `s`.
+    /// The undamped normal equations at `s`. The tie points' blocks are computed in
+    /// parallel, a chunk at a time, and added in tie order: the same sums as one loop.
     pub fn linear(&self, s: &State) -> Option<Linear> {
         let mut lin = Linear {
             entries: SymBlocks::new(Arc::new(self.layout.blocks())),
             rhs: vec![0.0; self.layout.len()],
             points: Vec::with_capacity(self.ties.len()),
         };
-        for (tie, x) in self.ties.iter().zip(&s.points) {
-            let p = self.point_lin(s, tie, x, &mut lin)?;
-            lin.points.push(p);
+        for (ties, xs) in self.ties.chunks(CHUNK).zip(s.points.chunks(CHUNK)) {
+            let parts: Vec<Option<PointPart>> = ties
+                .par_iter()
+                .zip(xs)
+                .map(|(tie, x)| self.point_part(s, tie, x))
+                .collect();
+            for part in parts {
+                let part = part?;
+                for o in &part.obs {
+                    for (a, i) in o.idx.iter().enumerate() {
+                        let Some(i) = *i else { continue };
+                        lin.rhs[i] += o.bc[a];
+                    }
+                    lin.entries.add_outer(&o.idx, |a, b| o.hcc[(a, b)]);
+                }
+                lin.points.push(part.point);
+            }
         }
         for row in self.prior_rows(s) {
             let w = row.weight / (row.sigma * row.sigma);
@@ -124,6 +152,23 @@ impl Problem<'_> {
         }
         Some(lin)
     }
+}
+
+/// Tie points per parallel chunk of [`Problem::linear`]: a chunk's observation blocks are
+/// held until they are added (about 2 KB each).
+const CHUNK: usize = 4096;
+
+/// One observation's frame-camera products: H_cc, -J_c^T W r, and their indices.
+struct ObservationPart {
+    hcc: SMatrix<f64, LOCAL, LOCAL>,
+    bc: SVector<f64, LOCAL>,
+    idx: [Option<usize>; LOCAL],
+}
+
+/// One tie point's blocks and its observations' products.
+struct PointPart {
+    point: PointLin,
+    obs: Vec<ObservationPart>,
 }
 
 impl Linear {
@@ -196,6 +241,10 @@ pub(super) struct Solver<'p, 'a> {
     pub problem: &'p Problem<'a>,
     pub start: Vec<Vec3>,
     pub linear: Option<Linear>,
+    /// The stop rule of [`super::AdjustOptions::settled`] (degrees), for a solve that starts
+    /// near its minimum (a warm start), where the steps are Gauss-Newton's: from far, the
+    /// damped steps can be short while the solve still has far to go.
+    pub settled: Option<f64>,
 }
 
 impl crate::lm::Model for Solver<'_, '_> {
@@ -203,6 +252,40 @@ impl crate::lm::Model for Solver<'_, '_> {
 
     fn cost(&self, s: &State) -> Option<f64> {
         self.problem.cost(s)
+    }
+
+    /// With [`Solver::settled`]: the step turned no frame by that many
+    /// degrees, moved no centre by a millimetre and changed no camera parameter (focal scale,
+    /// radial terms, boresight radians, principal point pixels) by a millionth.
+    fn settled(&self, before: &State, after: &State) -> bool {
+        let Some(deg) = self.settled else {
+            return false;
+        };
+        let largest = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+        };
+        let frames = before.frames.iter().zip(&after.frames).all(|(a, b)| {
+            (a.rotation - b.rotation).amax() < deg.to_radians()
+                && (a.position - b.position).amax() < 1e-3
+        });
+        let cameras = before.cameras.iter().zip(&after.cameras).all(|(a, b)| {
+            let v = |c: &super::blocks::CameraBlock| {
+                [
+                    c.focal_scale,
+                    c.principal_point[0],
+                    c.principal_point[1],
+                    c.radial[0],
+                    c.radial[1],
+                    c.boresight.x,
+                    c.boresight.y,
+                    c.boresight.z,
+                ]
+            };
+            largest(&v(a), &v(b)) < 1e-6
+        });
+        frames && cameras
     }
 
     fn linearise(&mut self, s: &State) -> Option<f64> {

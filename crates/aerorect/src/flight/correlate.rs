@@ -150,6 +150,7 @@ pub(super) fn pair_ties(
         return Ok(report);
     };
     let mut ties = Vec::new();
+    let mut at_a = Vec::new();
     for (m, keep) in matches.iter().zip(&fit.inliers) {
         let (Some(pa), Some(pb)) = (
             a.coarse_plan.frame_pixel_of_unmasked(m.0[0], m.0[1]),
@@ -161,6 +162,7 @@ pub(super) fn pair_ties(
             continue;
         }
         let g = a.coarse_plan.grid.centre_of(m.0[0], m.0[1]);
+        at_a.push(m.0);
         ties.push(PairTie {
             ground: [g[0], g[1], ground_z(g[0], g[1])],
             pixel_a: pa,
@@ -169,8 +171,14 @@ pub(super) fn pair_ties(
         });
     }
     report.inliers = ties.len();
-    if report.inliers >= MIN_CORRELATION_INLIERS {
-        report.ties = ties;
+    if ties.len() >= MIN_CORRELATION_INLIERS {
+        // The pair ties; the solve takes its ties spread over the overlap (the most
+        // confident match per cell), and `inliers` counts those.
+        report.ties = spread(&at_a, CORRELATION_SPREAD_CELLS, |k| ties[k].weight)
+            .into_iter()
+            .map(|k| ties[k])
+            .collect();
+        report.inliers = report.ties.len();
     }
     Ok(report)
 }

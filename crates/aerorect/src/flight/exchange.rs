@@ -53,6 +53,9 @@ pub(super) struct ProgressFile {
     pub(super) cameras: Option<Vec<CameraFile>>,
     pub(super) rounds: Vec<RoundSummary>,
     pub(super) done: bool,
+    /// The last round's corrections as the solver holds them (the next solve's start).
+    #[serde(default)]
+    pub(super) start: Option<Vec<f64>>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -89,6 +92,7 @@ impl FlightProgress {
             }),
             rounds: self.rounds.clone(),
             done: self.done,
+            start: self.start.as_ref().map(|c| c.to_values()),
         };
         exact_json(&file)
     }
@@ -113,13 +117,28 @@ impl FlightProgress {
             }),
             _ => None,
         };
+        let start = match (&orientation, f.start) {
+            (Some(o), Some(v)) => {
+                let cameras = camera_count(&v, o.poses.len());
+                cameras.and_then(|c| Corrections::from_values(o.poses.len(), c, &v))
+            }
+            _ => None,
+        };
         Ok(Self {
             orientation,
             rounds: f.rounds,
             done: f.done,
             since: None,
+            start,
         })
     }
+}
+
+/// The cameras of corrections `v` of `frames` frames (see [`Corrections::to_values`]: six
+/// values per frame, eight per camera, seven of the datum).
+fn camera_count(v: &[f64], frames: usize) -> Option<usize> {
+    let rest = v.len().checked_sub(6 * frames + 7)?;
+    (rest % 8 == 0).then_some(rest / 8)
 }
 
 #[cfg(test)]
@@ -189,9 +208,12 @@ mod tests {
             rounds: vec![],
             done: true,
             since: None,
+            start: Corrections::from_values(1, 1, &[0.125; 6 + 8 + 7]),
         };
+        assert!(p.start.is_some());
         let back = FlightProgress::from_json(&p.to_json().unwrap()).unwrap();
         assert_eq!(back.orientation, p.orientation);
+        assert_eq!(back.start, p.start);
         assert!(back.done);
     }
 }

@@ -37,9 +37,9 @@ impl TieSource {
     }
 }
 
-/// The most tie points one pair gives from its features (spread over its inliers): enough to
-/// hold the pair, few enough that the solve stays small.
-pub const FEATURE_TIES_PER_PAIR: usize = 150;
+/// The most tie points one pair gives from its features, one per cell of a grid over the
+/// inliers ([`spread`]): enough to hold the pair, few enough that the solve stays small.
+pub const FEATURE_TIES_PER_PAIR: usize = FEATURE_SPREAD_CELLS * FEATURE_SPREAD_CELLS;
 
 /// The fewest verified matches that tie a pair by features: eight points fit a fundamental
 /// matrix exactly, and two frames that share nothing give 8-12 chance "inliers" of 20-45
@@ -119,12 +119,12 @@ impl FlightPlan {
         let factor = a.factor.max(b.factor) as f64;
         let sigma = FEATURE_SIGMA_REDUCED_PX * factor;
         let weight = (0.5 / sigma).powi(2).min(1.0);
-        let step = inliers.len().div_ceil(FEATURE_TIES_PER_PAIR).max(1);
+        let at_a: Vec<[f64; 2]> = inliers.iter().map(|&k| m.first_px[k]).collect();
         let (pose, camera) = (&self.rec.poses[i], &self.rec.cameras[self.rec.camera_of[i]]);
-        let ties: Vec<PairTie> = inliers
-            .iter()
-            .step_by(step)
-            .filter_map(|&k| {
+        let ties: Vec<PairTie> = spread(&at_a, FEATURE_SPREAD_CELLS, |_| 0.0)
+            .into_iter()
+            .map(|s| inliers[s])
+            .filter_map(|k| {
                 let ground = on_ground(pose, camera, m.first_px[k], self.ground.as_ref())?;
                 Some(PairTie {
                     ground,

@@ -66,7 +66,7 @@ use aerorect_io::PhotoMetadata;
 use aerorect_raster::shift::{PhaseCorrelator, PhaseOptions, ShiftEstimator, Weighting};
 use aerorect_raster::{AnyRaster, Interp, Raster, WarpOptions};
 use aerorect_solve::adjust::{
-    AdjustFrame, AdjustOptions, AdjustReport, Datum, Observation, TiePoint,
+    AdjustFrame, AdjustOptions, AdjustReport, Corrections, Datum, Observation, TiePoint,
 };
 use aerorect_solve::ransac::{RansacOptions, ransac_homography};
 use rayon::prelude::*;

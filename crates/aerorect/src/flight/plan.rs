@@ -40,6 +40,9 @@ pub struct FlightProgress {
     pub done: bool,
     /// When the last round ended (its successor's clock).
     pub(super) since: Option<std::time::Instant>,
+    /// The last round's corrections, where the next round's solve starts (within one
+    /// process: a round from [`FlightProgress::to_json`] starts at the recorded values).
+    pub(super) start: Option<Corrections>,
 }
 
 impl FlightPlan {
@@ -232,7 +235,10 @@ impl FlightPlan {
             };
             pairs.push((m, a, b));
         }
-        let round = timing::time("solve round (wall)", || match_and_adjust(pairs, self, mode))?;
+        let start = progress.start.as_ref();
+        let round = timing::time("solve round (wall)", || {
+            match_and_adjust(pairs, self, mode, start)
+        })?;
         let (poses, cameras) = round.orientation(&self.rec);
         let before = progress
             .orientation
@@ -246,6 +252,7 @@ impl FlightPlan {
             || (progress.rounds.len() > 1 && typical < self.fo.settled_deg)
             || self.fo.ties == TieSource::Features;
         progress.orientation = Some(Orientation { poses, cameras });
+        progress.start = Some(round.adjusted.corrections.clone());
         Ok(round)
     }
 

@@ -119,22 +119,39 @@ pub fn raster_features(
     let factor = reduction_factor(image.size(), opts.long_side_px);
     let mut gray = gray_reduced(image, factor)?;
     let describe = |g: &_| sift(g, &opts.features).map_err(Error::context(path.display()));
+    if contrast_gain(gray.plane(0)) >= DULL_GAIN {
+        // A dull frame: stretched before its one description (described as it was, it gave
+        // a tenth of the keypoints and was described again stretched: twice the time).
+        stretch_contrast(gray.plane_mut(0));
+        let features = describe(&gray)?;
+        return Ok(frame_features_of(path, image, factor, features, start));
+    }
     let mut features = describe(&gray)?;
     if features.len() < FEW_KEYPOINTS {
-        // A dull frame: described again with its contrast stretched.
+        // Few keypoints: described again with its contrast stretched.
         stretch_contrast(gray.plane_mut(0));
         let stretched = describe(&gray)?;
         if stretched.len() > features.len() {
             features = stretched;
         }
     }
-    Ok(FrameFeatures {
+    Ok(frame_features_of(path, image, factor, features, start))
+}
+
+fn frame_features_of(
+    path: &Path,
+    image: &AnyRaster,
+    factor: usize,
+    features: Features,
+    start: Instant,
+) -> FrameFeatures {
+    FrameFeatures {
         path: path.to_path_buf(),
         size: image.size(),
         factor,
         features,
         seconds: start.elapsed().as_secs_f64(),
-    })
+    }
 }
 
 /// A frame with fewer SIFT keypoints than this is described again with its contrast
@@ -152,6 +169,28 @@ pub const MAX_CONTRAST_GAIN: f32 = 8.0;
 /// 80 of 255 levels, gave 30-90 keypoints each and the pairs of its dullest strips too few
 /// matches to tie. A frame that already spans the range is left as it is.
 pub fn stretch_contrast(gray: &mut [f32]) {
+    let Some((mid, gain)) = contrast_stretch(gray) else {
+        return;
+    };
+    if gain > 1.0 {
+        gray.iter_mut().for_each(|v| *v = mid + gain * (*v - mid));
+    }
+}
+
+/// A frame whose contrast [`stretch_contrast`] would raise this many times or more (its 1st
+/// to 99th percentile spans at most half of 0..255) is stretched before it is described:
+/// SIFT found a tenth of the keypoints on such frames (the simulated flight's, spanning 80
+/// levels), fewer than [`FEW_KEYPOINTS`], so describing it as it is first was wasted time.
+pub const DULL_GAIN: f32 = 2.0;
+
+/// The gain [`stretch_contrast`] would apply to `gray` (1 when it leaves it as it is).
+pub fn contrast_gain(gray: &[f32]) -> f32 {
+    contrast_stretch(gray).map_or(1.0, |(_, gain)| gain)
+}
+
+/// The median and the gain (1 to [`MAX_CONTRAST_GAIN`]) that bring the 1st to 99th
+/// percentile of a sample of `gray` to span 0..255; none for fewer than 100 finite values.
+fn contrast_stretch(gray: &[f32]) -> Option<(f32, f32)> {
     let step = (gray.len() / 65_536).max(1);
     let mut sample: Vec<f32> = gray
         .iter()
@@ -160,15 +199,15 @@ pub fn stretch_contrast(gray: &mut [f32]) {
         .filter(|v| v.is_finite())
         .collect();
     if sample.len() < 100 {
-        return;
+        return None;
     }
     let n = sample.len();
     let mut at = |q: usize| *sample.select_nth_unstable_by(q, f32::total_cmp).1;
     let (lo, mid, hi) = (at(n / 100), at(n / 2), at(n - 1 - n / 100));
-    let gain = (255.0 / (hi - lo).max(1e-3)).clamp(1.0, MAX_CONTRAST_GAIN);
-    if gain > 1.0 {
-        gray.iter_mut().for_each(|v| *v = mid + gain * (*v - mid));
-    }
+    Some((
+        mid,
+        (255.0 / (hi - lo).max(1e-3)).clamp(1.0, MAX_CONTRAST_GAIN),
+    ))
 }
 
 /// Decodes the photo at `path` and describes it.

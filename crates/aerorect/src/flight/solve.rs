@@ -50,11 +50,13 @@ impl Round {
 }
 
 /// Adjusts the recorded orientation to the tie points of the matched pairs (each with its
-/// frames' names; `dem`: the ground is a DEM; `posed`: the frames come from a pose table).
+/// frames' names; `dem`: the ground is a DEM; `posed`: the frames come from a pose table),
+/// the solve starting from `start` (the last round's corrections) when given.
 pub(super) fn match_and_adjust(
     matched: Vec<(PairMatch, String, String)>,
     plan: &FlightPlan,
     (dem, posed): (bool, bool),
+    start: Option<&Corrections>,
 ) -> Result<Round, Error> {
     let (rec, fo, frames) = (&plan.rec, &plan.fo, &plan.frames);
     let ground = plan.ground.as_ref();
@@ -126,6 +128,8 @@ pub(super) fn match_and_adjust(
             },
         )),
         max_iterations: 100,
+        start,
+        settled: Some(SOLVE_SETTLED_DEG),
         ..AdjustOptions::default()
     };
     let aopts = robust_gps(
@@ -398,6 +402,11 @@ pub(super) fn median_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
     t.sort_by(f64::total_cmp);
     t.get(t.len() / 2).copied().unwrap_or(0.0)
 }
+
+/// A round's solve stops when a step turns no frame by this many degrees (a fiftieth of
+/// [`FlightOptions::settled_deg`]'s default, a twentieth of the simulated flights' attitude
+/// errors after adjustment).
+pub const SOLVE_SETTLED_DEG: f64 = 1e-4;
 
 /// A GPS fix moved by more than this many of its sigmas is contradicted by the images (the
 /// Huber threshold of each axis with robust GPS).
