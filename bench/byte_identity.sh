@@ -60,19 +60,11 @@ while [[ $# -gt 0 ]]; do
     --pytest) pyenv=$2; shift 2 ;;
     -h | --help) usage ;;
     -*) echo "error: unknown option $1" >&2; usage ;;
-    *)
-        if [[ -z $base_rev ]]; then base_rev=$1
-        elif [[ -z $head_rev ]]; then head_rev=$1
-        else usage
-        fi
-        shift ;;
+    *) take_rev "$1"; shift ;;
     esac
 done
-[[ -n $base_rev ]] || usage
-head_rev=${head_rev:-HEAD}
+resolve_revs
 shared=${AERORECT_SHARED:-$(cd "$repo/.." && pwd)/shared/data}
-base_sha=$(rev_sha "$base_rev")
-head_sha=$(rev_sha "$head_rev")
 out=${BYTES_OUT:-$WORK/runs/${base_sha:0:10}-${head_sha:0:10}}
 rm -rf "$out"
 mkdir -p "$out/logs"

@@ -87,3 +87,21 @@ build_rev() {
     prune_targets
     echo "$bin"
 }
+
+# The two revisions as the scripts take them, positionally: BASE_REV, then HEAD_REV; a third
+# is a usage error (the calling script's `usage`).
+take_rev() {
+    if [[ -z ${base_rev:-} ]]; then base_rev=$1
+    elif [[ -z ${head_rev:-} ]]; then head_rev=$1
+    else usage
+    fi
+}
+
+# After the arguments: BASE_REV is required and HEAD_REV defaults to HEAD; sets base_sha and
+# head_sha (exit 2 for a revision that is not a commit).
+resolve_revs() {
+    [[ -n ${base_rev:-} ]] || usage
+    head_rev=${head_rev:-HEAD}
+    base_sha=$(rev_sha "$base_rev")
+    head_sha=$(rev_sha "$head_rev")
+}
