@@ -42,12 +42,9 @@ impl FlightRequest {
     /// Refuses values outside their ranges, reading no file.
     pub fn validate(&self) -> Result<(), Error> {
         if self.hold_positions && self.adjust_positions_m.is_some() {
-            return Err(OptionError::Pair {
-                a: "adjust_positions_m",
-                b: "hold_positions",
-                text: "{a} and {b} exclude each other".into(),
-            }
-            .into());
+            return Err(Error::advice(
+                "`adjust_positions_m` and `hold_positions` exclude each other",
+            ));
         }
         let sigma = self.attitude_sigma_deg;
         for (key, v, max) in [

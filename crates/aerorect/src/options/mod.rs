@@ -35,24 +35,11 @@ pub enum OptionError {
         #[source]
         source: Box<Error>,
     },
-    /// Two options that cannot be given together: `{a} {why} {b}...`, as `text` says with
-    /// `{a}` and `{b}` standing for their names.
-    #[error("{}", fill(text, a, b, &Spelling::current()))]
-    Pair {
-        a: &'static str,
-        b: &'static str,
-        text: String,
-    },
-    /// A problem whose remedy is an option: `text` names each option key in backticks
-    /// ("no focal length ...; give `camera`"), written as the front end spells it.
+    /// A problem whose remedy is an option, or options that cannot be given together: `text`
+    /// names each option key in backticks ("no focal length ...; give `camera`", "`geo` and
+    /// `poses` ..."), written as the front end spells it.
     #[error("{}", Spelling::current().keys_in(text))]
     Advice { text: String },
-}
-
-/// `text` with `{a}` and `{b}` replaced by the names.
-fn fill(text: &str, a: &str, b: &str, spelling: &Spelling) -> String {
-    text.replace("{a}", &spelling.name(a))
-        .replace("{b}", &spelling.name(b))
 }
 
 impl OptionError {
@@ -81,7 +68,6 @@ impl OptionError {
                 context: spelling.with_value(option, &value),
                 source,
             },
-            OptionError::Pair { a, b, text } => Error::Invalid(fill(&text, a, b, spelling)),
             OptionError::Advice { text } => Error::Invalid(spelling.keys_in(&text)),
         }
     }
@@ -135,13 +121,7 @@ pub(crate) mod tests {
             e().spelled(&KEYWORD).full_message(),
             "gsd_m=1e308: too coarse"
         );
-        let pair = || {
-            Error::from(OptionError::Pair {
-                a: "hold_positions",
-                b: "adjust_positions_m",
-                text: "{a} and {b} exclude each other".into(),
-            })
-        };
+        let pair = || Error::advice("`hold_positions` and `adjust_positions_m` exclude each other");
         assert_eq!(
             pair().spelled(&FLAG).to_string(),
             "--hold-positions and --adjust-positions-m exclude each other"

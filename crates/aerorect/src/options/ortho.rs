@@ -138,12 +138,9 @@ impl PhotoRequest {
             .transpose()?;
         let geo_is_poses = geo_format == Some(EoFormat::PoseCsv);
         if geo_is_poses && self.poses.is_some() {
-            return Err(OptionError::Pair {
-                a: "geo",
-                b: "poses",
-                text: "{a} is a pose table and {b} gives another: give one of them".into(),
-            }
-            .into());
+            return Err(Error::advice(
+                "`geo` is a pose table and `poses` gives another: give one of them",
+            ));
         }
         let poses = if geo_is_poses {
             self.geo.as_deref()
@@ -217,12 +214,9 @@ impl PhotoRequest {
     ) -> Result<Option<BTreeMap<String, PoseRecord>>, Error> {
         if let Some([x, y, z, omega, phi, kappa]) = self.pose {
             let Some(name) = photo.and_then(|p| p.file_name()).and_then(|n| n.to_str()) else {
-                return Err(OptionError::Pair {
-                    a: "pose",
-                    b: "poses",
-                    text: "{a} is for one photo; give a flight's poses as a table ({b})".into(),
-                }
-                .into());
+                return Err(Error::advice(
+                    "`pose` is for one photo; give a flight's poses as a table (`poses`)",
+                ));
             };
             let rec = PoseRecord {
                 filename: name.to_string(),

@@ -69,15 +69,10 @@ impl BatchRequest {
             return Err(OptionError::value("jobs", 0, why).into());
         }
         if cog && self.format != "tif" {
-            return Err(OptionError::Pair {
-                a: "cog",
-                b: "format",
-                text: format!(
-                    "{{a}} writes cloud-optimised GeoTIFFs: it needs {{b}} tif, not '{}'",
-                    self.format
-                ),
-            }
-            .into());
+            return Err(Error::advice(format!(
+                "`cog` writes cloud-optimised GeoTIFFs: it needs `format` tif, not '{}'",
+                self.format
+            )));
         }
         Ok(())
     }
