@@ -46,10 +46,15 @@ impl FlightPlan {
     /// the first round's ties (`features`) agree with (see the module). Unchanged when the
     /// reading is not open or there are no feature ties.
     pub fn with_sensefly_roll_chosen(self, features: &[PairMatch]) -> Result<Self, Error> {
-        match self.choose_sensefly_roll(features)? {
-            Some(choice) => self.with_sensefly_roll(choice),
-            None => Ok(self),
-        }
+        let Some((choice, flipped_plan)) = self.roll_trials(features)? else {
+            return Ok(self);
+        };
+        let mut chosen = match choice.reading {
+            SenseflyRoll::Flipped => flipped_plan,
+            _ => self,
+        };
+        chosen.roll = Some(choice);
+        Ok(chosen)
     }
 
     /// The reading of senseFly's roll the first round's ties (`features`) agree with, and both
@@ -58,13 +63,17 @@ impl FlightPlan {
         &self,
         features: &[PairMatch],
     ) -> Result<Option<RollChoice>, Error> {
+        Ok(self.roll_trials(features)?.map(|(choice, _)| choice))
+    }
+
+    /// The choice and the flight planned with the roll flipped (on which it was tried).
+    fn roll_trials(&self, features: &[PairMatch]) -> Result<Option<(RollChoice, Self)>, Error> {
         if features.is_empty() || !self.roll_open() {
             return Ok(None);
         }
+        let flipped_plan = self.read_as(SenseflyRoll::Flipped)?;
         let as_recorded = self.first_round_trial(features);
-        let flipped = self
-            .read_as(SenseflyRoll::Flipped)?
-            .first_round_trial(features);
+        let flipped = flipped_plan.first_round_trial(features);
         let flip = match (&as_recorded, &flipped) {
             (Some(a), Some(f)) => f.median_turn_deg < FLIP_MARGIN * a.median_turn_deg,
             (None, Some(_)) => true,
@@ -74,11 +83,12 @@ impl FlightPlan {
             true => SenseflyRoll::Flipped,
             false => SenseflyRoll::AsRecorded,
         };
-        Ok(Some(RollChoice {
+        let choice = RollChoice {
             reading,
             as_recorded,
             flipped,
-        }))
+        };
+        Ok(Some((choice, flipped_plan)))
     }
 
     /// This plan with the reading `choice` made (by [`Self::with_sensefly_roll_chosen`] in
