@@ -12,12 +12,16 @@
 //! 1 or 3 bands; masks are always Deflate. The TIFF structure is written here by hand: the
 //! `tiff` crate's encoder writes strips only.
 
+mod check;
 pub(crate) mod layout;
+pub(crate) mod option_error;
 mod pyramid;
+
+pub use option_error::CogOptionError;
 
 use crate::error::{CodecError, IoError};
 use crate::geotiff::{GDAL_NODATA, GeoReference, GeoTagValue};
-use aerorect_raster::{AnyRaster, Raster, Sample};
+use aerorect_raster::{AnyRaster, Raster};
 use layout::{Ifd, NEW_SUBFILE_TYPE, Value};
 pub(crate) use pyramid::CogSample;
 use pyramid::Level;
@@ -93,79 +97,6 @@ impl Default for CogOptions {
             mask: CogMask::None,
             bigtiff: None,
         }
-    }
-}
-
-impl CogOptions {
-    /// Checks the options against the image (`geo` may carry the nodata value).
-    pub fn validate(&self, raster: &AnyRaster, geo: Option<&GeoReference>) -> Result<(), String> {
-        let t = self.tile;
-        if !(16..=4096).contains(&t) || !t.is_multiple_of(16) {
-            return Err(format!(
-                "COG tile size {t}: use a multiple of 16 from 16 to 4096"
-            ));
-        }
-        if !(1..=9).contains(&self.deflate_level) {
-            return Err(format!("Deflate level {}: use 1 to 9", self.deflate_level));
-        }
-        let bands = raster.bands();
-        if !(1..=4).contains(&bands) {
-            return Err(format!(
-                "COG output holds 1 to 4 bands, this image has {bands}"
-            ));
-        }
-        let size = raster.size();
-        let out_bands = match &self.mask {
-            CogMask::None => bands,
-            CogMask::AlphaBand if bands == 2 || bands == 4 => bands - 1,
-            CogMask::AlphaBand => {
-                return Err(format!(
-                    "COG mask from the alpha band: the image has {bands} bands, not 2 or 4"
-                ));
-            }
-            CogMask::Plane(m) if m.len() != size.width * size.height => {
-                return Err(format!(
-                    "COG mask has {} values, the image {} x {} pixels",
-                    m.len(),
-                    size.width,
-                    size.height
-                ));
-            }
-            CogMask::Plane(_) => bands,
-        };
-        let nodata = self.nodata.or(geo.and_then(|g| g.nodata));
-        if let Some(nd) = nodata {
-            if self.mask != CogMask::None {
-                return Err(format!("COG with both nodata {nd} and a mask: choose one"));
-            }
-            let exact = match raster {
-                AnyRaster::U8(_) => u8::from_f64_exact(nd).is_some(),
-                AnyRaster::U16(_) => u16::from_f64_exact(nd).is_some(),
-                AnyRaster::F32(_) => f32::from_f64_exact(nd).is_some(),
-            };
-            if !exact {
-                return Err(format!(
-                    "nodata {nd} is not a {} value",
-                    raster.sample_name()
-                ));
-            }
-        }
-        if let CogCompression::Jpeg { quality } = self.compression {
-            if !matches!(raster, AnyRaster::U8(_)) || !(out_bands == 1 || out_bands == 3) {
-                return Err(format!(
-                    "JPEG COG takes 8-bit images of 1 or 3 bands (an alpha band as the mask), \
-                     this one is {} with {out_bands} bands: use Deflate",
-                    raster.sample_name()
-                ));
-            }
-            if !(1..=100).contains(&quality) {
-                return Err(format!("JPEG quality {quality}: use 1 to 100"));
-            }
-            if nodata.is_some() {
-                return Err("JPEG COG with a nodata value: JPEG changes the values; use a mask (CogMask) or Deflate".into());
-            }
-        }
-        Ok(())
     }
 }
 

@@ -25,12 +25,30 @@ pub enum IoError {
         source_name: String,
         error: crate::metadata::error::MetadataError,
     },
+    /// A photo's EXIF block that cannot be read (the exif crate's own error).
+    #[error("{source_name}: EXIF: {error}")]
+    Exif {
+        source_name: String,
+        error: Box<exif::Error>,
+    },
     /// A CRS that cannot be read or written in the form asked for.
     #[error(transparent)]
     Crs(#[from] aerorect_geo::CrsError),
     /// A model read from a file that does not hold (a DEM too small, with no valid height).
     #[error(transparent)]
     Geo(#[from] aerorect_geo::GeoError),
+    /// A line of a text table (a GCP or exterior-orientation file) that cannot be read.
+    #[error("{source_name}: {error}")]
+    Table {
+        source_name: String,
+        error: Box<crate::table_error::TableError>,
+    },
+    /// A GeoTIFF's GeoKeys that do not describe a CRS this reader builds.
+    #[error("{source_name}: GeoKeyDirectory: {error}")]
+    GeoKeys {
+        source_name: String,
+        error: Box<crate::geokeys::error::GeoKeyError>,
+    },
     /// A field is missing, unknown, or has a bad value.
     #[error("{source_name}: {message}")]
     Field {
@@ -77,6 +95,13 @@ impl IoError {
         }
     }
 
+    pub(crate) fn table(source_name: impl ToString, error: crate::table_error::TableError) -> Self {
+        IoError::Table {
+            source_name: source_name.to_string(),
+            error: Box::new(error),
+        }
+    }
+
     pub(crate) fn field(source_name: impl ToString, message: impl ToString) -> Self {
         IoError::Field {
             source_name: source_name.to_string(),
@@ -99,6 +124,12 @@ pub enum CodecError {
     Raster(#[from] aerorect_raster::RasterError),
     #[error(transparent)]
     Crs(#[from] aerorect_geo::CrsError),
+    /// A CRS with no WKT for the `.prj` beside an image.
+    #[error("no WKT for the .prj: {0}")]
+    NoWkt(aerorect_geo::CrsError),
+    /// COG options that do not suit the image.
+    #[error(transparent)]
+    Cog(#[from] crate::cog::option_error::CogOptionError),
     /// The GeoKeys of a CRS that cannot be written.
     #[error(transparent)]
     GeoKeys(Box<IoError>),

@@ -199,7 +199,10 @@ pub fn read_georeference(path: &Path) -> Result<Option<GeoReference>, IoError> {
     let ascii = tag_ascii(&mut dec, path, GEO_ASCII_PARAMS)?.unwrap_or_default();
     let keys = geokeys::GeoKeys::parse(&dir, &doubles, &ascii)
         .and_then(|k| Ok((k.crs()?, k.pixel_is_point())))
-        .map_err(|e| IoError::field(path.display(), format!("GeoKeyDirectory: {e}")))?;
+        .map_err(|error| IoError::GeoKeys {
+            source_name: path.display().to_string(),
+            error: Box::new(error),
+        })?;
     let (crs, pixel_is_point) = keys;
     let mut gt = geotransform(&mut dec, path)?;
     if pixel_is_point {

@@ -249,7 +249,7 @@ fn png_sidecars(
     let wkt = geo
         .crs
         .to_wkt()
-        .map_err(|e| IoError::encode(path, format!("no WKT for the .prj: {e}")))?;
+        .map_err(|e| IoError::encode(path, CodecError::NoWkt(e)))?;
     let xml = format!(
         "<PAMDataset>\n  <SRS>{}</SRS>\n</PAMDataset>\n",
         xml_escape(&wkt)

@@ -23,6 +23,7 @@ pub mod metadata;
 pub mod sensors;
 pub mod staged;
 mod strip_tiff;
+pub mod table_error;
 mod temp_names;
 mod tiff_file;
 pub mod tiled_tiff;
@@ -44,6 +45,7 @@ pub use error::IoError;
 pub use gcp_file::{
     GcpFile, GcpFormat, ImageMark, SurveyPoint, gcp_from_text, read_gcp_file, read_gcp_files,
 };
+pub use geokeys::GeoKeyError;
 pub use geotiff::{GeoReference, read_georeference, write_world_file};
 pub use image_file::{
     DEFAULT_MAX_IMAGE_PIXELS, decode_image_bytes, image_files, max_image_pixels, read_image,
@@ -53,5 +55,6 @@ pub use image_file::{
 pub use metadata::{BodyAngles, BodySchema, PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};
 pub use staged::{Abandoned, StagedOutputs, remove_pending};
+pub use table_error::TableError;
 pub use tiled_tiff::write_tiled_tiff;
 pub use whole::check_image_whole;

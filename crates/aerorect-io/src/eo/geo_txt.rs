@@ -6,25 +6,27 @@
 
 use super::{EoRecord, angles, group, number};
 use crate::metadata::BodySchema;
+use crate::table_error::TableError;
 
 /// The CRS (`None` for WGS84 longitude, latitude) and the lines.
-pub(super) fn parse(text: &str) -> Result<(Option<String>, Vec<EoRecord>), String> {
+pub(super) fn parse(text: &str) -> Result<(Option<String>, Vec<EoRecord>), TableError> {
     let mut lines = text
         .lines()
         .enumerate()
         .map(|(i, l)| (i + 1, l.split('#').next().unwrap_or("").trim()))
         .filter(|(_, l)| !l.is_empty());
     let Some((_, crs)) = lines.next() else {
-        return Err("empty: the first line must name the CRS".into());
+        return Err(TableError::Table(
+            "empty: the first line must name the CRS".into(),
+        ));
     };
     let crs = crs_of(crs)?;
     let mut out = vec![];
     for (n, l) in lines {
         let f: Vec<&str> = l.split_whitespace().collect();
         if f.len() < 3 {
-            return Err(format!(
-                "line {n}: '{l}' needs at least image_name geo_x geo_y"
-            ));
+            let what = format!("'{l}' needs at least image_name geo_x geo_y");
+            return Err(TableError::line(n, what));
         }
         let z = f.get(3).map(|z| number(n, "geo_z", z)).transpose()?;
         let ypr = group(n, &f, 4, &["yaw", "pitch", "roll"])?;
@@ -43,7 +45,7 @@ pub(super) fn parse(text: &str) -> Result<(Option<String>, Vec<EoRecord>), Strin
 
 /// ODM's CRS line: EPSG:4326 (and WGS84 alone) are longitude, latitude; `WGS84 UTM 32N`
 /// becomes EPSG:32632; anything else is passed on (EPSG:code, PROJ string).
-fn crs_of(line: &str) -> Result<Option<String>, String> {
+fn crs_of(line: &str) -> Result<Option<String>, TableError> {
     let up = line.to_ascii_uppercase();
     if up == "EPSG:4326" || up == "WGS84" {
         return Ok(None);
@@ -55,11 +57,19 @@ fn crs_of(line: &str) -> Result<Option<String>, String> {
             .parse()
             .ok()
             .filter(|z| (1..=60).contains(z))
-            .ok_or_else(|| format!("line 1: UTM zone '{zone}' is not 1..60 followed by N or S"))?;
+            .ok_or_else(|| {
+                TableError::line(
+                    1,
+                    format!("UTM zone '{zone}' is not 1..60 followed by N or S"),
+                )
+            })?;
         return match hemi {
             "N" => Ok(Some(format!("EPSG:{}", 32600 + z))),
             "S" => Ok(Some(format!("EPSG:{}", 32700 + z))),
-            _ => Err(format!("line 1: UTM zone '{zone}' must end in N or S")),
+            _ => Err(TableError::line(
+                1,
+                format!("UTM zone '{zone}' must end in N or S"),
+            )),
         };
     }
     Ok(Some(line.to_string()))

@@ -5,6 +5,7 @@
 
 use super::{EoRecord, number};
 use crate::metadata::{BodyAngles, BodySchema};
+use crate::table_error::TableError;
 
 const HEADER: [&str; 8] = [
     "filename",
@@ -17,7 +18,7 @@ const HEADER: [&str; 8] = [
     "roll",
 ];
 
-pub(super) fn parse(text: &str) -> Result<Vec<EoRecord>, String> {
+pub(super) fn parse(text: &str) -> Result<Vec<EoRecord>, TableError> {
     let mut cols: Option<Vec<usize>> = None;
     let mut out = vec![];
     for (i, l) in text.lines().enumerate() {
@@ -34,13 +35,16 @@ pub(super) fn parse(text: &str) -> Result<Vec<EoRecord>, String> {
                     names
                         .iter()
                         .position(|x| x == h)
-                        .ok_or_else(|| format!("line {n}: the header has no column '{h}'"))
+                        .ok_or_else(|| TableError::MissingColumn {
+                            line: n,
+                            column: h.to_string(),
+                        })
                 })
-                .collect::<Result<Vec<usize>, String>>()?;
+                .collect::<Result<Vec<usize>, TableError>>()?;
             cols = Some(idx);
             continue;
         };
-        let get = |k: usize| -> Result<f64, String> {
+        let get = |k: usize| -> Result<f64, TableError> {
             let v = f.get(c[k]).copied().unwrap_or("");
             number(n, HEADER[k], v)
         };

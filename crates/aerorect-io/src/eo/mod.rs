@@ -10,6 +10,7 @@ mod pix4d_csv;
 
 use crate::error::IoError;
 use crate::metadata::BodyAngles;
+use crate::table_error::TableError;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -88,17 +89,18 @@ pub fn read_eo_file(path: &Path) -> Result<EoTable, IoError> {
 /// [`read_eo_file`] of text already read; `name` names it in errors.
 pub fn eo_from_text(text: &str, name: &str) -> Result<EoTable, IoError> {
     let format = detect_format(text);
-    let bad = |m: String| IoError::field(name, m);
+    let bad = |m: String| IoError::table(name, TableError::Table(m));
     let (crs, rows) = match format {
-        EoFormat::OdmGeoTxt => geo_txt::parse(text).map_err(bad)?,
-        EoFormat::Pix4dCsv => (None, pix4d_csv::parse(text).map_err(bad)?),
-        EoFormat::SenseflyGeoinfo => (None, geoinfo::parse(text).map_err(bad)?),
+        EoFormat::OdmGeoTxt => geo_txt::parse(text),
+        EoFormat::Pix4dCsv => pix4d_csv::parse(text).map(|rows| (None, rows)),
+        EoFormat::SenseflyGeoinfo => geoinfo::parse(text).map(|rows| (None, rows)),
         EoFormat::PoseCsv => {
             return Err(bad(
                 "is an omega-phi-kappa pose table (filename,x,y,z,omega,phi,kappa): read it as poses".into(),
             ));
         }
-    };
+    }
+    .map_err(|e| IoError::table(name, e))?;
     if rows.is_empty() {
         return Err(bad("no photos listed".into()));
     }
@@ -122,10 +124,10 @@ pub fn eo_from_text(text: &str, name: &str) -> Result<EoTable, IoError> {
 }
 
 /// A field as a finite number; the error names the line, the column and the value.
-pub(crate) fn number(line: usize, column: &str, value: &str) -> Result<f64, String> {
+pub(crate) fn number(line: usize, column: &str, value: &str) -> Result<f64, TableError> {
     match value.trim().parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
-        _ => Err(format!("line {line}: {column} '{value}' is not a number")),
+        _ => Err(TableError::not_a_number(line, column, value)),
     }
 }
 
@@ -135,23 +137,24 @@ pub(crate) fn group(
     fields: &[&str],
     at: usize,
     names: &[&str],
-) -> Result<Option<Vec<f64>>, String> {
+) -> Result<Option<Vec<f64>>, TableError> {
     let got: Vec<&str> = fields.iter().skip(at).take(names.len()).copied().collect();
     if got.is_empty() || got.iter().all(|f| f.trim().is_empty()) {
         return Ok(None);
     }
     if got.len() < names.len() {
-        return Err(format!(
-            "line {line}: {} without {}",
+        let what = format!(
+            "{} without {}",
             names[..got.len()].join(", "),
             names[got.len()..].join(", ")
-        ));
+        );
+        return Err(TableError::line(line, what));
     }
     names
         .iter()
         .zip(got)
         .map(|(n, v)| number(line, n, v))
-        .collect::<Result<Vec<f64>, String>>()
+        .collect::<Result<Vec<f64>, TableError>>()
         .map(Some)
 }
 

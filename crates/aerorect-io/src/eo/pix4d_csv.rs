@@ -5,8 +5,9 @@
 
 use super::{EoRecord, angles, group, number};
 use crate::metadata::BodySchema;
+use crate::table_error::TableError;
 
-pub(super) fn parse(text: &str) -> Result<Vec<EoRecord>, String> {
+pub(super) fn parse(text: &str) -> Result<Vec<EoRecord>, TableError> {
     let mut out = vec![];
     for (i, l) in text.lines().enumerate() {
         let n = i + 1;
@@ -18,23 +19,22 @@ pub(super) fn parse(text: &str) -> Result<Vec<EoRecord>, String> {
         if out.is_empty() && f.get(1).is_some_and(|v| v.parse::<f64>().is_err()) {
             let lower = l.to_ascii_lowercase();
             if lower.contains("omega") || lower.contains("kappa") {
-                return Err(format!(
-                    "line {n}: '{l}' has omega, phi, kappa: this reader takes yaw, pitch, roll (give omega-phi-kappa as poses: filename,x,y,z,omega,phi,kappa)"
-                ));
+                let what = format!(
+                    "'{l}' has omega, phi, kappa: this reader takes yaw, pitch, roll (give omega-phi-kappa as poses: filename,x,y,z,omega,phi,kappa)"
+                );
+                return Err(TableError::line(n, what));
             }
             continue; // the header
         }
         if f.len() < 4 {
-            return Err(format!(
-                "line {n}: '{l}' needs image, latitude, longitude, altitude"
-            ));
+            let what = format!("'{l}' needs image, latitude, longitude, altitude");
+            return Err(TableError::line(n, what));
         }
         let lat = number(n, "latitude", f[1])?;
         let lon = number(n, "longitude", f[2])?;
         if lat.abs() > 90.0 || lon.abs() > 360.0 {
-            return Err(format!(
-                "line {n}: latitude {lat}, longitude {lon} are not degrees"
-            ));
+            let what = format!("latitude {lat}, longitude {lon} are not degrees");
+            return Err(TableError::line(n, what));
         }
         let ypr = group(n, &f, 4, &["yaw", "pitch", "roll"])?;
         let acc = group(n, &f, 7, &["accuracy_horz", "accuracy_vert"])?;

@@ -9,6 +9,7 @@
 
 use super::Row;
 use super::fields::{boolean, number, repeated, sigma, split_fields};
+use crate::table_error::TableError;
 
 /// The header's columns: required, then optional.
 pub(super) const REQUIRED: [&str; 7] = ["name", "image", "u", "v", "x", "y", "z"];
@@ -23,7 +24,7 @@ pub(super) fn is_header(line: &str) -> bool {
     REQUIRED.iter().all(|r| names.iter().any(|n| n == r))
 }
 
-pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
+pub(super) fn parse(text: &str) -> Result<Vec<Row>, TableError> {
     let mut cols: Option<Vec<Option<usize>>> = None;
     let mut rows = vec![];
     for (i, l) in text.lines().enumerate() {
@@ -40,7 +41,7 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
         let get = |k: usize| c[k].and_then(|i| f.get(i)).map_or("", String::as_str);
         let name = get(0);
         if name.is_empty() {
-            return Err(format!("line {n}: the name is empty"));
+            return Err(TableError::line(n, "the name is empty"));
         }
         let xyz = [
             number(n, "x", get(4))?,
@@ -51,15 +52,21 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
         let (image, u, v) = (get(1), get(2), get(3));
         if !(image.is_empty() && u.is_empty() && v.is_empty()) {
             if image.is_empty() {
-                return Err(format!("line {n}: u, v are given without an image"));
+                return Err(TableError::line(n, "u, v are given without an image"));
             }
             let px = [number(n, "u", u)?, number(n, "v", v)?];
             row.mark = Some((image.to_string(), px));
         }
         row.sigma_m = match (get(7), get(8)) {
             ("", "") => None,
-            (h, "") => return Err(format!("line {n}: sigma_xy_m '{h}' without sigma_z_m")),
-            ("", z) => return Err(format!("line {n}: sigma_z_m '{z}' without sigma_xy_m")),
+            (h, "") => {
+                let what = format!("sigma_xy_m '{h}' without sigma_z_m");
+                return Err(TableError::line(n, what));
+            }
+            ("", z) => {
+                let what = format!("sigma_z_m '{z}' without sigma_xy_m");
+                return Err(TableError::line(n, what));
+            }
             (h, z) => Some([sigma(n, "sigma_xy_m", h)?, sigma(n, "sigma_z_m", z)?]),
         };
         row.check = match get(9) {
@@ -69,39 +76,44 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
         rows.push(row);
     }
     if cols.is_none() {
-        return Err(format!(
+        return Err(TableError::Table(format!(
             "no header: the first line must be {}",
             REQUIRED.join(",")
-        ));
+        )));
     }
     Ok(rows)
 }
 
 /// Each known column's index in the header (required, then optional); an unknown or repeated
 /// column, or a missing required one, is an error.
-fn header(n: usize, f: &[String]) -> Result<Vec<Option<usize>>, String> {
+fn header(n: usize, f: &[String]) -> Result<Vec<Option<usize>>, TableError> {
     let names: Vec<String> = f.iter().map(|s| s.to_ascii_lowercase()).collect();
     if let Some(r) = repeated(names.iter().map(String::as_str)) {
-        return Err(format!("line {n}: the header names column '{r}' twice"));
+        return Err(TableError::RepeatedColumn {
+            line: n,
+            column: r.to_string(),
+        });
     }
     if let Some(u) = names
         .iter()
         .find(|c| !REQUIRED.contains(&c.as_str()) && !OPTIONAL.contains(&c.as_str()))
     {
-        return Err(format!(
-            "line {n}: unknown column '{u}' (the columns are {},{})",
+        let what = format!(
+            "unknown column '{u}' (the columns are {},{})",
             REQUIRED.join(","),
             OPTIONAL.join(",")
-        ));
+        );
+        return Err(TableError::line(n, what));
     }
     let at = |c: &str| names.iter().position(|x| x == c);
     let mut out = vec![];
     for c in REQUIRED {
         out.push(Some(at(c).ok_or_else(|| {
-            format!(
-                "line {n}: the header has no column '{c}' (it needs {})",
+            let what = format!(
+                "the header has no column '{c}' (it needs {})",
                 REQUIRED.join(",")
-            )
+            );
+            TableError::line(n, what)
         })?));
     }
     out.extend(OPTIONAL.iter().map(|c| at(c)));

@@ -2,38 +2,50 @@
 //! standard deviations, flags and delimited fields; each error names the line, the column and
 //! the value.
 
+use crate::table_error::TableError;
 use std::collections::BTreeSet;
 
 /// A field as a number, finite and within [`crate::checkpoints::MAX_TABLE_VALUE`]; the error
 /// names the line, the column and the value.
-pub(super) fn number(line: usize, column: &str, value: &str) -> Result<f64, String> {
+pub(super) fn number(line: usize, column: &str, value: &str) -> Result<f64, TableError> {
     let v: f64 = value
         .trim()
         .parse()
-        .map_err(|_| format!("line {line}: {column} '{value}' is not a number"))?;
+        .map_err(|_| TableError::not_a_number(line, column, value))?;
     match crate::checkpoints::bad_number(v) {
-        Some(why) => Err(format!("line {line}: {column} '{value}': {why}")),
+        Some(why) => Err(TableError::OutOfRange {
+            line,
+            column: column.to_string(),
+            value: value.to_string(),
+            why,
+        }),
         None => Ok(v),
     }
 }
 
 /// A standard deviation: a number, not negative.
-pub(super) fn sigma(line: usize, column: &str, value: &str) -> Result<f64, String> {
+pub(super) fn sigma(line: usize, column: &str, value: &str) -> Result<f64, TableError> {
     let v = number(line, column, value)?;
     if v < 0.0 {
-        return Err(format!("line {line}: {column} '{value}' is negative"));
+        return Err(TableError::Negative {
+            line,
+            column: column.to_string(),
+            value: value.to_string(),
+        });
     }
     Ok(v)
 }
 
 /// `true/false/1/0/yes/no`, any case.
-pub(super) fn boolean(line: usize, column: &str, value: &str) -> Result<bool, String> {
+pub(super) fn boolean(line: usize, column: &str, value: &str) -> Result<bool, TableError> {
     match value.trim().to_ascii_lowercase().as_str() {
         "true" | "1" | "yes" => Ok(true),
         "false" | "0" | "no" => Ok(false),
-        _ => Err(format!(
-            "line {line}: {column} '{value}' is not true/false/1/0/yes/no"
-        )),
+        _ => Err(TableError::NotABoolean {
+            line,
+            column: column.to_string(),
+            value: value.to_string(),
+        }),
     }
 }
 

@@ -15,6 +15,7 @@
 
 use super::Row;
 use super::fields::{boolean, number, repeated, sigma, split_fields};
+use crate::table_error::TableError;
 
 /// Whether a line is the header: its first field, `#` stripped, is `Label`.
 pub(super) fn is_header(line: &str) -> bool {
@@ -48,9 +49,12 @@ struct Columns {
     enable: Option<usize>,
 }
 
-fn columns(n: usize, names: &[String]) -> Result<Columns, String> {
+fn columns(n: usize, names: &[String]) -> Result<Columns, TableError> {
     if let Some(r) = repeated(names.iter().map(String::as_str)) {
-        return Err(format!("line {n}: the header names column '{r}' twice"));
+        return Err(TableError::RepeatedColumn {
+            line: n,
+            column: r.to_string(),
+        });
     }
     let mut c = Columns::default();
     let axes: [(&str, &[&str]); 3] = [
@@ -81,10 +85,8 @@ fn columns(n: usize, names: &[String]) -> Result<Columns, String> {
             name == *a || name.starts_with(&format!("{a}/")) || words.contains(&name.as_str())
         }) {
             if c.xyz[k].is_some() {
-                return Err(format!(
-                    "line {n}: the header has two {} columns ('{raw}')",
-                    axes[k].0
-                ));
+                let what = format!("the header has two {} columns ('{raw}')", axes[k].0);
+                return Err(TableError::line(n, what));
             }
             c.xyz[k] = Some(i);
         }
@@ -92,7 +94,7 @@ fn columns(n: usize, names: &[String]) -> Result<Columns, String> {
     Ok(c)
 }
 
-pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
+pub(super) fn parse(text: &str) -> Result<Vec<Row>, TableError> {
     let mut header: Option<(Columns, char, [usize; 3])> = None;
     let mut rows = vec![];
     for (i, l) in text.lines().enumerate() {
@@ -110,14 +112,13 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
                 let mut at = [0; 3];
                 for (k, axis) in ["x", "y", "z"].iter().enumerate() {
                     at[k] = c.xyz[k].ok_or_else(|| {
-                        format!("line {n}: the header '{l}' has no {axis} column")
+                        TableError::line(n, format!("the header '{l}' has no {axis} column"))
                     })?;
                 }
                 header = Some((c, delim, at));
             } else if !l.starts_with('#') {
-                return Err(format!(
-                    "line {n}: '{l}' comes before the header (#Label,X,Y,Z,...)"
-                ));
+                let what = format!("'{l}' comes before the header (#Label,X,Y,Z,...)");
+                return Err(TableError::line(n, what));
             }
             continue;
         };
@@ -128,7 +129,7 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
         let get = |k: usize| f.get(k).map_or("", String::as_str);
         let label = get(c.label);
         if label.is_empty() {
-            return Err(format!("line {n}: the label is empty"));
+            return Err(TableError::line(n, "the label is empty"));
         }
         let raw = xyz_at.map(get);
         if raw.iter().all(|v| v.is_empty()) {
@@ -139,7 +140,7 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
             xyz[k] = number(n, axis, raw[k])?;
         }
         let mut row = Row::point(n, label.to_string(), xyz);
-        let acc = |col: Option<usize>, what: &str| -> Result<Option<f64>, String> {
+        let acc = |col: Option<usize>, what: &str| -> Result<Option<f64>, TableError> {
             match col.map(get).filter(|v| !v.is_empty()) {
                 Some(v) => sigma(n, what, v).map(Some),
                 None => Ok(None),
@@ -163,7 +164,9 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
         rows.push(row);
     }
     if header.is_none() {
-        return Err("no header line (#Label,X,Y,Z,...)".into());
+        return Err(TableError::Table(
+            "no header line (#Label,X,Y,Z,...)".into(),
+        ));
     }
     Ok(rows)
 }

@@ -19,6 +19,7 @@ mod odm;
 mod pix4d;
 
 use crate::error::IoError;
+use crate::table_error::TableError;
 use aerorect_geo::Crs;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -248,21 +249,22 @@ fn merge(files: Vec<(String, GcpFile)>) -> Result<GcpFile, IoError> {
 
 /// One file's points and marks, a marks-only file giving no points.
 fn parse(text: &str, name: &str) -> Result<GcpFile, IoError> {
-    let bad = |m: String| IoError::field(name, m);
     if text.lines().all(|l| {
         let l = l.trim();
         l.is_empty() || l.starts_with('#')
     }) {
-        return Err(bad("the file is empty (no data lines)".into()));
+        let empty = TableError::Table("the file is empty (no data lines)".into());
+        return Err(IoError::table(name, empty));
     }
     let format = detect_format(text);
     let (crs, rows) = match format {
-        GcpFormat::Odm => odm::parse(text).map_err(bad)?,
-        GcpFormat::Pix4d => (None, pix4d::parse(text).map_err(bad)?),
-        GcpFormat::Metashape => (None, metashape::parse(text).map_err(bad)?),
-        GcpFormat::Aerorect => (None, aerorect::parse(text).map_err(bad)?),
-    };
-    let (points, marks) = assemble(rows, crs.as_ref()).map_err(bad)?;
+        GcpFormat::Odm => odm::parse(text),
+        GcpFormat::Pix4d => pix4d::parse(text).map(|rows| (None, rows)),
+        GcpFormat::Metashape => metashape::parse(text).map(|rows| (None, rows)),
+        GcpFormat::Aerorect => aerorect::parse(text).map(|rows| (None, rows)),
+    }
+    .map_err(|e| IoError::table(name, e))?;
+    let (points, marks) = assemble(rows, crs.as_ref()).map_err(|e| IoError::table(name, e))?;
     Ok(GcpFile {
         path: PathBuf::from(name),
         format,
@@ -291,7 +293,7 @@ fn require_points(file: &GcpFile, name: &str) -> Result<(), IoError> {
 fn assemble(
     rows: Vec<Row>,
     crs: Option<&Crs>,
-) -> Result<(Vec<SurveyPoint>, Vec<ImageMark>), String> {
+) -> Result<(Vec<SurveyPoint>, Vec<ImageMark>), TableError> {
     let degrees = in_degrees(crs, rows.iter().filter_map(|r| r.xyz));
     let named: BTreeMap<&str, usize> = rows
         .iter()
@@ -313,34 +315,36 @@ fn assemble(
                 } else {
                     let n = format!("gcp{}", unnamed.len() + 1);
                     if let Some(l) = named.get(n.as_str()) {
-                        return Err(format!(
-                            "line {}: a point without a name would be called '{n}', the name line {l} gives another point: name every point or none",
-                            r.line
-                        ));
+                        let what = format!(
+                            "a point without a name would be called '{n}', the name line {l} gives another point: name every point or none"
+                        );
+                        return Err(TableError::line(r.line, what));
                     }
                     unnamed.push((bits, n.clone()));
                     n
                 }
             }
-            (None, None) => return Err(format!("line {}: neither a name nor coordinates", r.line)),
+            (None, None) => {
+                return Err(TableError::line(r.line, "neither a name nor coordinates"));
+            }
         };
         if let Some(xyz) = r.xyz {
             if let Some(&i) = index.get(&name) {
                 let p: &SurveyPoint = &points[i];
                 if !same_place(p.xyz, xyz, degrees) {
-                    return Err(format!(
+                    return Err(TableError::Table(format!(
                         "point '{name}' is at {} on line {} and at {} on line {} (more than 1 mm apart)",
                         show(p.xyz),
                         p.line,
                         show(xyz),
                         r.line
-                    ));
+                    )));
                 }
                 if p.check != r.check {
-                    return Err(format!(
+                    return Err(TableError::Table(format!(
                         "point '{name}' is a check point on one of lines {} and {} and not on the other",
                         p.line, r.line
-                    ));
+                    )));
                 }
             } else {
                 index.insert(name.clone(), points.len());
@@ -356,10 +360,10 @@ fn assemble(
         if let Some((image, pixel)) = &r.mark {
             let key = (name.clone(), image.clone());
             if let Some(l) = marked.get(&key) {
-                return Err(format!(
+                return Err(TableError::Table(format!(
                     "point '{name}' is marked twice in image '{image}' (lines {l} and {})",
                     r.line
-                ));
+                )));
             }
             marked.insert(key, r.line);
             marks.push(ImageMark {

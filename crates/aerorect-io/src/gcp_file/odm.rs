@@ -21,16 +21,19 @@
 
 use super::Row;
 use super::fields::number;
+use crate::table_error::TableError;
 use aerorect_geo::Crs;
 
-pub(super) fn parse(text: &str) -> Result<(Option<Crs>, Vec<Row>), String> {
+pub(super) fn parse(text: &str) -> Result<(Option<Crs>, Vec<Row>), TableError> {
     let mut lines = text
         .lines()
         .enumerate()
         .map(|(i, l)| (i + 1, l.split('#').next().unwrap_or("").trim()))
         .filter(|(_, l)| !l.is_empty());
     let Some((n, crs_line)) = lines.next() else {
-        return Err("empty: the first line must name the CRS".into());
+        return Err(TableError::Table(
+            "empty: the first line must name the CRS".into(),
+        ));
     };
     let crs = crs_of(n, crs_line)?;
     let geographic = crs.is_geographic();
@@ -38,9 +41,8 @@ pub(super) fn parse(text: &str) -> Result<(Option<Crs>, Vec<Row>), String> {
     for (n, l) in lines {
         let f: Vec<&str> = l.split_whitespace().collect();
         if f.len() < 6 {
-            return Err(format!(
-                "line {n}: '{l}' needs geo_x geo_y geo_z im_x im_y image_name"
-            ));
+            let what = format!("'{l}' needs geo_x geo_y geo_z im_x im_y image_name");
+            return Err(TableError::line(n, what));
         }
         let xyz = [
             number(n, "geo_x", f[0])?,
@@ -48,10 +50,11 @@ pub(super) fn parse(text: &str) -> Result<(Option<Crs>, Vec<Row>), String> {
             number(n, "geo_z", f[2])?,
         ];
         if geographic && xyz[1].abs() > 90.0 {
-            return Err(format!(
-                "line {n}: geo_y '{}' is not a latitude: with the geographic CRS '{crs}' geo_x is the longitude and geo_y the latitude",
+            let what = format!(
+                "geo_y '{}' is not a latitude: with the geographic CRS '{crs}' geo_x is the longitude and geo_y the latitude",
                 f[1]
-            ));
+            );
+            return Err(TableError::line(n, what));
         }
         let pixel = [number(n, "im_x", f[3])?, number(n, "im_y", f[4])?];
         rows.push(Row {
@@ -69,7 +72,7 @@ pub(super) fn parse(text: &str) -> Result<(Option<Crs>, Vec<Row>), String> {
 /// The CRS line: `WGS84 UTM 32N` is EPSG:32632 (`S`: 32732); anything else is read by
 /// [`Crs::parse`] (EPSG codes, PROJ strings, WKT), a PROJ string in single quotes unquoted as
 /// ODM does.
-fn crs_of(n: usize, line: &str) -> Result<Crs, String> {
+fn crs_of(n: usize, line: &str) -> Result<Crs, TableError> {
     let words: Vec<String> = line
         .split_whitespace()
         .map(str::to_ascii_uppercase)
@@ -82,26 +85,31 @@ fn crs_of(n: usize, line: &str) -> Result<Crs, String> {
             .ok()
             .filter(|z| (1..=60).contains(z))
             .ok_or_else(|| {
-                format!("line {n}: CRS '{line}': UTM zone '{zone}' is not 1..60 followed by N or S")
+                let what =
+                    format!("CRS '{line}': UTM zone '{zone}' is not 1..60 followed by N or S");
+                TableError::line(n, what)
             })?;
         let code = match hemi {
             "N" => 32600 + z,
             "S" => 32700 + z,
             _ => {
-                return Err(format!(
-                    "line {n}: CRS '{line}': UTM zone '{zone}' must end in N or S"
-                ));
+                let what = format!("CRS '{line}': UTM zone '{zone}' must end in N or S");
+                return Err(TableError::line(n, what));
             }
         };
-        return Crs::from_epsg(code).map_err(|e| format!("line {n}: CRS '{line}': {e}"));
+        return Crs::from_epsg(code).map_err(|error| TableError::Crs {
+            line: n,
+            text: line.to_string(),
+            error,
+        });
     }
     let unquoted = line
         .strip_prefix('\'')
         .and_then(|l| l.strip_suffix('\''))
         .unwrap_or(line);
-    Crs::parse(unquoted).map_err(|e| {
-        format!(
-            "line {n}: the CRS line '{line}' is not a CRS (EPSG:<code>, a +proj= string, WKT or WGS84 UTM <zone>N|S): {e}"
-        )
+    Crs::parse(unquoted).map_err(|error| TableError::NotACrs {
+        line: n,
+        text: line.to_string(),
+        error,
     })
 }

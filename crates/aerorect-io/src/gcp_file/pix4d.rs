@@ -15,6 +15,7 @@
 
 use super::Row;
 use super::fields::{number, sigma, split_fields};
+use crate::table_error::TableError;
 
 const IMAGE_EXTENSIONS: [&str; 7] = [".jpg", ".jpeg", ".tif", ".tiff", ".png", ".dng", ".raw"];
 
@@ -25,7 +26,7 @@ fn is_mark(f: &[String]) -> bool {
         || f.get(1).is_some_and(|v| v.parse::<f64>().is_err())
 }
 
-pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
+pub(super) fn parse(text: &str) -> Result<Vec<Row>, TableError> {
     let mut marks: Option<bool> = None;
     let mut rows = vec![];
     for (i, l) in text.lines().enumerate() {
@@ -38,7 +39,7 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
         let is_marks = *marks.get_or_insert_with(|| is_mark(&f));
         if is_marks {
             if f.len() < 4 {
-                return Err(format!("line {n}: '{l}' needs image,label,x,y"));
+                return Err(TableError::line(n, format!("'{l}' needs image,label,x,y")));
             }
             let pixel = [number(n, "x", &f[2])? - 0.5, number(n, "y", &f[3])? - 0.5];
             rows.push(Row {
@@ -52,10 +53,11 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
             continue;
         }
         if f.len() != 4 && f.len() != 6 {
-            return Err(format!(
-                "line {n}: '{l}' has {} fields: a GCP line is label,x,y,z or label,x,y,z,accuracy_horz,accuracy_vert",
+            let what = format!(
+                "'{l}' has {} fields: a GCP line is label,x,y,z or label,x,y,z,accuracy_horz,accuracy_vert",
                 f.len()
-            ));
+            );
+            return Err(TableError::line(n, what));
         }
         let xyz = [
             number(n, "x", &f[1])?,
@@ -74,9 +76,9 @@ pub(super) fn parse(text: &str) -> Result<Vec<Row>, String> {
     Ok(rows)
 }
 
-fn label(n: usize, s: &str) -> Result<String, String> {
+fn label(n: usize, s: &str) -> Result<String, TableError> {
     if s.is_empty() {
-        return Err(format!("line {n}: the label is empty"));
+        return Err(TableError::line(n, "the label is empty"));
     }
     Ok(s.to_string())
 }

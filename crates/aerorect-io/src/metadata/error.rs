@@ -20,6 +20,9 @@ pub enum MetadataError {
     /// A DJI height beyond 100 km (no flight; 1e308 used to reach the homography as "singular").
     #[error("XMP drone-dji:{tag} = '{value}' is outside the sane range |h| <= 100000 m")]
     Height { tag: String, value: String },
+    /// GDAL's metadata tag (42112) is not XML (the parser's error is shown, not chained).
+    #[error("GDAL metadata (tag 42112): {0}")]
+    GdalXml(roxmltree::Error),
     #[error("GDAL metadata {item} = '{value}' is not a number")]
     GdalNumber { item: String, value: String },
 }

@@ -79,7 +79,7 @@ pub(super) fn gdal_metadata_items(path: &Path) -> Result<BTreeMap<String, String
         .map_err(|e| IoError::decode(path, e))?;
     let xml = xml.trim_end_matches('\0');
     let doc = roxmltree::Document::parse(xml)
-        .map_err(|e| IoError::field(path.display(), format!("GDAL metadata (tag 42112): {e}")))?;
+        .map_err(|e| IoError::metadata(path.display(), MetadataError::GdalXml(e)))?;
     Ok(doc
         .descendants()
         .filter(|n| n.has_tag_name("Item") && n.attribute("sample").is_none())

@@ -52,7 +52,12 @@ pub fn read_photo_metadata(path: &Path) -> Result<PhotoMetadata, IoError> {
     match exif::Reader::new().read_from_container(&mut std::io::Cursor::new(&bytes)) {
         Ok(ex) => fill_exif(&mut meta, &ex),
         Err(exif::Error::NotFound(_)) => {}
-        Err(e) => return Err(IoError::field(&name, format!("EXIF: {e}"))),
+        Err(error) => {
+            return Err(IoError::Exif {
+                source_name: name,
+                error: Box::new(error),
+            });
+        }
     }
     let gdal = if bytes.starts_with(b"II") || bytes.starts_with(b"MM") {
         gdal_metadata_items(path)?

@@ -231,13 +231,11 @@ pub fn match_frames(
         DESCRIPTOR_LEN,
         &opts.matching,
     )
-    .map_err(|e| {
-        Error::Invalid(format!(
-            "matching {} with {}: {e}",
-            a.path.display(),
-            b.path.display()
-        ))
-    })?;
+    .map_err(Error::context(format!(
+        "matching {} with {}",
+        a.path.display(),
+        b.path.display()
+    )))?;
     crate::flight::timing::add("features: descriptor matching", t.elapsed().as_secs_f64());
     let t = Instant::now();
     let pa: Vec<[f64; 2]> = m.iter().map(|m| position(a, m.query)).collect();

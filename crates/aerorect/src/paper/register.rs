@@ -161,10 +161,8 @@ pub fn register(
                 // A coarse level may see too little overlap; the finer levels get more patches.
                 Err(_) if level > 0 => break,
                 Err(e) => {
-                    return Err(Error::Invalid(format!(
-                        "registration at full resolution: {} tie points, {e}",
-                        ties.len()
-                    )));
+                    let at = format!("registration at full resolution: {} tie points", ties.len());
+                    return Err(Error::context(at)(e));
                 }
             };
             h = fit.model;

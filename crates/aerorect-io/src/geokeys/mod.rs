@@ -8,47 +8,17 @@
 //! CRS with that citation (GDAL reads it); a transverse Mercator / UTM / longlat PROJ string as
 //! the projection keys GDAL itself writes.
 
-use crate::error::IoError;
-use aerorect_geo::{Crs, CrsForm, TmParams, proj_params, tm_params};
+pub(crate) mod error;
+mod keys;
+mod write;
+
+pub use error::GeoKeyError;
+pub(crate) use keys::{GEO_ASCII_PARAMS, GEO_DOUBLE_PARAMS, GEO_KEY_DIRECTORY};
+pub(crate) use write::encode;
+
+use aerorect_geo::{Crs, CrsForm, proj_params};
+use keys::*;
 use std::collections::BTreeMap;
-
-pub(crate) const GEO_KEY_DIRECTORY: u16 = 34735;
-pub(crate) const GEO_DOUBLE_PARAMS: u16 = 34736;
-pub(crate) const GEO_ASCII_PARAMS: u16 = 34737;
-
-const USER_DEFINED: u16 = 32767;
-const ESRI_PE: &str = "ESRI PE String = ";
-
-// GeoKey ids (GeoTIFF 1.0 / OGC 19-008).
-const MODEL_TYPE: u16 = 1024;
-const RASTER_TYPE: u16 = 1025;
-const GT_CITATION: u16 = 1026;
-const GEOGRAPHIC_TYPE: u16 = 2048;
-const GEOG_DATUM: u16 = 2050;
-const GEOG_PRIME_MERIDIAN: u16 = 2051;
-const GEOG_ANGULAR_UNITS: u16 = 2054;
-const GEOG_ELLIPSOID: u16 = 2056;
-const GEOG_SEMI_MAJOR: u16 = 2057;
-const GEOG_SEMI_MINOR: u16 = 2058;
-const GEOG_INV_FLATTENING: u16 = 2059;
-const PROJECTED_TYPE: u16 = 3072;
-const PCS_CITATION: u16 = 3073;
-const PROJECTION: u16 = 3074;
-const COORD_TRANS: u16 = 3075;
-const LINEAR_UNITS: u16 = 3076;
-const STD_PARALLEL_1: u16 = 3078;
-const STD_PARALLEL_2: u16 = 3079;
-const NAT_ORIGIN_LONG: u16 = 3080;
-const NAT_ORIGIN_LAT: u16 = 3081;
-const FALSE_EASTING: u16 = 3082;
-const FALSE_NORTHING: u16 = 3083;
-const FALSE_ORIGIN_LONG: u16 = 3084;
-const FALSE_ORIGIN_LAT: u16 = 3085;
-const FALSE_ORIGIN_EASTING: u16 = 3086;
-const FALSE_ORIGIN_NORTHING: u16 = 3087;
-const CENTER_LONG: u16 = 3088;
-const CENTER_LAT: u16 = 3089;
-const SCALE_AT_NAT_ORIGIN: u16 = 3092;
 
 #[derive(Debug, Clone, PartialEq)]
 enum Value {
@@ -63,31 +33,10 @@ pub(crate) struct GeoKeys {
     keys: BTreeMap<u16, Value>,
 }
 
-/// The name of a key in messages: "ProjCoordTransGeoKey (3075)".
-fn key_name(id: u16) -> String {
-    let name = match id {
-        MODEL_TYPE => "GTModelTypeGeoKey",
-        RASTER_TYPE => "GTRasterTypeGeoKey",
-        GEOGRAPHIC_TYPE => "GeographicTypeGeoKey",
-        GEOG_DATUM => "GeogGeodeticDatumGeoKey",
-        GEOG_PRIME_MERIDIAN => "GeogPrimeMeridianGeoKey",
-        GEOG_ANGULAR_UNITS => "GeogAngularUnitsGeoKey",
-        GEOG_ELLIPSOID => "GeogEllipsoidGeoKey",
-        PROJECTED_TYPE => "ProjectedCSTypeGeoKey",
-        PROJECTION => "ProjectionGeoKey",
-        COORD_TRANS => "ProjCoordTransGeoKey",
-        LINEAR_UNITS => "ProjLinearUnitsGeoKey",
-        _ => "GeoKey",
-    };
-    format!("{name} ({id})")
-}
-
 impl GeoKeys {
     /// Parses the directory; `doubles` and `ascii` are the contents of tags 34736 and 34737.
-    pub(crate) fn parse(dir: &[u16], doubles: &[f64], ascii: &str) -> Result<GeoKeys, String> {
-        let count = *dir
-            .get(3)
-            .ok_or("GeoKeyDirectory is shorter than its header")? as usize;
+    pub(crate) fn parse(dir: &[u16], doubles: &[f64], ascii: &str) -> Result<GeoKeys, GeoKeyError> {
+        let count = *dir.get(3).ok_or(GeoKeyError::ShortDirectory)? as usize;
         let mut keys = BTreeMap::new();
         for k in dir[4..].chunks_exact(4).take(count) {
             let (id, loc, n, off) = (k[0], k[1], k[2] as usize, k[3] as usize);
@@ -96,17 +45,21 @@ impl GeoKeys {
                 GEO_DOUBLE_PARAMS => Value::Doubles(
                     doubles
                         .get(off..off + n)
-                        .ok_or_else(|| format!("{} points past GeoDoubleParams", key_name(id)))?
+                        .ok_or(GeoKeyError::PastParams {
+                            key: id,
+                            tag: "GeoDoubleParams",
+                        })?
                         .to_vec(),
                 ),
                 GEO_ASCII_PARAMS => {
-                    let s = ascii
-                        .get(off..off + n)
-                        .ok_or_else(|| format!("{} points past GeoAsciiParams", key_name(id)))?;
+                    let s = ascii.get(off..off + n).ok_or(GeoKeyError::PastParams {
+                        key: id,
+                        tag: "GeoAsciiParams",
+                    })?;
                     Value::Ascii(s.trim_end_matches(['|', '\0']).to_string())
                 }
                 GEO_KEY_DIRECTORY => Value::Short(dir.get(off).copied().unwrap_or(0)),
-                other => return Err(format!("{} is stored in unknown tag {other}", key_name(id))),
+                tag => return Err(GeoKeyError::UnknownTag { key: id, tag }),
             };
             keys.insert(id, value);
         }
@@ -141,12 +94,12 @@ impl GeoKeys {
 
     /// The CRS the keys describe, built; an error names the key and value that could not be
     /// used, or the CRS that does not build.
-    pub(crate) fn crs(&self) -> Result<Crs, String> {
-        Crs::from_form(self.form()?).map_err(|e| e.to_string())
+    pub(crate) fn crs(&self) -> Result<Crs, GeoKeyError> {
+        Ok(Crs::from_form(self.form()?)?)
     }
 
     /// The form of the CRS the keys describe, not yet built.
-    fn form(&self) -> Result<CrsForm, String> {
+    fn form(&self) -> Result<CrsForm, GeoKeyError> {
         let model = self.short(MODEL_TYPE);
         let projected = match model {
             Some(1) => true,
@@ -174,11 +127,10 @@ impl GeoKeys {
             }
         }
         if !matches!(model, Some(1) | Some(2) | None) {
-            return Err(format!(
-                "{} = {} is not supported",
-                key_name(MODEL_TYPE),
-                model.unwrap_or_default()
-            ));
+            return Err(GeoKeyError::Unsupported {
+                key: MODEL_TYPE,
+                value: model.unwrap_or_default(),
+            });
         }
         let geog = self.geographic_params()?;
         if !projected {
@@ -189,33 +141,28 @@ impl GeoKeys {
             None | Some(9001) => "m",
             Some(9002) => "ft",
             Some(9003) => "us-ft",
-            Some(v) => return Err(format!("{} = {v} is not supported", key_name(LINEAR_UNITS))),
+            Some(value) => {
+                return Err(GeoKeyError::Unsupported {
+                    key: LINEAR_UNITS,
+                    value,
+                });
+            }
         };
         Ok(CrsForm::Proj(format!("{proj} {geog} +units={units}")))
     }
 
     /// The datum/ellipsoid part of a PROJ string.
-    fn geographic_params(&self) -> Result<String, String> {
-        if let Some(v) = self.short(GEOG_ANGULAR_UNITS).filter(|v| *v != 9102) {
-            return Err(format!(
-                "{} = {v} is not degrees",
-                key_name(GEOG_ANGULAR_UNITS)
-            ));
+    fn geographic_params(&self) -> Result<String, GeoKeyError> {
+        if let Some(value) = self.short(GEOG_ANGULAR_UNITS).filter(|v| *v != 9102) {
+            return Err(GeoKeyError::NotDegrees { value });
         }
-        if let Some(v) = self.short(GEOG_PRIME_MERIDIAN).filter(|v| *v != 8901) {
-            return Err(format!(
-                "{} = {v} is not Greenwich",
-                key_name(GEOG_PRIME_MERIDIAN)
-            ));
+        if let Some(value) = self.short(GEOG_PRIME_MERIDIAN).filter(|v| *v != 8901) {
+            return Err(GeoKeyError::NotGreenwich { value });
         }
         match self.short(GEOGRAPHIC_TYPE) {
             Some(code) if code != USER_DEFINED && code != 0 => {
-                let def = crs_definitions::from_code(code).ok_or_else(|| {
-                    format!(
-                        "{} = {code} is not a known EPSG code",
-                        key_name(GEOGRAPHIC_TYPE)
-                    )
-                })?;
+                let def = crs_definitions::from_code(code)
+                    .ok_or(GeoKeyError::UnknownGeographic { code })?;
                 let rest: Vec<String> = proj_params(def.proj4)
                     .into_iter()
                     .filter(|(k, _)| !matches!(k.as_str(), "proj" | "no_defs" | "units"))
@@ -237,10 +184,9 @@ impl GeoKeys {
             (_, Some(7019)) => return Ok("+ellps=GRS80".into()),
             _ => {}
         }
-        let a = self.double(GEOG_SEMI_MAJOR).ok_or_else(|| {
-            "the geographic CRS has no EPSG code, datum, ellipsoid or GeogSemiMajorAxisGeoKey"
-                .to_string()
-        })?;
+        let a = self
+            .double(GEOG_SEMI_MAJOR)
+            .ok_or(GeoKeyError::NoEllipsoid)?;
         match (
             self.double(GEOG_INV_FLATTENING),
             self.double(GEOG_SEMI_MINOR),
@@ -252,7 +198,7 @@ impl GeoKeys {
     }
 
     /// The projection part of a PROJ string, from ProjCoordTransGeoKey and its parameters.
-    fn projection_params(&self) -> Result<String, String> {
+    fn projection_params(&self) -> Result<String, GeoKeyError> {
         let d = |ids: &[u16]| ids.iter().find_map(|id| self.double(*id)).unwrap_or(0.0);
         let ct = match self.short(COORD_TRANS) {
             Some(ct) => ct,
@@ -260,12 +206,11 @@ impl GeoKeys {
                 return match self.short(PROJECTION) {
                     Some(p @ 16001..=16060) => Ok(format!("+proj=utm +zone={}", p - 16000)),
                     Some(p @ 16101..=16160) => Ok(format!("+proj=utm +zone={} +south", p - 16100)),
-                    Some(p) => Err(format!("{} = {p} is not supported", key_name(PROJECTION))),
-                    None => Err(format!(
-                        "no {} or {}",
-                        key_name(COORD_TRANS),
-                        key_name(PROJECTION)
-                    )),
+                    Some(value) => Err(GeoKeyError::Unsupported {
+                        key: PROJECTION,
+                        value,
+                    }),
+                    None => Err(GeoKeyError::NoProjection),
                 };
             }
         };
@@ -282,117 +227,13 @@ impl GeoKeys {
             8 => format!("+proj=lcc +lat_1={p1} +lat_2={p2} {common}"),
             9 => format!("+proj=lcc +lat_1={lat0} {common} +k_0={k}"),
             11 => format!("+proj=aea +lat_1={p1} +lat_2={p2} {common}"),
-            v => return Err(format!("{} = {v} is not supported", key_name(COORD_TRANS))),
-        })
-    }
-}
-
-/// The GeoKey directory, doubles and text that describe `crs` (PixelIsArea).
-pub(crate) fn encode(crs: &Crs) -> Result<(Vec<u16>, Vec<f64>, String), IoError> {
-    let mut w = Writer::default();
-    let geographic = crs.is_geographic();
-    // GDAL reads the WKT citation of a user-defined model type (its ESRI_PE key flavour).
-    let model = match crs.form() {
-        CrsForm::Wkt(_) => USER_DEFINED,
-        _ if geographic => 2,
-        _ => 1,
-    };
-    w.short(MODEL_TYPE, model);
-    w.short(RASTER_TYPE, 1);
-    match crs.form() {
-        CrsForm::Epsg(code) if geographic => w.short(GEOGRAPHIC_TYPE, *code),
-        CrsForm::Epsg(code) => {
-            w.short(PROJECTED_TYPE, *code);
-            if proj_params(crs.definition())
-                .get("units")
-                .map(String::as_str)
-                == Some("m")
-            {
-                w.short(LINEAR_UNITS, 9001);
+            value => {
+                return Err(GeoKeyError::Unsupported {
+                    key: COORD_TRANS,
+                    value,
+                });
             }
-        }
-        CrsForm::Wkt(wkt) => {
-            w.ascii(PCS_CITATION, &format!("{ESRI_PE}{wkt}"));
-            w.short(
-                if geographic {
-                    GEOGRAPHIC_TYPE
-                } else {
-                    PROJECTED_TYPE
-                },
-                USER_DEFINED,
-            );
-        }
-        CrsForm::Proj(p) => {
-            let t = tm_params(p)?.ok_or_else(|| {
-                IoError::field(
-                    "CRS",
-                    format!("'{p}': GeoTIFF output takes an EPSG code, a WKT, or a longlat, tmerc or utm PROJ string"),
-                )
-            })?;
-            w.proj_keys(&t);
-        }
-    }
-    Ok(w.finish())
-}
-
-#[derive(Default)]
-struct Writer {
-    keys: BTreeMap<u16, [u16; 3]>,
-    doubles: Vec<f64>,
-    ascii: String,
-}
-
-impl Writer {
-    fn short(&mut self, id: u16, v: u16) {
-        self.keys.insert(id, [0, 1, v]);
-    }
-
-    fn double(&mut self, id: u16, v: f64) {
-        self.keys
-            .insert(id, [GEO_DOUBLE_PARAMS, 1, self.doubles.len() as u16]);
-        self.doubles.push(v);
-    }
-
-    fn ascii(&mut self, id: u16, s: &str) {
-        let text = format!("{s}|");
-        self.keys.insert(
-            id,
-            [GEO_ASCII_PARAMS, text.len() as u16, self.ascii.len() as u16],
-        );
-        self.ascii.push_str(&text);
-    }
-
-    /// The keys GDAL writes for a user-defined transverse Mercator (or longlat) CRS.
-    fn proj_keys(&mut self, t: &TmParams) {
-        if t.ellps_name == "WGS 84" {
-            self.short(GEOGRAPHIC_TYPE, 4326);
-        } else {
-            self.short(GEOGRAPHIC_TYPE, USER_DEFINED);
-            self.short(GEOG_DATUM, USER_DEFINED);
-            self.short(GEOG_ANGULAR_UNITS, 9102);
-            self.double(GEOG_SEMI_MAJOR, t.a);
-            self.double(GEOG_INV_FLATTENING, t.rf);
-        }
-        let Some([lat0, lon0, k, x0, y0]) = t.tm else {
-            return;
-        };
-        self.short(PROJECTED_TYPE, USER_DEFINED);
-        self.short(PROJECTION, USER_DEFINED);
-        self.short(COORD_TRANS, 1);
-        self.short(LINEAR_UNITS, 9001);
-        self.double(NAT_ORIGIN_LONG, lon0);
-        self.double(NAT_ORIGIN_LAT, lat0);
-        self.double(FALSE_EASTING, x0);
-        self.double(FALSE_NORTHING, y0);
-        self.double(SCALE_AT_NAT_ORIGIN, k);
-    }
-
-    fn finish(self) -> (Vec<u16>, Vec<f64>, String) {
-        let mut dir = vec![1, 1, 0, self.keys.len() as u16];
-        for (id, [loc, n, v]) in self.keys {
-            dir.extend_from_slice(&[id, loc, n, v]);
-        }
-        (dir, self.doubles, self.ascii)
+        })
     }
 }
 
@@ -428,7 +269,17 @@ mod tests {
         let ascii = "Lo25 WGS84 + EGM2008 height|EGM2008 height|";
         let keys = GeoKeys::parse(&dir, &[0.0, 25.0, 1.0, 0.0, 0.0], ascii).expect("keys");
         let e = keys.crs().unwrap_err();
-        assert!(e.contains("ProjCoordTransGeoKey (3075) = 99"), "{e}");
+        assert_eq!(
+            e,
+            GeoKeyError::Unsupported {
+                key: 3075,
+                value: 99
+            }
+        );
+        assert!(
+            e.to_string().contains("ProjCoordTransGeoKey (3075) = 99"),
+            "{e}"
+        );
     }
 
     #[test]
