@@ -64,11 +64,13 @@ fn snowpeak_frames_tie_from_xmp_and_agree_after_the_adjustment() {
     };
     let opts = level();
     let flight = adjust_flight(&paths, &opts, &FlightOptions::default()).unwrap();
-    let r = &flight.report;
+    let report = flight.report.clone();
+    let r = &report;
     eprintln!(
         "rms {:.2} -> {:.2} px, warnings {:?}",
         r.adjustment.rms_before_px, r.adjustment.rms_after_px, r.warnings
     );
+    eprintln!("surface: {:?}", r.surface);
     assert!(
         r.adjustment.rms_after_px < 1.5,
         "{}",
@@ -86,8 +88,15 @@ fn snowpeak_frames_tie_from_xmp_and_agree_after_the_adjustment() {
     );
     let dir = tempfile::tempdir().unwrap();
     let out = |tag: &str, n: &str| dir.path().join(format!("{tag}{n}.tif"));
+    let mut level = flight;
+    let surface = level.surface.take();
     for (k, (p, n)) in paths.iter().zip(names).enumerate() {
         rectify_photo(p, &out("raw", n), &opts, None).unwrap();
+        level.write_frame(k, &out("lvl", n), &opts).unwrap();
+    }
+    let mut flight = level;
+    flight.surface = surface;
+    for (k, n) in names.iter().enumerate() {
         flight.write_frame(k, &out("adj", n), &opts).unwrap();
     }
     let norm = |v: [f64; 2]| v[0].hypot(v[1]);
@@ -99,6 +108,12 @@ fn snowpeak_frames_tie_from_xmp_and_agree_after_the_adjustment() {
             continue;
         }
         let after = aerorect::overlap::overlap_shift(&out("adj", a), &out("adj", b), 256).unwrap();
+        let lvl = aerorect::overlap::overlap_shift(&out("lvl", a), &out("lvl", b), 256).unwrap();
+        eprintln!(
+            "{a}/{b}: level ground {:.2} px (tile rms {:.1})",
+            norm(lvl.median_px),
+            lvl.rms_px
+        );
         // As recorded the frames are 9-27 m apart: most pairs share no patch that matches.
         let before = aerorect::overlap::overlap_shift(&out("raw", a), &out("raw", b), 256)
             .map_or(f64::INFINITY, |s| norm(s.median_m));
