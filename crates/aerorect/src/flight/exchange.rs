@@ -262,5 +262,45 @@ mod tests {
         assert_eq!(back.orientation, p.orientation);
         assert_eq!(back.start, p.start);
         assert!(back.done);
+        assert!(back.surface.is_none());
+    }
+
+    #[test]
+    fn progress_gives_back_its_tie_surface_to_the_bit() {
+        let crs = Crs::from_epsg(32633).unwrap();
+        let values: Vec<f32> = (0..12).map(|k| 160.0 + 0.1 * k as f32 / 3.0).collect();
+        let report = SurfaceReport {
+            tie_points: 60,
+            rejected: 3,
+            cell_m: 2.0,
+            extent: [0.1 + 0.2, -8.0, 8.0 + 0.1 + 0.2, 0.0],
+            size: [4, 3],
+            heights_m: [160.0, 160.4],
+            spread_m: 0.1 + 0.2,
+        };
+        let dem = aerorect_geo::Dem {
+            name: SURFACE_NAME.into(),
+            values: values.clone(),
+            width: 4,
+            height: 3,
+            top_left: [report.extent[0], report.extent[3]],
+            cell_size: [2.0, 2.0],
+            crs,
+        };
+        let p = FlightProgress {
+            done: true,
+            surface: Some(TieSurface {
+                dem: std::sync::Arc::new(dem),
+                report: report.clone(),
+            }),
+            ..FlightProgress::default()
+        };
+        let back = FlightProgress::from_json(&p.to_json().unwrap()).unwrap();
+        let s = back.surface.unwrap();
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&s.dem.values), bits(&values));
+        assert_eq!(s.report, report);
+        assert_eq!(s.dem.top_left, [report.extent[0], report.extent[3]]);
+        assert!(s.dem.crs.same_as(&Crs::from_epsg(32633).unwrap()));
     }
 }

@@ -15,7 +15,8 @@
 //! (the GPS fixes and recorded attitudes against the images after it), `plan`
 //! (the steps as pure functions, for Dask), `exchange` (what travels between processes),
 //! `roll` (senseFly's roll sign, by the first round's ties), `render` (the adjusted frames
-//! onto the output grid), `control` (ground control points as
+//! onto the output grid, over the DEM, else `surface`: the ground the adjusted tie points
+//! describe, else the level ground), `control` (ground control points as
 //! tie points held to their surveyed positions) and `accuracy` (the report against them).
 
 mod accuracy;
