@@ -6,7 +6,7 @@ use aerorect::batch::run_adjusted_batch;
 use aerorect::drone::DroneOptions;
 use aerorect::io::StagedOutputs;
 use aerorect::mosaic::{check_mosaic_name, mosaic_adjusted, mosaic_options, run_mosaic};
-use anyhow::{Result, bail};
+use anyhow::Result;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;

@@ -51,8 +51,8 @@ pub use predict::{MarkPrediction, chip};
 pub use render::AdjustedFlight;
 pub use roll::{FLIP_MARGIN, RollChoice, RollTrial};
 pub use surface::{
-    MIN_SURFACE_POINTS, SURFACE_CELL_M, SURFACE_MAX_RESIDUAL_PX, SURFACE_NAME, SurfaceReport,
-    TieSurface, tie_surface,
+    MIN_SURFACE_KEPT, MIN_SURFACE_POINTS, SURFACE_CELL_M, SURFACE_MAX_RESIDUAL_PX, SURFACE_NAME,
+    SurfaceReport, TieSurface, tie_surface,
 };
 pub use ties::{PairMatch, PairTie, TieVector};
 
@@ -116,7 +116,8 @@ pub struct FlightOptions {
     pub robust_gps: bool,
     /// Without a DEM, render the adjusted frames over the ground the flight's own tie points
     /// describe ([`tie_surface`]) instead of the level ground, when at least
-    /// [`MIN_SURFACE_POINTS`] of them intersect within [`SURFACE_MAX_RESIDUAL_PX`]. On by
+    /// [`MIN_SURFACE_POINTS`] of them, and [`MIN_SURFACE_KEPT`] of all, intersect within
+    /// [`SURFACE_MAX_RESIDUAL_PX`]. On by
     /// default: on the senseFly photos over hills the level ground left consecutive frames
     /// 1.5-2.3 px apart by their relief's parallax. A DEM, when given, is always the ground.
     pub tie_surface: bool,

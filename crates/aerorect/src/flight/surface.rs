@@ -19,6 +19,11 @@ pub const SURFACE_MAX_RESIDUAL_PX: f64 = 1.5;
 /// stays.
 pub const MIN_SURFACE_POINTS: usize = 50;
 
+/// Nor does a flight whose ties mostly miss their intersection (under this fraction kept): its
+/// orientation cannot place points in 3-D (the five DJI frames of the shared data, adjusted to
+/// 8.4 px rms, keep 65 of 170).
+pub const MIN_SURFACE_KEPT: f64 = 0.5;
+
 /// The surface's cell (m): fine enough to keep every tie point's height where it is.
 pub const SURFACE_CELL_M: f64 = 2.0;
 
@@ -58,7 +63,8 @@ pub struct TieSurface {
 }
 
 /// The tie points' surface through `frames` (the adjusted orientation), or `None` with fewer
-/// than [`MIN_SURFACE_POINTS`] points that pass the residual check.
+/// than [`MIN_SURFACE_POINTS`] points that pass the residual check, or fewer than
+/// [`MIN_SURFACE_KEPT`] of the ties.
 pub fn tie_surface(
     ties: &[TiePoint],
     frames: OrientedFrames<'_>,
@@ -73,7 +79,9 @@ pub fn tie_surface(
         .filter_map(|t| ground_point(t, frames))
         .collect();
     let points = without_far_heights(points);
-    if points.len() < MIN_SURFACE_POINTS {
+    if points.len() < MIN_SURFACE_POINTS
+        || (points.len() as f64) < MIN_SURFACE_KEPT * candidates.len() as f64
+    {
         return Ok(None);
     }
     let rejected = candidates.len() - points.len();
