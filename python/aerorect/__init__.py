@@ -189,7 +189,9 @@ def adjust_flight(
     Keyword arguments as :func:`rectify_photo`, and ``gcps=[FILE]`` (``--gcps``; a Pix4D
     coordinates file and its marks file as two), ``checkpoints=[NAME, ...]``,
     ``gcp_sigma_px``, ``gcp_vertical_offset_m``: the report's ``accuracy`` is then
-    ``accuracy.json``'s."""
+    ``accuracy.json``'s. Without a ``dem`` the frames are written over the surface the
+    flight's own tie points describe (the report's ``surface``); ``level_ground=True``
+    (``--level-ground``) keeps the level ground."""
     o = _opts(gsd_m=gsd_m, dem=dem, adjust_positions_m=adjust_positions_m, **kwargs)
     return _aerorect.adjust_flight([os.fspath(p) for p in paths], o)
 

@@ -6,7 +6,7 @@ use aerorect::batch::run_adjusted_batch;
 use aerorect::drone::DroneOptions;
 use aerorect::io::StagedOutputs;
 use aerorect::mosaic::{check_mosaic_name, mosaic_adjusted, mosaic_options, run_mosaic};
-use anyhow::{Result, bail};
+use anyhow::Result;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -272,12 +272,9 @@ impl FlightPlan {
     fn write_frame(&self, py: Python<'_>, k: usize, progress: &str, out: PathBuf) -> PyResult<()> {
         py.detach(|| -> Result<_> {
             let p = progress_from(Some(progress))?;
-            let Some(o) = &p.orientation else {
-                bail!("the progress has no adjusted orientation yet");
-            };
             let mut staged = StagedOutputs::new();
             self.plan
-                .write_frame_staged(k, o, &out, &self.opts, &mut staged)?;
+                .write_frame_staged(k, &p, &out, &self.opts, &mut staged)?;
             staged.commit()?;
             Ok(())
         })

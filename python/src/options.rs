@@ -67,6 +67,8 @@ pub struct PhotoArgs {
     #[serde(default)]
     pub robust_gps: bool,
     #[serde(default)]
+    pub level_ground: bool,
+    #[serde(default)]
     pub gcps: Vec<PathBuf>,
     #[serde(default)]
     pub checkpoints: Vec<String>,
@@ -155,6 +157,7 @@ impl PhotoArgs {
             adjust_passes: self.adjust_passes,
             ties: self.ties.clone(),
             robust_gps: self.robust_gps,
+            level_ground: self.level_ground,
             gcps: self.gcps.clone(),
             checkpoints: self.checkpoints.clone(),
             gcp_sigma_px: self.gcp_sigma_px,

@@ -191,6 +191,12 @@ pub struct FlightArgs {
     /// adjustment.json's gps[].weight).
     #[arg(long, requires = "adjust")]
     pub robust_gps: bool,
+    /// With --adjust and no --dem: render the adjusted frames over the level ground
+    /// (--ground-height-m) instead of the surface the flight's own tie points describe
+    /// (intersected through the adjusted frames, gridded at 2 m; adjustment.json's `surface`
+    /// reports its points, extent and spread).
+    #[arg(long, requires = "adjust")]
+    pub level_ground: bool,
     /// With --adjust: ground control points: ODM's gcp_list.txt, a Pix4D or Metashape marker
     /// CSV, or ours (see CONVENTIONS.md); a Pix4D coordinates file and its image-marks file as
     /// two files, comma-separated. Their marks hold the solve, the datum of the GPS positions
@@ -264,6 +270,7 @@ impl FlightArgs {
             adjust_passes: Some(self.adjust_passes),
             ties: Some(self.ties.clone()),
             robust_gps: self.robust_gps,
+            level_ground: self.level_ground,
             gcps: self.gcps.clone(),
             checkpoints: self.checkpoints.clone(),
             gcp_sigma_px: Some(self.gcp_sigma_px),

@@ -53,6 +53,23 @@ pub(crate) fn print_adjustment(r: &aerorect::flight::FlightReport) {
             d.scale_ppm
         );
     }
+    if let Some(s) = &r.surface {
+        outln!(
+            "ground: the tie points' surface, {} points ({} left out), {} x {} cells of {:.1} m over x {:.1}..{:.1}, y {:.1}..{:.1}, heights {:.1}..{:.1} m, points {:.2} m rms about it",
+            s.tie_points,
+            s.rejected,
+            s.size[0],
+            s.size[1],
+            s.cell_m,
+            s.extent[0],
+            s.extent[2],
+            s.extent[1],
+            s.extent[3],
+            s.heights_m[0],
+            s.heights_m[1],
+            s.spread_m
+        );
+    }
     if let Some(a) = &r.accuracy {
         print_accuracy(a);
     }

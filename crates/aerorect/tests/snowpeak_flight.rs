@@ -3,10 +3,12 @@
 //! consecutive frames (2188/2189, 2212/2213 across strips, 2280/2281/2282) tie by their
 //! features from the XMP angles alone and from the flight's geoinfo.txt alone, and after the
 //! adjustment the overlap correlator on the written frames (an estimator the adjustment does
-//! not use) finds the frames along a strip within three output pixels (0.1 m), where as
+//! not use) finds the frames along a strip within two output pixels (0.1 m), where as
 //! recorded they are metres apart. The photos carry no height above ground: the level ground
-//! is given (160 m), and the hills rise and fall some 20 m about it, so with no DEM the frames
-//! still differ by their relief's parallax tile by tile; the median is the measure. (The pair
+//! is given (160 m), and the hills rise and fall some 20 m about it, so over the level ground
+//! the frames differ by their relief's parallax tile by tile (1.5-2.3 px); with no DEM the
+//! frames are written over the surface the flight's own tie points describe, which removes
+//! most of it; the median is the measure. (The pair
 //! across strips, 2212/2213, ties by its features; the overlap correlator finds no patch of it
 //! that matches on level-ground orthos, before or after.)
 #![allow(clippy::unwrap_used)]
@@ -64,11 +66,13 @@ fn snowpeak_frames_tie_from_xmp_and_agree_after_the_adjustment() {
     };
     let opts = level();
     let flight = adjust_flight(&paths, &opts, &FlightOptions::default()).unwrap();
-    let r = &flight.report;
+    let report = flight.report.clone();
+    let r = &report;
     eprintln!(
         "rms {:.2} -> {:.2} px, warnings {:?}",
         r.adjustment.rms_before_px, r.adjustment.rms_after_px, r.warnings
     );
+    eprintln!("surface: {:?}", r.surface);
     assert!(
         r.adjustment.rms_after_px < 1.5,
         "{}",
@@ -86,11 +90,19 @@ fn snowpeak_frames_tie_from_xmp_and_agree_after_the_adjustment() {
     );
     let dir = tempfile::tempdir().unwrap();
     let out = |tag: &str, n: &str| dir.path().join(format!("{tag}{n}.tif"));
+    let mut level = flight;
+    let surface = level.surface.take();
     for (k, (p, n)) in paths.iter().zip(names).enumerate() {
         rectify_photo(p, &out("raw", n), &opts, None).unwrap();
+        level.write_frame(k, &out("lvl", n), &opts).unwrap();
+    }
+    let mut flight = level;
+    flight.surface = surface;
+    for (k, n) in names.iter().enumerate() {
         flight.write_frame(k, &out("adj", n), &opts).unwrap();
     }
     let norm = |v: [f64; 2]| v[0].hypot(v[1]);
+    let mut agree = Vec::new();
     for (a, b) in CONSECUTIVE {
         let p = pair(r, a, b);
         assert!(p.reliable && p.inliers >= 8, "{a}/{b}: {p:?}");
@@ -99,6 +111,12 @@ fn snowpeak_frames_tie_from_xmp_and_agree_after_the_adjustment() {
             continue;
         }
         let after = aerorect::overlap::overlap_shift(&out("adj", a), &out("adj", b), 256).unwrap();
+        let lvl = aerorect::overlap::overlap_shift(&out("lvl", a), &out("lvl", b), 256).unwrap();
+        eprintln!(
+            "{a}/{b}: level ground {:.2} px (tile rms {:.1})",
+            norm(lvl.median_px),
+            lvl.rms_px
+        );
         // As recorded the frames are 9-27 m apart: most pairs share no patch that matches.
         let before = aerorect::overlap::overlap_shift(&out("raw", a), &out("raw", b), 256)
             .map_or(f64::INFINITY, |s| norm(s.median_m));
@@ -112,13 +130,18 @@ fn snowpeak_frames_tie_from_xmp_and_agree_after_the_adjustment() {
             after.rms_px
         );
         assert!(before > 2.0, "{a}/{b}: {before}");
-        // Within three output pixels (0.1 m) by the median of the overlap's tiles.
-        assert!(
-            norm(after.median_px) < 3.0,
-            "{a}/{b}: {:?}",
-            after.median_px
-        );
+        agree.push((a, norm(lvl.median_px), norm(after.median_px)));
     }
+    // Over the tie points' surface (279 points, 2 m cells) each pair is within two output
+    // pixels (0.1 m) by the median of the overlap's tiles, and the pairs together agree
+    // better than over the level ground (0.52, 1.67, 1.72 px against 1.50, 1.53, 2.34 px
+    // when measured): the relief's parallax is mostly gone, not all (the surface is only as
+    // dense as the ties, some 40 a pair).
+    for &(a, level, surface) in &agree {
+        assert!(surface < 2.0, "{a}: {surface} px (level ground {level} px)");
+    }
+    let sum = |f: fn(&(&str, f64, f64)) -> f64| agree.iter().map(f).sum::<f64>();
+    assert!(sum(|p| p.2) < sum(|p| p.1), "{agree:?}");
 }
 
 #[test]

@@ -56,6 +56,46 @@ pub(super) struct ProgressFile {
     /// The last round's corrections as the solver holds them (the next solve's start).
     #[serde(default)]
     pub(super) start: Option<Vec<f64>>,
+    /// The tie surface, once the rounds are done (when they made one).
+    #[serde(default)]
+    pub(super) surface: Option<SurfaceFile>,
+}
+
+/// A [`TieSurface`]'s file form: its report (extent, size, cell), heights row by row and the
+/// CRS's WKT.
+#[derive(Serialize, Deserialize)]
+pub(super) struct SurfaceFile {
+    pub(super) report: SurfaceReport,
+    pub(super) values: Vec<f32>,
+    pub(super) crs_wkt: String,
+}
+
+impl SurfaceFile {
+    fn from_surface(s: &TieSurface) -> Result<Self, Error> {
+        Ok(Self {
+            report: s.report.clone(),
+            values: s.dem.values.clone(),
+            crs_wkt: s.dem.crs.to_wkt()?,
+        })
+    }
+
+    fn into_surface(self) -> Result<TieSurface, Error> {
+        let r = &self.report;
+        let dem = aerorect_geo::Dem {
+            name: SURFACE_NAME.into(),
+            values: self.values,
+            width: r.size[0],
+            height: r.size[1],
+            top_left: [r.extent[0], r.extent[3]],
+            cell_size: [r.cell_m, r.cell_m],
+            crs: Crs::from_wkt(self.crs_wkt)?,
+        };
+        dem.validate()?;
+        Ok(TieSurface {
+            dem: std::sync::Arc::new(dem),
+            report: self.report,
+        })
+    }
 }
 
 #[derive(Serialize, Deserialize)]
@@ -93,6 +133,11 @@ impl FlightProgress {
             rounds: self.rounds.clone(),
             done: self.done,
             start: self.start.as_ref().map(|c| c.to_values()),
+            surface: self
+                .surface
+                .as_ref()
+                .map(SurfaceFile::from_surface)
+                .transpose()?,
         };
         exact_json(&file)
     }
@@ -130,6 +175,7 @@ impl FlightProgress {
             done: f.done,
             since: None,
             start,
+            surface: f.surface.map(SurfaceFile::into_surface).transpose()?,
         })
     }
 }
@@ -209,11 +255,52 @@ mod tests {
             done: true,
             since: None,
             start: Corrections::from_values(1, 1, &[0.125; 6 + 8 + 7]),
+            surface: None,
         };
         assert!(p.start.is_some());
         let back = FlightProgress::from_json(&p.to_json().unwrap()).unwrap();
         assert_eq!(back.orientation, p.orientation);
         assert_eq!(back.start, p.start);
         assert!(back.done);
+        assert!(back.surface.is_none());
+    }
+
+    #[test]
+    fn progress_gives_back_its_tie_surface_to_the_bit() {
+        let crs = Crs::from_epsg(32633).unwrap();
+        let values: Vec<f32> = (0..12).map(|k| 160.0 + 0.1 * k as f32 / 3.0).collect();
+        let report = SurfaceReport {
+            tie_points: 60,
+            rejected: 3,
+            cell_m: 2.0,
+            extent: [0.1 + 0.2, -8.0, 8.0 + 0.1 + 0.2, 0.0],
+            size: [4, 3],
+            heights_m: [160.0, 160.4],
+            spread_m: 0.1 + 0.2,
+        };
+        let dem = aerorect_geo::Dem {
+            name: SURFACE_NAME.into(),
+            values: values.clone(),
+            width: 4,
+            height: 3,
+            top_left: [report.extent[0], report.extent[3]],
+            cell_size: [2.0, 2.0],
+            crs,
+        };
+        let p = FlightProgress {
+            done: true,
+            surface: Some(TieSurface {
+                dem: std::sync::Arc::new(dem),
+                report: report.clone(),
+            }),
+            ..FlightProgress::default()
+        };
+        let back = FlightProgress::from_json(&p.to_json().unwrap()).unwrap();
+        let s = back.surface.unwrap();
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&s.dem.values), bits(&values));
+        assert_eq!(s.report, report);
+        assert_eq!(s.dem.top_left, [report.extent[0], report.extent[3]]);
+        assert!(s.dem.crs.same_as(&Crs::from_epsg(32633).unwrap()));
     }
 }

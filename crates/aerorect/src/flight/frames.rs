@@ -141,16 +141,26 @@ pub(super) fn plan_matching(
     )))
 }
 
-/// The ground a frame is projected on: the DEM, else the level ground under it as planned
-/// from its metadata.
-pub(super) fn frame_ground(f: &Frame, opts: &DroneOptions) -> Ground {
-    match &opts.dem {
-        Some(dem) => Ground::Dem {
+/// The ground a frame is projected on: the DEM, else the tie surface (`surface`, which
+/// covers the frames' footprints; beyond it the level ground), else the level ground under it
+/// as planned from its metadata.
+pub(super) fn frame_ground(
+    f: &Frame,
+    opts: &DroneOptions,
+    surface: Option<&std::sync::Arc<aerorect_geo::Dem>>,
+) -> Ground {
+    match (&opts.dem, surface) {
+        (Some(dem), _) => Ground::Dem {
             dem: std::sync::Arc::clone(dem),
             fallback: None,
             strict: opts.strict,
         },
-        None => Ground::Flat(level_ground(f)),
+        (None, Some(s)) => Ground::Dem {
+            dem: std::sync::Arc::clone(s),
+            fallback: Some(level_ground(f)),
+            strict: false,
+        },
+        (None, None) => Ground::Flat(level_ground(f)),
     }
 }
 

@@ -15,7 +15,8 @@
 //! (the GPS fixes and recorded attitudes against the images after it), `plan`
 //! (the steps as pure functions, for Dask), `exchange` (what travels between processes),
 //! `roll` (senseFly's roll sign, by the first round's ties), `render` (the adjusted frames
-//! onto the output grid), `control` (ground control points as
+//! onto the output grid, over the DEM, else `surface`: the ground the adjusted tie points
+//! describe, else the level ground), `control` (ground control points as
 //! tie points held to their surveyed positions) and `accuracy` (the report against them).
 
 mod accuracy;
@@ -32,6 +33,7 @@ mod render;
 mod roll;
 pub mod sift;
 mod solve;
+mod surface;
 mod ties;
 pub(crate) mod timing;
 
@@ -48,6 +50,10 @@ pub use plan::{FlightPlan, FlightProgress, Orientation};
 pub use predict::{MarkPrediction, chip};
 pub use render::AdjustedFlight;
 pub use roll::{FLIP_MARGIN, RollChoice, RollTrial};
+pub use surface::{
+    MIN_SURFACE_KEPT, MIN_SURFACE_POINTS, SURFACE_CELL_M, SURFACE_MAX_RESIDUAL_PX, SURFACE_NAME,
+    SurfaceReport, TieSurface, tie_surface,
+};
 pub use ties::{PairMatch, PairTie, TieVector};
 
 use checks::*;
@@ -108,6 +114,13 @@ pub struct FlightOptions {
     /// oscillating rounds' end on 2281/2282 from 1.2 to 5.1 px; the report names contradicted
     /// fixes either way.
     pub robust_gps: bool,
+    /// Without a DEM, render the adjusted frames over the ground the flight's own tie points
+    /// describe ([`tie_surface`]) instead of the level ground, when at least
+    /// [`MIN_SURFACE_POINTS`] of them, and [`MIN_SURFACE_KEPT`] of all, intersect within
+    /// [`SURFACE_MAX_RESIDUAL_PX`]. On by
+    /// default: on the senseFly photos over hills the level ground left consecutive frames
+    /// 1.5-2.3 px apart by their relief's parallax. A DEM, when given, is always the ground.
+    pub tie_surface: bool,
 }
 
 /// The largest standard deviation of a recorded attitude, degrees (half a turn).
@@ -153,6 +166,7 @@ impl Default for FlightOptions {
             ties: TieSource::Both,
             control: None,
             robust_gps: false,
+            tie_surface: true,
         }
     }
 }
@@ -281,6 +295,10 @@ pub struct FlightReport {
     /// How senseFly's roll was read when the flight left it to its images.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sensefly_roll: Option<RollChoice>,
+    /// The ground the frames were rendered over when the flight's tie points made it (no DEM
+    /// given, [`FlightOptions::tie_surface`]): how many points, its extent, cell and spread.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface: Option<SurfaceReport>,
     pub adjustment: AdjustReport,
     pub poses: Vec<AdjustedPose>,
     pub seconds: f64,

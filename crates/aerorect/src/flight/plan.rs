@@ -43,6 +43,9 @@ pub struct FlightProgress {
     /// The last round's corrections, where the next round's solve starts (within one
     /// process: a round from [`FlightProgress::to_json`] starts at the recorded values).
     pub(super) start: Option<Corrections>,
+    /// The ground the last round's tie points describe, once the rounds are done (see
+    /// [`FlightOptions::tie_surface`]): the adjusted frames are rendered over it.
+    pub surface: Option<TieSurface>,
 }
 
 impl FlightPlan {
@@ -116,7 +119,7 @@ impl FlightPlan {
         let Some(o) = orientation else {
             return Ok(f.coarse_plan.clone());
         };
-        let ground = frame_ground(f, &self.opts);
+        let ground = frame_ground(f, &self.opts, None);
         let req = OrthoRequest {
             camera: &o.cameras[k],
             pose: o.poses[k],
@@ -220,6 +223,15 @@ impl FlightPlan {
             .filter(|m| !m.features && m.reliable())
             .map(key)
             .collect();
+        // The surface takes every reliable pair's ties, the features that correlation
+        // replaced in the solve too: both are the same ground seen from two frames.
+        let surface_ties: Vec<TiePoint> = match self.fo.tie_surface && self.opts.dem.is_none() {
+            true => matched
+                .iter()
+                .flat_map(|m| m.ties.iter().map(|t| t.tie_point(m.a, m.b)))
+                .collect(),
+            false => Vec::new(),
+        };
         let mut pairs = Vec::with_capacity(matched.len());
         for m in matched
             .into_iter()
@@ -253,6 +265,12 @@ impl FlightPlan {
             || self.fo.ties == TieSource::Features;
         progress.orientation = Some(Orientation { poses, cameras });
         progress.start = Some(round.adjusted.corrections.clone());
+        progress.surface = match progress.done && !surface_ties.is_empty() {
+            true => timing::time("tie surface", || {
+                tie_surface(&surface_ties, round.adjusted.oriented(), &self.crs)
+            })?,
+            false => None,
+        };
         Ok(round)
     }
 
@@ -299,6 +317,7 @@ impl FlightPlan {
             gps: round.gps,
             accuracy: round.accuracy,
             sensefly_roll: self.roll.clone(),
+            surface: progress.surface.as_ref().map(|s| s.report.clone()),
             pairs: round.reports,
             adjustment: round.adjusted.report,
             poses: adjusted_poses(&self.frames, &poses, &cameras),
@@ -316,6 +335,7 @@ impl FlightPlan {
         let (poses, cameras) = round.orientation(&self.rec);
         let (report, ties) = self.report(&progress, round);
         AdjustedFlight {
+            surface: progress.surface.map(|s| s.dem),
             frames: self.frames,
             rendered,
             ties,
@@ -336,16 +356,35 @@ impl FlightPlan {
         &self.crs
     }
 
-    /// Frame `k` rectified with `orientation`'s pose and camera onto the output grid, staged
-    /// (as [`AdjustedFlight::write_frame_staged`]).
+    /// Frame `k` rectified with `progress`' orientation (its pose and camera) onto the output
+    /// grid, over its tie surface when it has one, staged (as
+    /// [`AdjustedFlight::write_frame_staged`]).
     pub fn write_frame_staged(
         &self,
         k: usize,
-        orientation: &Orientation,
+        progress: &FlightProgress,
         output: &Path,
         opts: &DroneOptions,
         staged: &mut aerorect_io::StagedOutputs,
     ) -> Result<crate::drone::PhotoResult, Error> {
+        let Some(orientation) = &progress.orientation else {
+            return Err(Error::Invalid(
+                "the progress has no adjusted orientation yet".into(),
+            ));
+        };
+        // A surface read back from JSON carries the CRS as WKT; the flight's own is the one
+        // the frames are planned in (the same definition: no transform per cell).
+        let surface =
+            progress
+                .surface
+                .as_ref()
+                .map(|s| match s.dem.crs.same_definition(&self.crs) {
+                    true => std::sync::Arc::clone(&s.dem),
+                    false => std::sync::Arc::new(aerorect_geo::Dem {
+                        crs: self.crs.clone(),
+                        ..(*s.dem).clone()
+                    }),
+                });
         let (Some(f), Some(pose), Some(camera)) = (
             self.frames.get(k),
             orientation.poses.get(k),
@@ -361,6 +400,7 @@ impl FlightPlan {
             pose: *pose,
             camera,
             crs: &self.crs,
+            surface: surface.as_ref(),
         };
         oriented.write_staged(output, opts, staged)
     }

@@ -14,6 +14,9 @@ pub struct AdjustedFlight {
     pub cameras: Vec<Camera>,
     pub report: FlightReport,
     pub(super) crs: Crs,
+    /// The ground the tie points describe, when the frames are rendered over it (see
+    /// [`FlightOptions::tie_surface`]; `None`: the level ground, or the DEM of `opts`).
+    pub surface: Option<std::sync::Arc<aerorect_geo::Dem>>,
 }
 
 /// A frame with a pose and camera, and the flight's CRS.
@@ -22,6 +25,8 @@ pub(super) struct Oriented<'a> {
     pub(super) pose: Pose,
     pub(super) camera: &'a Camera,
     pub(super) crs: &'a Crs,
+    /// The tie surface, the ground when `opts` has no DEM.
+    pub(super) surface: Option<&'a std::sync::Arc<aerorect_geo::Dem>>,
 }
 
 impl Oriented<'_> {
@@ -29,7 +34,7 @@ impl Oriented<'_> {
     pub(super) fn plan(&self, opts: &DroneOptions) -> Result<OrthoPlan, Error> {
         let f = self.frame;
         let file = f.input.display().to_string();
-        let ground = frame_ground(f, opts);
+        let ground = frame_ground(f, opts, self.surface);
         // `info.gsd_m` is the matching grid's; the frame's own is its height over fx.
         let own_gsd = f.info.height_m / f.info.camera.camera.intrinsics.fx;
         let req = OrthoRequest {
@@ -93,6 +98,7 @@ impl AdjustedFlight {
             pose: self.poses[k],
             camera: &self.cameras[k],
             crs: &self.crs,
+            surface: self.surface.as_ref(),
         }
     }
 

@@ -28,6 +28,8 @@ pub struct FlightRequest {
     pub ties: Option<String>,
     /// Take each GPS fix robustly about the block's common shift.
     pub robust_gps: bool,
+    /// Without a DEM, render over the level ground, not the tie points' surface.
+    pub level_ground: bool,
     /// Ground control: one file, or a Pix4D coordinates file and its marks file.
     pub gcps: Vec<PathBuf>,
     /// Points kept out of the solve and reported as check points.
@@ -86,6 +88,7 @@ impl FlightRequest {
             refine_boresight: self.adjust_boresight,
             control: self.control()?,
             robust_gps: self.robust_gps,
+            tie_surface: !self.level_ground,
             ..d
         })
     }
