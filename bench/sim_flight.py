@@ -26,7 +26,11 @@ and `--attitude-sigma-deg SIGMA`. `fixed-wing-gps-only` is the same flight with 
 all: an ODM geo.txt of the recorded (3 m off) positions, each frame starting at nadir along its
 GPS track (30 degrees off the nose, 5 off the tilt). Both report the attitude error against the
 truth as a total angle, split into tilt (the optical axis) and heading, and the positions'
-error; a fixed-wing directory (`fixed_wing.txt`) serves both fixed-wing modes, not the others.
+error, then the block's heading as a whole (the mean signed kappa error and the frames' spread
+about it; the turn of the adjusted and of the recorded GPS centres against the truth's): the
+ties fix the frames' turns relative to each other, so that common turn is what the GPS, the
+attitude priors and the DEM under the ties decide. A fixed-wing directory (`fixed_wing.txt`)
+serves both fixed-wing modes, not the others.
 
 Needs only the standard library (and cargo). Run with the machine otherwise quiet.
 SIM_FLIGHT_MOSAIC=0 skips the mosaic; AERORECT_FLIGHT_TIMING=1 prints where the adjustment's
@@ -112,6 +116,27 @@ def timed(args, cwd):
     sys.stderr.write("".join(l + "\n" for l in lines if l.startswith("flight timing:")))
     peak_kb = int(lines[-1])
     return time.perf_counter() - t, peak_kb / 1024, p.stdout
+
+
+def block_rotation_deg(a, b):
+    """The turn about the vertical (degrees, anticlockwise) that best takes b's centres onto
+    a's, each about its own centroid (least squares): how far a block is turned as a whole."""
+    n = list(b)
+    ca = [sum(a[k][i] for k in n) / len(n) for i in (0, 1)]
+    cb = [sum(b[k][i] for k in n) / len(n) for i in (0, 1)]
+    s = c = 0.0
+    for k in n:
+        (x1, y1), (x2, y2) = [b[k][i] - cb[i] for i in (0, 1)], [a[k][i] - ca[i] for i in (0, 1)]
+        s, c = s + x1 * y2 - y1 * x2, c + x1 * x2 + y1 * y2
+    return math.degrees(math.atan2(s, c))
+
+
+def common_heading(adj, truth):
+    """The mean signed kappa error (the whole block's heading error, degrees) and the spread
+    (standard deviation) of the frames' own kappa errors about it."""
+    d = [(adj[n][2] - truth[n][2] + 180.0) % 360.0 - 180.0 for n in truth]
+    m = sum(d) / len(d)
+    return m, math.sqrt(sum((v - m) ** 2 for v in d) / max(len(d) - 1, 1))
 
 
 def stats(v):
@@ -208,6 +233,12 @@ def main():
         (hb, vb), (ha, va) = position_errors(rec_c, true_c), position_errors(adj_c, true_c)
         print(f"  position error vs truth, m: horizontal before {stats(hb)}, after {stats(ha)}; "
               f"vertical before {stats(vb)}, after {stats(va)}")
+        # Ties fix the frames' turns relative to each other; the block's heading as a whole
+        # is only the GPS's, the attitude priors' and the DEM's (heights under the ties).
+        mean, spread = common_heading(adj, truth)
+        print(f"  block heading vs truth, deg: kappa error mean {mean:+.3f} (frames' sd about it "
+              f"{spread:.3f}); turn of the centres: adjusted {block_rotation_deg(adj_c, true_c):+.3f}, "
+              f"recorded GPS {block_rotation_deg(rec_c, true_c):+.3f}")
     lost = {u.split("/")[-1] for u in rep["unconnected"]}
     if lost:
         tied = [angle_deg(adj[n], truth[n]) for n in truth if n not in lost]
