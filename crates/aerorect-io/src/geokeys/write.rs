@@ -1,9 +1,9 @@
 //! The GeoKeys that describe a CRS, written as GDAL writes them.
 
 use super::keys::*;
-use std::collections::BTreeMap;
 use crate::error::IoError;
 use aerorect_geo::{Crs, CrsForm, TmParams, proj_params, tm_params};
+use std::collections::BTreeMap;
 
 /// The GeoKey directory, doubles and text that describe `crs` (PixelIsArea).
 pub(crate) fn encode(crs: &Crs) -> Result<(Vec<u16>, Vec<f64>, String), IoError> {
