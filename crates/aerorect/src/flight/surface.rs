@@ -9,6 +9,7 @@
 //! surface from its reconstruction's points the same way).
 
 use super::*;
+use crate::georef::bounds_of;
 use aerorect_geo::Dem;
 use aerorect_solve::adjust::OrientedFrames;
 use std::sync::Arc;
@@ -173,32 +174,32 @@ fn median(v: &mut [f64]) -> Option<f64> {
 fn surface_extent(points: &[[f64; 3]], frames: OrientedFrames<'_>) -> [f64; 4] {
     let mut z: Vec<f64> = points.iter().map(|p| p[2]).collect();
     let level = median(&mut z).unwrap_or(0.0);
-    let mut b = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
-    let mut grow = |x: f64, y: f64| {
-        b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
-    };
-    points.iter().for_each(|p| grow(p[0], p[1]));
-    for (k, f) in frames.frames.iter().enumerate() {
-        let Some(cam) = frames.cameras.get(f.camera) else {
-            continue;
-        };
-        let (w, h) = (cam.size.width as f64, cam.size.height as f64);
-        for c in [[0.0, 0.0], [w, 0.0], [0.0, h], [w, h]] {
-            // A corner above the horizon, or one absurdly far (a grazing ray), does not count.
-            if let Some(p) = frames.ray_at_height(k, c, level)
-                && (p[0] - f.centre[0]).hypot(p[1] - f.centre[1]) < 20.0 * (f.centre[2] - level)
-            {
-                grow(p[0], p[1]);
-            }
-        }
-    }
+    let corners = (0..frames.frames.len()).flat_map(|k| footprint_corners(frames, k, level));
+    let b = bounds_of(points.iter().map(|p| [p[0], p[1]]).chain(corners));
     let pad = 0.1 * (b[2] - b[0]).max(b[3] - b[1]);
     [b[0] - pad, b[1] - pad, b[2] + pad, b[3] + pad]
+}
+
+/// Where frame `k`'s image corners' rays meet the level `level` (x, y). A corner above the
+/// horizon, or one absurdly far (a grazing ray), does not count.
+fn footprint_corners(frames: OrientedFrames<'_>, k: usize, level: f64) -> Vec<[f64; 2]> {
+    let Some((f, cam)) = frames
+        .frames
+        .get(k)
+        .and_then(|f| Some((f, frames.cameras.get(f.camera)?)))
+    else {
+        return Vec::new();
+    };
+    let (w, h) = (cam.size.width as f64, cam.size.height as f64);
+    [[0.0, 0.0], [w, 0.0], [0.0, h], [w, h]]
+        .into_iter()
+        .filter_map(|c| {
+            let p = frames.ray_at_height(k, c, level)?;
+            let near =
+                (p[0] - f.centre[0]).hypot(p[1] - f.centre[1]) < 20.0 * (f.centre[2] - level);
+            near.then_some([p[0], p[1]])
+        })
+        .collect()
 }
 
 /// [`SURFACE_CELL_M`], or coarser to fit [`SURFACE_MAX_CELLS`].

@@ -298,7 +298,7 @@ fn plan_flat(req: &OrthoRequest<'_>, z: f64, warp: WarpOptions) -> Result<OrthoP
 }
 
 /// World (x, y) bounds [xmin, ymin, xmax, ymax] of points.
-fn bounds_of(points: impl IntoIterator<Item = [f64; 2]>) -> [f64; 4] {
+pub(crate) fn bounds_of(points: impl IntoIterator<Item = [f64; 2]>) -> [f64; 4] {
     points.into_iter().fold(
         [
             f64::INFINITY,
