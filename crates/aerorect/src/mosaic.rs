@@ -20,12 +20,12 @@
 //! as over the whole mosaic (both terms saturate within N px).
 
 mod distance;
+mod score;
 
 use crate::Error;
 use crate::georef::OrthoPlan;
 use aerorect_core::ImageSize;
 use aerorect_geo::OrthoGrid;
-use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -274,89 +274,6 @@ impl MosaicPlan {
             })
             .collect()
     }
-
-    /// Frame `k`'s score at mosaic pixel (col, row) (lower is better); `None` where the frame
-    /// does not cover it.
-    pub fn score_at(&self, k: usize, col: usize, row: usize) -> Option<f64> {
-        let f = &self.frames[k];
-        let (pc, pr) = (
-            col as i64 - self.offsets[k][0],
-            row as i64 - self.offsets[k][1],
-        );
-        let s = f.plan.grid.size;
-        if pc < 0 || pr < 0 || pc >= s.width as i64 || pr >= s.height as i64 {
-            return None;
-        }
-        let (x, y) = (pc as f64, pr as f64);
-        let p = &f.plan;
-        let centre = p.frame_pixel_of(x, y)?;
-        let (w, h) = (p.camera.size.width as f64, p.camera.size.height as f64);
-        const EPS: f64 = 1e-6;
-        if !(centre[0] >= -0.5 + EPS
-            && centre[0] < w - 0.5 - EPS
-            && centre[1] >= -0.5 + EPS
-            && centre[1] < h - 0.5 - EPS)
-        {
-            return None;
-        }
-        let q = [
-            p.frame_pixel_of(x - 0.5, y - 0.5)?,
-            p.frame_pixel_of(x + 0.5, y - 0.5)?,
-            p.frame_pixel_of(x + 0.5, y + 0.5)?,
-            p.frame_pixel_of(x - 0.5, y + 0.5)?,
-        ];
-        let area = 0.5
-            * (0..4)
-                .map(|i| {
-                    let (a, b) = (q[i], q[(i + 1) % 4]);
-                    a[0] * b[1] - b[0] * a[1]
-                })
-                .sum::<f64>()
-                .abs();
-        if area.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-            return None;
-        }
-        let g = self.grid.centre_of(col as f64, row as f64);
-        let tan = (g[0] - f.nadir_xy[0]).hypot(g[1] - f.nadir_xy[1]) / f.height_m;
-        Some(self.grid.gsd / area.sqrt() * tan.hypot(1.0))
-    }
-
-    /// Frame `k`'s scores over `w` (infinity where it does not cover).
-    fn scores(&self, k: usize, w: Window) -> Vec<f64> {
-        let mut out = vec![f64::INFINITY; w.size.pixels()];
-        out.par_chunks_mut(w.size.width.max(1))
-            .enumerate()
-            .for_each(|(r, row)| {
-                for (c, v) in row.iter_mut().enumerate() {
-                    if let Some(s) = self.score_at(k, w.col0 + c, w.row0 + r) {
-                        *v = s;
-                    }
-                }
-            });
-        out
-    }
-
-    /// The best frame of each cell of `w` (row-major), `None` where no frame covers it.
-    pub fn labels(&self, w: Window) -> Vec<Option<usize>> {
-        let cands = self.meeting(w);
-        let scores: Vec<Vec<f64>> = cands.iter().map(|&k| self.scores(k, w)).collect();
-        best_of(&cands, &scores, w.size.pixels())
-    }
-}
-
-/// The lowest finite score's frame per cell (the first of equals).
-fn best_of(cands: &[usize], scores: &[Vec<f64>], n: usize) -> Vec<Option<usize>> {
-    (0..n)
-        .map(|i| {
-            let mut best: Option<(usize, f64)> = None;
-            for (j, s) in scores.iter().enumerate() {
-                if s[i].is_finite() && best.is_none_or(|b| s[i] < b.1) {
-                    best = Some((cands[j], s[i]));
-                }
-            }
-            best.map(|b| b.0)
-        })
-        .collect()
 }
 
 mod request;

@@ -472,3 +472,42 @@ fn mosaic_writes_a_tiled_geotiff_of_the_tiles_or_nothing() {
         .collect();
     assert_eq!(left.len(), 2, "{left:?}");
 }
+
+#[test]
+fn window_scores_equal_the_cell_by_cell_scores_bit_for_bit() {
+    // The window's scorer shares each corner between four cells and works in blocks of rows;
+    // windows at odd offsets, partly off each frame's grid, must give score_at's scores.
+    let s = scene([0.0; 3]);
+    let plan = MosaicPlan::new(s.frames.clone(), GSD, MosaicOptions::default()).unwrap();
+    let size = plan.grid.size;
+    let windows = [
+        Window {
+            col0: 0,
+            row0: 0,
+            size,
+        },
+        Window {
+            col0: 7,
+            row0: 5,
+            size: ImageSize::new(size.width / 2 + 3, size.height / 3 + 1),
+        },
+        Window {
+            col0: size.width / 3,
+            row0: size.height / 2,
+            size: ImageSize::new(size.width - size.width / 3, 17),
+        },
+    ];
+    let mut finite = 0;
+    for w in windows {
+        for k in 0..s.frames.len() {
+            let fast = plan.scores(k, w);
+            for (i, v) in fast.iter().enumerate() {
+                let (c, r) = (w.col0 + i % w.size.width, w.row0 + i / w.size.width);
+                let slow = plan.score_at(k, c, r).unwrap_or(f64::INFINITY);
+                assert_eq!(v.to_bits(), slow.to_bits(), "frame {k} cell ({c}, {r})");
+                finite += v.is_finite() as usize;
+            }
+        }
+    }
+    assert!(finite > 50_000, "{finite}");
+}

@@ -2,7 +2,8 @@
 //! cache of decoded frames, and the tiled GeoTIFF writer.
 
 use super::distance::distance_to;
-use super::{Blend, MosaicFrame, MosaicOptions, MosaicPlan, Window, best_of};
+use super::score::best_of;
+use super::{Blend, MosaicFrame, MosaicOptions, MosaicPlan, Window};
 use crate::Error;
 use crate::drone::{DroneOptions, plan_from_metadata, plan_from_pose, pose_for};
 use aerorect_core::ImageSize;
