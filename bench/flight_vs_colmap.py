@@ -33,7 +33,7 @@ WORK_DIR defaults to /tmp/aerorect-flight-vs-colmap; AERORECT=path overrides the
 timings are wall clock on whatever else the machine runs: keep it idle (the load average is
 printed).
 """
-import argparse, csv, json, math, os, shutil, subprocess, sys, time
+import argparse, csv, json, math, os, resource, shutil, subprocess, sys, time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -98,6 +98,14 @@ def read_geoinfo(names):
     return recs
 
 
+def cpu_s(who=None):
+    """CPU seconds (user + system) this process's threads (or, with RUSAGE_CHILDREN, its
+    finished children) have used: a time less moved than the wall clock by other work on a
+    shared machine."""
+    r = resource.getrusage(resource.RUSAGE_SELF if who is None else who)
+    return r.ru_utime + r.ru_stime
+
+
 def write_position_priors(db, loc):
     """Writes every image's position (loc: {name: (E, N, up)}) into the database as a Cartesian
     pose prior, for images whose files carry no EXIF GPS (extract_features wrote none). The
@@ -128,7 +136,7 @@ def run_colmap(work, image_dir, names, loc, args, camera=None):
     pycolmap.logging.minloglevel = 1  # warnings and errors only
     if hasattr(pycolmap, "set_random_seed"):
         pycolmap.set_random_seed(0)
-    times, t0 = {}, time.perf_counter()
+    times, t0, c0 = {}, time.perf_counter(), cpu_s()
     ext = pycolmap.FeatureExtractionOptions()
     ext.num_threads, ext.max_image_size, ext.use_gpu = threads, args.max_image_size, False
     if args.sift_peak_threshold is not None:
@@ -185,6 +193,7 @@ def run_colmap(work, image_dir, names, loc, args, camera=None):
         info["models"].append(m)
     times["align_to_locations"] = time.perf_counter() - t
     times["total"] = time.perf_counter() - t0
+    info["cpu_s"] = cpu_s() - c0
     return poses, times, info
 
 
@@ -206,9 +215,10 @@ def run_ours(work, photos, extra, args):
         shown = [cmd[0], f"<{len(photos)} photos>", *cmd[1 + len(photos):]] if len(photos) > 12 else \
             [os.path.basename(c) if c in photos else c for c in cmd]
         print("$ aerorect " + " ".join(shown + extra), flush=True)
-        t = time.perf_counter()
+        t, c = time.perf_counter(), cpu_s(resource.RUSAGE_CHILDREN)
         p = subprocess.run([EXE, *cmd, *extra], capture_output=True, text=True)
         times[step] = time.perf_counter() - t
+        times[step + "_cpu"] = cpu_s(resource.RUSAGE_CHILDREN) - c
         tail = "\n".join(l[:240] for l in (p.stdout + p.stderr).strip().splitlines()[-12:])
         print("  " + tail.replace("\n", "\n  "))
         if p.returncode != 0:
@@ -318,8 +328,8 @@ def main():
              ("ours vs COLMAP angle, median / rms (deg)", f"{ours_vs[0]:.2f} / {ours_vs[1]:.2f} ({len(common)} photos)"),
              ("recorded vs COLMAP angle, median / rms (deg)", f"{rec_vs['angle'][0]:.2f} / {rec_vs['angle'][1]:.2f}"),
              ("ours vs COLMAP centre distance, median / rms (m)", f"{dist_s[0]:.2f} / {dist_s[1]:.2f}"),
-             ("COLMAP time (s), no mosaic", f"{ctimes['total']:.1f}"),
-             ("our time (s), mosaic --adjust end to end", f"{ours_t:.1f}"),
+             ("COLMAP time (s), no mosaic", f"{ctimes['total']:.1f} (CPU {info['cpu_s']:.1f})"),
+             ("our time (s), mosaic --adjust end to end", f"{ours_t:.1f} (CPU {otimes.get('mosaic_cpu', math.nan):.1f})"),
              ("our batch --adjust time (s), for the poses", f"{otimes.get('batch', math.nan):.1f}"),
              ("ratio COLMAP / ours (target >= 10)", f"{ratio:.2f}"),
              ("ours", "ok" if not err else f"FAILED: {err}")]

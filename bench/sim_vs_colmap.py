@@ -34,8 +34,9 @@ WORK/summary.json).
 WORK_DIR defaults to /tmp/aerorect-sim-vs-colmap-MODE-NXxNY; the flight is rendered into
 WORK_DIR/sim once (SIMULATE_FLIGHT=path to a built simulate_flight example, else
 target/release/examples/simulate_flight, else `cargo run --example simulate_flight`).
-AERORECT=path overrides our binary. Timings are wall clock: keep the machine quiet (the load
-average is printed before and after).
+AERORECT=path overrides our binary. Timings are wall clock, with each side's CPU seconds (user
++ system; COLMAP's threads in this process, ours as child processes) next to them: keep the
+machine quiet (the load average is printed before and after).
 """
 import argparse, json, math, os, subprocess, sys, tomllib
 
@@ -173,14 +174,18 @@ def main():
     print("\n| step | time (s) |\n|---|---|")
     for k, v in ctimes.items():
         print(f"| COLMAP {k} | {v:.1f} |")
+    cpu_ratio = info["cpu_s"] / otimes["mosaic_cpu"] if ours_t == ours_t and otimes.get("mosaic_cpu") else math.nan
     print(f"| ours mosaic --adjust, end to end | {ours_t:.1f} |\n| ours batch --adjust (for the poses) | "
-          f"{otimes.get('batch', math.nan):.1f} |\n| ratio COLMAP total / ours mosaic (target >= 10) | {ratio:.1f} |")
+          f"{otimes.get('batch', math.nan):.1f} |\n| ratio COLMAP total / ours mosaic (target >= 10) | {ratio:.2f} |")
+    print(f"| CPU s (user + system): COLMAP total / ours mosaic / ours batch | {info['cpu_s']:.1f} / "
+          f"{otimes.get('mosaic_cpu', math.nan):.1f} / {otimes.get('batch_cpu', math.nan):.1f} |\n"
+          f"| CPU ratio COLMAP / ours mosaic | {cpu_ratio:.2f} |")
     print(f"\nCOLMAP registered {len(colmap)} / {len(names)}; ours {'ok' if not err else 'FAILED: ' + err}; "
           f"load average before {load0[0]:.2f}, after {load1[0]:.2f} (1 min)")
     out = dict(frames=len(names), mode=args.mode, pycolmap=pycolmap.__version__, threads=args.threads,
                max_image_size=args.max_image_size, max_distance_m=args.max_distance_m, camera=camera,
                colmap_times_s=ctimes, colmap=info, ours_times_s=otimes, ours_error=err, extra_args=extra,
-               ratio_colmap_over_ours=ratio, comparisons=summary, load_average=[load0, load1],
+               ratio_colmap_over_ours=ratio, cpu_ratio_colmap_over_ours=cpu_ratio, comparisons=summary, load_average=[load0, load1],
                per_frame={k: {n: list(v) for n, v in p.items()} for k, p in pairs.items()})
     with open(os.path.join(work, "summary.json"), "w") as f:
         json.dump(out, f, indent=1, default=str)
