@@ -22,13 +22,18 @@ up) with OpenCV/COLMAP camera axes (x right, y down, z forward):
     differences and the angle left after removing the mean camera-frame (mounting) offset.
 Median and rms over photos, then a summary table (also WORK/summary.json).
 
-    python3 bench/flight_vs_colmap.py [WORK_DIR] [--max-image-size 3200] [-- EXTRA AERORECT ARGS]
+    python3 bench/flight_vs_colmap.py [WORK_DIR] [--max-image-size 3200] [--threads N]
+        [--sift-peak-threshold T] [-- EXTRA AERORECT ARGS]
+
+--threads defaults to the machine's cores, --sift-peak-threshold to COLMAP's own (0.0067).
+bench/sim_vs_colmap.py runs the same COLMAP steps (run_colmap) and ours (run_ours) on a
+rendered flight of known poses.
 
 WORK_DIR defaults to /tmp/aerorect-flight-vs-colmap; AERORECT=path overrides the binary. The
 timings are wall clock on whatever else the machine runs: keep it idle (the load average is
 printed).
 """
-import argparse, csv, json, math, os, shutil, subprocess, sys, time
+import argparse, csv, json, math, os, resource, shutil, subprocess, sys, time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -93,25 +98,61 @@ def read_geoinfo(names):
     return recs
 
 
-def run_colmap(work, names, loc, args):
-    """COLMAP from photos to geo-registered poses: ({name: (world_from_cv, centre)}, times, info)."""
+def cpu_s(who=None):
+    """CPU seconds (user + system) this process's threads (or, with RUSAGE_CHILDREN, its
+    finished children) have used: a time less moved than the wall clock by other work on a
+    shared machine."""
+    r = resource.getrusage(resource.RUSAGE_SELF if who is None else who)
+    return r.ru_utime + r.ru_stime
+
+
+def write_position_priors(db, loc):
+    """Writes every image's position (loc: {name: (E, N, up)}) into the database as a Cartesian
+    pose prior, for images whose files carry no EXIF GPS (extract_features wrote none). The
+    positions go in about their rounded mean, so that no large UTM values reach the spatial
+    pairing's single-precision neighbour search; match_spatial needs only their distances."""
+    origin = np.round(np.mean(list(loc.values()), axis=0))
+    with pycolmap.Database.open(db) as d:
+        for im in d.read_all_images():
+            d.write_pose_prior(pycolmap.PosePrior(
+                corr_data_id=im.data_id, position=np.asarray(loc[im.name], float) - origin,
+                coordinate_system=pycolmap.PosePriorCoordinateSystem.CARTESIAN))
+        return d.num_pose_priors()
+
+
+def run_colmap(work, image_dir, names, loc, args, camera=None):
+    """COLMAP from photos to geo-registered poses: ({name: (world_from_cv, centre)}, times, info).
+
+    loc ({name: UTM (E, N, up)}) is what the models are aligned to, and the pose priors
+    match_spatial pairs by when the photos carry no EXIF GPS (written into the database inside
+    the extract_features step's time). camera (model, "p1,p2,...") fixes the one camera's
+    model and parameters and keeps the bundle adjustments from refining them; without it COLMAP
+    starts from EXIF (its default SIMPLE_RADIAL) and refines."""
     cdir = os.path.join(work, "colmap")
     shutil.rmtree(cdir, ignore_errors=True)
     os.makedirs(cdir)
     db = os.path.join(cdir, "database.db")
-    threads = os.cpu_count() or 1
+    threads = args.threads
     pycolmap.logging.minloglevel = 1  # warnings and errors only
     if hasattr(pycolmap, "set_random_seed"):
         pycolmap.set_random_seed(0)
-    times, t0 = {}, time.perf_counter()
+    times, t0, c0 = {}, time.perf_counter(), cpu_s()
     ext = pycolmap.FeatureExtractionOptions()
     ext.num_threads, ext.max_image_size, ext.use_gpu = threads, args.max_image_size, False
+    if args.sift_peak_threshold is not None:
+        ext.sift.peak_threshold = args.sift_peak_threshold
+    reader = pycolmap.ImageReaderOptions()
+    if camera:
+        reader.camera_model, reader.camera_params = camera
     t = time.perf_counter()
-    pycolmap.extract_features(db, SNOW, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
-                              extraction_options=ext, device=pycolmap.Device.cpu)
-    times["extract_features"] = time.perf_counter() - t
+    pycolmap.extract_features(db, image_dir, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
+                              reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
     with pycolmap.Database.open(db) as d:
         priors = d.num_pose_priors()
+    written = 0
+    if priors == 0:
+        priors = written = write_position_priors(db, loc)
+    times["extract_features"] = time.perf_counter() - t
     match = pycolmap.FeatureMatchingOptions()
     match.num_threads, match.use_gpu = threads, False
     pairing = pycolmap.SpatialPairingOptions()
@@ -123,11 +164,14 @@ def run_colmap(work, names, loc, args):
         pairs = d.num_verified_image_pairs()
     opts = pycolmap.IncrementalPipelineOptions()
     opts.num_threads, opts.min_model_size, opts.random_seed = threads, 3, 0
+    if camera:
+        opts.ba_refine_focal_length = opts.ba_refine_extra_params = False
+        opts.mapper.abs_pose_refine_focal_length = opts.mapper.abs_pose_refine_extra_params = False
     t = time.perf_counter()
-    models = pycolmap.incremental_mapping(db, SNOW, os.path.join(cdir, "sparse"), opts)
+    models = pycolmap.incremental_mapping(db, image_dir, os.path.join(cdir, "sparse"), opts)
     times["incremental_mapping"] = time.perf_counter() - t
     t = time.perf_counter()
-    poses, info = {}, {"pose_priors": priors, "verified_pairs": pairs, "models": []}
+    poses, info = {}, {"pose_priors": priors, "priors_written": written, "verified_pairs": pairs, "models": []}
     for k, rec in sorted(models.items()):
         regs = [rec.image(i) for i in rec.reg_image_ids()]
         got = [im.name for im in regs]
@@ -149,6 +193,7 @@ def run_colmap(work, names, loc, args):
         info["models"].append(m)
     times["align_to_locations"] = time.perf_counter() - t
     times["total"] = time.perf_counter() - t0
+    info["cpu_s"] = cpu_s() - c0
     return poses, times, info
 
 
@@ -167,29 +212,38 @@ def run_ours(work, photos, extra, args):
     times, err = {}, None
     for step, cmd in [("mosaic", ["mosaic", *photos, "--out", os.path.join(odir, "mosaic.tif"), "--adjust"]),
                       ("batch", ["batch", *photos, "--out-dir", os.path.join(odir, "batch"), "--adjust"])]:
-        print("$ aerorect " + " ".join(os.path.basename(c) if c in photos else c for c in cmd + extra), flush=True)
-        t = time.perf_counter()
+        shown = [cmd[0], f"<{len(photos)} photos>", *cmd[1 + len(photos):]] if len(photos) > 12 else \
+            [os.path.basename(c) if c in photos else c for c in cmd]
+        print("$ aerorect " + " ".join(shown + extra), flush=True)
+        t, c = time.perf_counter(), cpu_s(resource.RUSAGE_CHILDREN)
         p = subprocess.run([EXE, *cmd, *extra], capture_output=True, text=True)
         times[step] = time.perf_counter() - t
-        tail = "\n".join((p.stdout + p.stderr).strip().splitlines()[-12:])
+        times[step + "_cpu"] = cpu_s(resource.RUSAGE_CHILDREN) - c
+        tail = "\n".join(l[:240] for l in (p.stdout + p.stderr).strip().splitlines()[-12:])
         print("  " + tail.replace("\n", "\n  "))
         if p.returncode != 0:
             err = (err + "; " if err else "") + f"{step} exit {p.returncode}: {tail.splitlines()[-1] if tail else ''}"
     csv_path = os.path.join(odir, "batch", "adjusted_poses.csv")
     if not os.path.exists(csv_path):
         return {}, times, err or "no adjusted_poses.csv"
+    return poses_from_csv(csv_path, args.epsg), times, err
+
+
+def poses_from_csv(csv_path, epsg):
+    """A pose table (filename,x,y,z,omega,phi,kappa with its .prj) as {name: (world_from_cv,
+    centre)}, the centres taken into EPSG:epsg."""
     with open(os.path.splitext(csv_path)[0] + ".prj") as f:
         crs = pyproj.CRS.from_wkt(f.read())
-    to_utm = pyproj.Transformer.from_crs(crs, pyproj.CRS.from_epsg(args.epsg), always_xy=True)
-    if crs.to_epsg() != args.epsg:
-        print(f"warning: our poses are in {crs.name}, not EPSG:{args.epsg}: rotations compared as they are")
+    to_utm = pyproj.Transformer.from_crs(crs, pyproj.CRS.from_epsg(epsg), always_xy=True)
+    if crs.to_epsg() != epsg:
+        print(f"warning: {csv_path} is in {crs.name}, not EPSG:{epsg}: rotations compared as they are")
     poses = {}
     with open(csv_path) as f:
         for r in csv.DictReader(f):
             x, y = to_utm.transform(float(r["x"]), float(r["y"]))
             r_opk = rot(0, float(r["omega"])) @ rot(1, float(r["phi"])) @ rot(2, float(r["kappa"]))
             poses[r["filename"]] = (r_opk @ PATB_FROM_CV, np.array([x, y, float(r["z"])]))
-    return poses, times, err
+    return poses
 
 
 def main():
@@ -203,6 +257,8 @@ def main():
     ap.add_argument("--align-error-m", type=float, default=10.0, help="RANSAC inlier distance of the GPS alignment")
     ap.add_argument("--wait-s", type=int, default=600, help="how long to wait for target/release/aerorect")
     ap.add_argument("--skip-ours", action="store_true")
+    ap.add_argument("--threads", type=int, default=os.cpu_count() or 1, help="COLMAP's threads")
+    ap.add_argument("--sift-peak-threshold", type=float, help="COLMAP's SIFT peak threshold (its default 0.0067)")
     args = ap.parse_args(argv)
     if not any(a in extra for a in ("--ground-height-m", "--dem")):
         extra += ["--ground-height-m", "160"]
@@ -222,10 +278,10 @@ def main():
         e2, n2 = tf.transform(g["longitude"], g["latitude"] + 10 / 111320)  # 10 m north
         gamma[n] = math.degrees(math.atan2(e2 - e, n2 - nn))  # true north's bearing on the grid
     print(f"{len(names)} photos, EPSG:{args.epsg}, grid convergence {np.mean(list(gamma.values())):+.2f} deg; "
-          f"pycolmap {pycolmap.__version__}, {os.cpu_count()} threads, SIFT max_image_size {args.max_image_size}, "
+          f"pycolmap {pycolmap.__version__}, {args.threads} threads, SIFT max_image_size {args.max_image_size}, "
           f"load average {os.getloadavg()[0]:.1f}")
 
-    colmap, ctimes, info = run_colmap(work, names, loc, args)
+    colmap, ctimes, info = run_colmap(work, SNOW, names, loc, args)
     print(f"COLMAP: {info['pose_priors']} EXIF pose priors, {info['verified_pairs']} verified pairs, "
           f"{len(colmap)}/{len(names)} registered and geo-registered")
     for m in info["models"]:
@@ -272,8 +328,8 @@ def main():
              ("ours vs COLMAP angle, median / rms (deg)", f"{ours_vs[0]:.2f} / {ours_vs[1]:.2f} ({len(common)} photos)"),
              ("recorded vs COLMAP angle, median / rms (deg)", f"{rec_vs['angle'][0]:.2f} / {rec_vs['angle'][1]:.2f}"),
              ("ours vs COLMAP centre distance, median / rms (m)", f"{dist_s[0]:.2f} / {dist_s[1]:.2f}"),
-             ("COLMAP time (s), no mosaic", f"{ctimes['total']:.1f}"),
-             ("our time (s), mosaic --adjust end to end", f"{ours_t:.1f}"),
+             ("COLMAP time (s), no mosaic", f"{ctimes['total']:.1f} (CPU {info['cpu_s']:.1f})"),
+             ("our time (s), mosaic --adjust end to end", f"{ours_t:.1f} (CPU {otimes.get('mosaic_cpu', math.nan):.1f})"),
              ("our batch --adjust time (s), for the poses", f"{otimes.get('batch', math.nan):.1f}"),
              ("ratio COLMAP / ours (target >= 10)", f"{ratio:.2f}"),
              ("ours", "ok" if not err else f"FAILED: {err}")]
