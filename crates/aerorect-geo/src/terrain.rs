@@ -86,6 +86,15 @@ impl Dem {
         self.height_at(p[0], p[1])
     }
 
+    /// Whether `world` is the DEM's CRS (the same text, or the same PROJ parameters: an EPSG
+    /// code and the WKT of its `.prj`), so a world position is a DEM position. Callers that look
+    /// up many heights decide it once: [`Self::height_in`] compares the texts only, and the
+    /// identity transform it otherwise runs per lookup cost a 1,000-frame flight whose DEM and
+    /// poses name UTM 33N differently a projection round trip per tie and per grid node.
+    pub fn shares_crs(&self, world: &Crs) -> bool {
+        world.same_definition(&self.crs) || world.same_as(&self.crs)
+    }
+
     /// Lowest and highest valid heights.
     pub fn range(&self) -> Option<(f64, f64)> {
         let v = self
@@ -140,13 +149,17 @@ impl HeightGrid {
         let origin = [bounds[0] - spacing / 2.0, bounds[3] + spacing / 2.0];
         let mut values = Vec::with_capacity(width * height);
         let mut filled = 0;
+        let direct = dem.shares_crs(world);
         for r in 0..height {
             for c in 0..width {
                 let (x, y) = (
                     origin[0] + c as f64 * spacing,
                     origin[1] - r as f64 * spacing,
                 );
-                let h = dem.height_in(world, x, y);
+                let h = match direct {
+                    true => dem.height_at(x, y),
+                    false => dem.height_in(world, x, y),
+                };
                 filled += h.is_none() as usize;
                 values.push(h.unwrap_or(fill) as f32);
             }

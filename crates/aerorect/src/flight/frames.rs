@@ -90,7 +90,14 @@ pub(super) fn ground_fn(
         let dem = std::sync::Arc::clone(dem);
         let world = world.clone();
         let mid = dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1));
-        return Box::new(move |x, y| dem.height_in(&world, x, y).unwrap_or(mid));
+        let direct = dem.shares_crs(&world);
+        return Box::new(move |x, y| {
+            match direct {
+                true => dem.height_at(x, y),
+                false => dem.height_in(&world, x, y),
+            }
+            .unwrap_or(mid)
+        });
     }
     let z = opts.ground_height_m.unwrap_or(0.0);
     Box::new(move |_, _| z)

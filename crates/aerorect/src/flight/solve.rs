@@ -73,7 +73,9 @@ pub(super) fn match_and_adjust(
             b,
             patches: m.patches,
             inliers: m.inliers,
-            misalignment_before_m: misalignment(&t, &rec.poses, &cams, ground),
+            misalignment_before_m: timing::time("solve: misalignment", || {
+                misalignment(&t, &rec.poses, &cams, ground)
+            }),
             misalignment_after_m: None,
             reliable: m.reliable(),
         });
@@ -148,8 +150,10 @@ pub(super) fn match_and_adjust(
         }
         _ => ties.as_slice().into(),
     };
-    let adjusted = aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &all, &aopts)
-        .map_err(Error::context("flight adjustment"))?;
+    let adjusted = timing::time("solve: adjust", || {
+        aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &all, &aopts)
+    })
+    .map_err(Error::context("flight adjustment"))?;
     let accuracy = plan.control.as_ref().map(|c| {
         let recorded = aerorect_solve::adjust::OrientedFrames {
             frames: &adjust_frames,
@@ -176,18 +180,31 @@ pub(super) fn match_and_adjust(
     };
     let (poses, cameras) = round.orientation(rec);
     let new_cams: Vec<&Camera> = cameras.iter().collect();
-    finish_reports(&mut round.reports, &ties, (&poses, &new_cams), ground);
-    round.ties = ties
-        .iter()
+    timing::time("solve: misalignment", || {
+        finish_reports(&mut round.reports, &ties, (&poses, &new_cams), ground)
+    });
+    round.ties = timing::time("solve: tie vectors", || {
+        tie_vectors(&ties, (&rec.poses, &cams), (&poses, &new_cams), ground)
+    });
+    Ok(round)
+}
+
+/// Each tie's gap on the ground before and after the adjustment.
+fn tie_vectors(
+    ties: &[TiePoint],
+    (old_poses, old_cams): (&[Pose], &[&Camera]),
+    (poses, cams): (&[Pose], &[&Camera]),
+    ground: GroundFn<'_>,
+) -> Vec<TieVector> {
+    ties.iter()
         .filter_map(|t| {
             Some(TieVector {
                 ground: [t.ground[0], t.ground[1]],
-                before_m: tie_gap(t, &rec.poses, &cams, ground)?,
-                after_m: tie_gap(t, &poses, &new_cams, ground)?,
+                before_m: tie_gap(t, old_poses, old_cams, ground)?,
+                after_m: tie_gap(t, poses, cams, ground)?,
             })
         })
-        .collect();
-    Ok(round)
+        .collect()
 }
 
 /// The datum and the robustness of the GPS priors: with ground control, the datum the control
