@@ -96,25 +96,36 @@ impl SymBlocks {
 
     /// Adds `value(a, b)` to entry (idx[a], idx[b]) for every pair of positions that hold an
     /// index, rows outer, columns inner (the order a loop over entries would add them in).
+    /// The first slots of the call's block pairs are looked up once, before the loop.
     pub fn add_outer(&mut self, idx: &[Option<usize>], mut value: impl FnMut(usize, usize) -> f64) {
-        let located: Vec<Option<(u32, usize)>> = idx
+        // Each position's block, as its place among the call's distinct blocks, and its
+        // place in the block.
+        let mut here: Vec<u32> = Vec::with_capacity(4);
+        let located: Vec<Option<(usize, usize)>> = idx
             .iter()
-            .map(|i| i.map(|i| self.blocks.locate(i)))
+            .map(|i| {
+                let (b, o) = self.blocks.locate((*i)?);
+                let u = here.iter().position(|&x| x == b).unwrap_or_else(|| {
+                    here.push(b);
+                    here.len() - 1
+                });
+                Some((u, o))
+            })
             .collect();
-        let mut bases: Vec<((u32, u32), usize)> = Vec::with_capacity(4);
+        let n = here.len();
+        let lens: Vec<usize> = here.iter().map(|&b| self.blocks.len(b)).collect();
+        let mut bases = Vec::with_capacity(n * n);
+        for &ba in &here {
+            for &bb in &here {
+                bases.push(self.base(ba, bb));
+            }
+        }
         for (a, la) in located.iter().enumerate() {
-            let Some((ba, oa)) = *la else { continue };
+            let Some((ua, oa)) = *la else { continue };
+            let row = &bases[ua * n..ua * n + n];
             for (b, lb) in located.iter().enumerate() {
-                let Some((bb, ob)) = *lb else { continue };
-                let base = match bases.iter().find(|(k, _)| *k == (ba, bb)) {
-                    Some(&(_, s)) => s,
-                    None => {
-                        let s = self.base(ba, bb);
-                        bases.push(((ba, bb), s));
-                        s
-                    }
-                };
-                let s = base + oa * self.blocks.len(bb) + ob;
+                let Some((ub, ob)) = *lb else { continue };
+                let s = row[ub] + oa * lens[ub] + ob;
                 self.values[s] += value(a, b);
                 self.written[s] = true;
             }
