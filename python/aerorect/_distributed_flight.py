@@ -117,6 +117,14 @@ def _flight_write(k, out, photos, opts_json, progress, roll=None):
     finally:
         local.close()
 
+def _shared(client, value):
+    """`value` scattered to every worker, for a `client.map` keyword: distributed makes a
+    keyword over 100 kB a graph node keyed by the keyword's own name ("progress"), which the
+    scheduler refuses (`AssertionError: <TaskState 'progress' processing>`); a progress with a
+    tie surface (200 kB for two DJI frames) or a thousand frames' poses is that large."""
+    return client.scatter(value, broadcast=True) if value is not None else None
+
+
 def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts: dict) -> dict:
     """The adjusted flight as tasks: per round one per pair and the adjustment, then one per
     frame written to a staging folder; everything moved into `out_dir` when all succeeded.
@@ -144,7 +152,8 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
     while not done:
         pairs = client.submit(_flight_pairs, *key, progress, roll=roll, pure=False).result()
         matches = client.map(_flight_pair, [tuple(p) for p in pairs], photos=key[0],
-                             opts_json=key[1], progress=progress, roll=roll, pure=False)
+                             opts_json=key[1], progress=_shared(client, progress), roll=roll,
+                             pure=False)
         pair_tasks += len(matches)
         step = client.submit(_flight_adjust, *key, progress, matches + features, roll=roll,
                              pure=False)
@@ -158,7 +167,8 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
                   for o in outs]
         written = client.gather(client.map(_flight_write, range(len(photos)), staged,
                                            photos=key[0], opts_json=key[1],
-                                           progress=progress, roll=roll, pure=False))
+                                           progress=_shared(client, progress), roll=roll,
+                                           pure=False))
         failed = [(photos[k], why) for k, why in written if why is not None]
         if failed:
             lines = "\n".join(f"failed: {p}: {why}" for p, why in failed)

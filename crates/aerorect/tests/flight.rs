@@ -25,6 +25,24 @@ fn adjustment_brings_the_nadir_pair_within_a_pixel() {
     }
     let flight = adjust_flight(&[a.clone(), b.clone()], &opts, &FlightOptions::default()).unwrap();
     assert!(flight.report.pairs[0].reliable && flight.report.unconnected.is_empty());
+    // The rounds end with a solve over every reliable tie (the rounds' own solves take at most
+    // 64 per correlated pair), and the flight's orientation and report are that solve's.
+    let r = &flight.report;
+    let last = r.rounds.last().unwrap();
+    let all = last.final_solve.as_ref().unwrap();
+    eprintln!(
+        "ties: {} in the rounds, {} at the end",
+        last.tie_points, all.tie_points
+    );
+    assert!(all.tie_points > last.tie_points);
+    assert_eq!(all.tie_points, r.adjustment.tie_points);
+    let counted: usize = r
+        .pairs
+        .iter()
+        .filter(|p| p.reliable)
+        .map(|p| p.inliers)
+        .sum();
+    assert_eq!(counted, all.tie_points);
     for k in 0..2 {
         flight.write_frame(k, &out("adj", k), &opts).unwrap();
     }

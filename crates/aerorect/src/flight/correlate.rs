@@ -138,6 +138,7 @@ pub(super) fn pair_ties(
         patches: tried,
         inliers: 0,
         ties: vec![],
+        spare: vec![],
         features: false,
     };
     let from: Vec<[f64; 2]> = matches.iter().map(|m| m.0).collect();
@@ -172,12 +173,19 @@ pub(super) fn pair_ties(
     }
     report.inliers = ties.len();
     if ties.len() >= MIN_CORRELATION_INLIERS {
-        // The pair ties; the solve takes its ties spread over the overlap (the most
-        // confident match per cell), and `inliers` counts those.
-        report.ties = spread(&at_a, CORRELATION_SPREAD_CELLS, |k| ties[k].weight)
-            .into_iter()
-            .map(|k| ties[k])
-            .collect();
+        // The pair ties; the rounds' solves take its ties spread over the overlap (the most
+        // confident match per cell), and `inliers` counts those; the rest are spare, for the
+        // solve that ends the rounds.
+        let mut kept = vec![false; ties.len()];
+        for k in spread(&at_a, CORRELATION_SPREAD_CELLS, |k| ties[k].weight) {
+            kept[k] = true;
+        }
+        for (t, keep) in ties.into_iter().zip(kept) {
+            match keep {
+                true => report.ties.push(t),
+                false => report.spare.push(t),
+            }
+        }
         report.inliers = report.ties.len();
     }
     Ok(report)

@@ -203,26 +203,25 @@ mod tests {
             2.0f64.sqrt() * 1e-300,
             123456.789_012_345_67,
         ];
+        let tie = |w: &[f64]| PairTie {
+            ground: [w[0], w[1], -w[0]],
+            pixel_a: [w[1], w[0]],
+            pixel_b: [w[0] * 0.5, w[1] / 7.0],
+            weight: w[0],
+        };
+        // The spare ties (those the final solve adds) travel to the bit too.
         let m = PairMatch {
             a: 2,
             b: 7,
             patches: 40,
             inliers: 9,
-            ties: awkward
-                .windows(2)
-                .map(|w| PairTie {
-                    ground: [w[0], w[1], -w[0]],
-                    pixel_a: [w[1], w[0]],
-                    pixel_b: [w[0] * 0.5, w[1] / 7.0],
-                    weight: w[0],
-                })
-                .collect(),
+            ties: awkward.windows(2).map(tie).collect(),
+            spare: awkward.windows(2).rev().map(tie).collect(),
             features: true,
         };
         let back: PairMatch = from_exact_json(&exact_json(&m).unwrap()).unwrap();
         let bits = |m: &PairMatch| -> Vec<u64> {
-            m.ties
-                .iter()
+            m.solve_ties(true)
                 .flat_map(|t| {
                     let mut v = t.ground.to_vec();
                     v.extend(t.pixel_a);
@@ -234,6 +233,7 @@ mod tests {
                 .collect()
         };
         assert_eq!(bits(&back), bits(&m));
+        assert_eq!(back.spare.len(), m.spare.len());
         assert_eq!((back.a, back.b, back.patches, back.inliers), (2, 7, 40, 9));
     }
 

@@ -121,19 +121,28 @@ impl FlightPlan {
         let weight = (0.5 / sigma).powi(2).min(1.0);
         let at_a: Vec<[f64; 2]> = inliers.iter().map(|&k| m.first_px[k]).collect();
         let (pose, camera) = (&self.rec.poses[i], &self.rec.cameras[self.rec.camera_of[i]]);
-        let ties: Vec<PairTie> = spread(&at_a, FEATURE_SPREAD_CELLS, |_| 0.0)
-            .into_iter()
-            .map(|s| inliers[s])
-            .filter_map(|k| {
-                let ground = on_ground(pose, camera, m.first_px[k], self.ground.as_ref())?;
-                Some(PairTie {
-                    ground,
-                    pixel_a: m.first_px[k],
-                    pixel_b: m.second_px[k],
-                    weight,
-                })
+        let tie = |k: usize| {
+            let ground = on_ground(pose, camera, m.first_px[k], self.ground.as_ref())?;
+            Some(PairTie {
+                ground,
+                pixel_a: m.first_px[k],
+                pixel_b: m.second_px[k],
+                weight,
             })
-            .collect();
+        };
+        // The rounds' solves take the spread ties; the rest are spare, for the solve that
+        // ends the rounds.
+        let mut kept = vec![false; inliers.len()];
+        for s in spread(&at_a, FEATURE_SPREAD_CELLS, |_| 0.0) {
+            kept[s] = true;
+        }
+        let (mut ties, mut spare) = (Vec::new(), Vec::new());
+        for (&k, keep) in inliers.iter().zip(kept) {
+            match keep {
+                true => ties.extend(tie(k)),
+                false => spare.extend(tie(k)),
+            }
+        }
         let enough = inliers.len() >= MIN_FEATURE_INLIERS;
         Ok(PairMatch {
             a: i,
@@ -141,6 +150,7 @@ impl FlightPlan {
             patches: m.inliers.len(),
             inliers: if enough { ties.len() } else { 0 },
             ties: if enough { ties } else { vec![] },
+            spare: if enough { spare } else { vec![] },
             features: true,
         })
     }

@@ -203,14 +203,18 @@ impl FlightPlan {
         progress: &mut FlightProgress,
         matched: Vec<PairMatch>,
     ) -> Result<FlightReport, Error> {
-        let round = self.adjust_round(progress, matched)?;
+        let round = self.adjust_round(progress, matched, self.fo.final_all_ties)?;
         Ok(self.report(progress, round).0)
     }
 
+    /// One round (see [`Self::adjust`]); when it ends the rounds and `all_at_end`, the round's
+    /// orientation is that of the solve with every tie (see
+    /// [`FlightOptions::final_all_ties`]).
     pub(super) fn adjust_round(
         &self,
         progress: &mut FlightProgress,
         matched: Vec<PairMatch>,
+        all_at_end: bool,
     ) -> Result<Round, Error> {
         let posed = self.opts.poses.is_some();
         let mode = (self.opts.dem.is_some(), posed);
@@ -223,18 +227,9 @@ impl FlightPlan {
             .filter(|m| !m.features && m.reliable())
             .map(key)
             .collect();
-        // The surface takes every reliable pair's ties, the features that correlation
-        // replaced in the solve too: both are the same ground seen from two frames.
-        let surface_ties: Vec<TiePoint> = match self.fo.tie_surface && self.opts.dem.is_none() {
-            true => matched
-                .iter()
-                .flat_map(|m| m.ties.iter().map(|t| t.tie_point(m.a, m.b)))
-                .collect(),
-            false => Vec::new(),
-        };
         let mut pairs = Vec::with_capacity(matched.len());
         for m in matched
-            .into_iter()
+            .iter()
             .filter(|m| !(m.features && correlated.contains(&key(m))))
         {
             let (Some(a), Some(b)) = (name(m.a), name(m.b)) else {
@@ -249,7 +244,7 @@ impl FlightPlan {
         }
         let start = progress.start.as_ref();
         let round = timing::time("solve round (wall)", || {
-            match_and_adjust(pairs, self, mode, start)
+            match_and_adjust((&pairs, false), self, mode, start)
         })?;
         let (poses, cameras) = round.orientation(&self.rec);
         let before = progress
@@ -258,17 +253,55 @@ impl FlightPlan {
             .map_or(&self.rec.poses, |o| &o.poses);
         let typical = median_turn_deg(before, &poses);
         let since = progress.since.unwrap_or(self.started);
-        progress.rounds.push(round.summary((before, &poses), since));
-        progress.since = Some(std::time::Instant::now());
-        progress.done = progress.rounds.len() >= self.fo.passes.min(MAX_PASSES)
-            || (progress.rounds.len() > 1 && typical < self.fo.settled_deg)
+        let mut summary = round.summary((before, &poses), since);
+        progress.done = progress.rounds.len() + 1 >= self.fo.passes.min(MAX_PASSES)
+            || (!progress.rounds.is_empty() && typical < self.fo.settled_deg)
             || self.fo.ties == TieSource::Features;
+        let all = progress.done && all_at_end && pairs.iter().any(|(m, _, _)| !m.spare.is_empty());
+        let (round, poses, cameras) = match all {
+            true => {
+                let t = std::time::Instant::now();
+                let last = timing::time("final solve, all ties (wall)", || {
+                    match_and_adjust(
+                        (&pairs, true),
+                        self,
+                        mode,
+                        Some(&round.adjusted.corrections),
+                    )
+                })?;
+                let (p, c) = last.orientation(&self.rec);
+                summary.final_solve = Some(FinalSolve {
+                    tie_points: last.adjusted.report.tie_points,
+                    rms_after_px: last.adjusted.report.rms_after_px,
+                    largest_turn_deg: largest_turn_deg(&poses, &p),
+                    median_turn_deg: median_turn_deg(&poses, &p),
+                    seconds: t.elapsed().as_secs_f64(),
+                });
+                (last, p, c)
+            }
+            false => (round, poses, cameras),
+        };
+        progress.rounds.push(summary);
+        progress.since = Some(std::time::Instant::now());
         progress.orientation = Some(Orientation { poses, cameras });
         progress.start = Some(round.adjusted.corrections.clone());
-        progress.surface = match progress.done && !surface_ties.is_empty() {
-            true => timing::time("tie surface", || {
-                tie_surface(&surface_ties, round.adjusted.oriented(), &self.crs)
-            })?,
+        // The surface takes every reliable pair's ties as the last solve took them, and the
+        // features that correlation replaced in the solve too: both are the same ground seen
+        // from two frames.
+        let surface = progress.done && self.fo.tie_surface && self.opts.dem.is_none();
+        progress.surface = match surface {
+            true => {
+                let ties: Vec<TiePoint> = matched
+                    .iter()
+                    .flat_map(|m| m.solve_ties(all).map(|t| t.tie_point(m.a, m.b)))
+                    .collect();
+                match ties.is_empty() {
+                    true => None,
+                    false => timing::time("tie surface", || {
+                        tie_surface(&ties, round.adjusted.oriented(), &self.crs)
+                    })?,
+                }
+            }
             false => None,
         };
         Ok(round)

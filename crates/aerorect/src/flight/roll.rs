@@ -119,10 +119,12 @@ impl FlightPlan {
         Ok(plan)
     }
 
-    /// The first round adjusted from `features` alone (`None` if its adjustment fails).
+    /// The first round adjusted from `features` alone (`None` if its adjustment fails); its
+    /// capped solve only, also when it is the last round.
     fn first_round_trial(&self, features: &[PairMatch]) -> Option<RollTrial> {
         let mut progress = FlightProgress::default();
-        self.adjust_round(&mut progress, features.to_vec()).ok()?;
+        self.adjust_round(&mut progress, features.to_vec(), false)
+            .ok()?;
         let r = progress.rounds.last()?;
         Some(RollTrial {
             median_turn_deg: r.median_turn_deg,

@@ -29,6 +29,7 @@ impl Round {
             reliable_pairs: self.reports.iter().filter(|r| r.reliable).count(),
             rms_after_px: self.adjusted.report.rms_after_px,
             seconds: since.elapsed().as_secs_f64(),
+            final_solve: None,
         }
     }
 
@@ -50,10 +51,11 @@ impl Round {
 }
 
 /// Adjusts the recorded orientation to the tie points of the matched pairs (each with its
-/// frames' names; `dem`: the ground is a DEM; `posed`: the frames come from a pose table),
-/// the solve starting from `start` (the last round's corrections) when given.
+/// frames' names; `all`: their spare ties too, see [`PairMatch::solve_ties`]; `dem`: the
+/// ground is a DEM; `posed`: the frames come from a pose table), the solve starting from
+/// `start` (the last solve's corrections) when given.
 pub(super) fn match_and_adjust(
-    matched: Vec<(PairMatch, String, String)>,
+    (matched, all): (&[(&PairMatch, String, String)], bool),
     plan: &FlightPlan,
     (dem, posed): (bool, bool),
     start: Option<&Corrections>,
@@ -67,12 +69,17 @@ pub(super) fn match_and_adjust(
     // ground by the relief; correlation ties were matched on it.
     let relief = matched.iter().any(|(m, _, _)| m.features && m.reliable());
     for (m, a, b) in matched {
-        let t: Vec<TiePoint> = m.ties.iter().map(|t| t.tie_point(m.a, m.b)).collect();
+        let t: Vec<TiePoint> = m.solve_ties(all).map(|t| t.tie_point(m.a, m.b)).collect();
         reports.push(PairReport {
-            a,
-            b,
+            a: a.clone(),
+            b: b.clone(),
             patches: m.patches,
-            inliers: m.inliers,
+            // The ties this solve takes (each reliable pair's, in order: see
+            // `finish_reports`).
+            inliers: match m.reliable() {
+                true => t.len(),
+                false => m.inliers,
+            },
             misalignment_before_m: timing::time("solve: misalignment", || {
                 misalignment(&t, &rec.poses, &cams, ground)
             }),

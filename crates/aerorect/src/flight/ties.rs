@@ -19,8 +19,15 @@ pub struct PairMatch {
     pub b: usize,
     pub patches: usize,
     pub inliers: usize,
-    /// The pair's tie points (none unless at least 8 matches agree).
+    /// The pair's tie points (none unless at least 8 matches agree): for correlation, those
+    /// [`spread`] keeps, which every round's solve takes.
     pub ties: Vec<PairTie>,
+    /// The pair's other reliable ties, those [`spread`] left out (every other inlier): only
+    /// the solve that ends the rounds takes them too (see
+    /// [`super::FlightOptions::final_all_ties`]). Empty for a pair that does not tie or has
+    /// no more ties than the spread's cells.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub spare: Vec<PairTie>,
     /// Whether they come from features (3-D points anywhere) rather than correlation on the
     /// level ground.
     #[serde(default)]
@@ -37,6 +44,12 @@ pub struct PairTie {
 }
 
 impl PairMatch {
+    /// The ties a solve takes: the spread ones, and with `all` the spare ones after them.
+    pub(super) fn solve_ties(&self, all: bool) -> impl Iterator<Item = &PairTie> {
+        let spare: &[PairTie] = if all { &self.spare } else { &[] };
+        self.ties.iter().chain(spare)
+    }
+
     /// Whether the pair gives tie points (correlation: at least [`super::correlate::MIN_CORRELATION_INLIERS`] matches agree; features:
     /// at least [`super::MIN_FEATURE_INLIERS`]); a pair gives ties only when it qualifies.
     pub(super) fn reliable(&self) -> bool {
@@ -124,11 +137,16 @@ pub(super) fn on_ground(
 /// per cell of: at most 36 per pair. Features tie the first round, from attitudes degrees off;
 /// correlation refines the pairs it ties in later rounds, so a pair's features need only hold
 /// it, and up to 150 of them (half a few pixels apart) made the first solve the longest.
+/// The solve that ends the rounds takes every inlier of the pairs that correlation does not
+/// tie (the rest travel as [`PairMatch::spare`]; see
+/// [`super::FlightOptions::final_all_ties`]).
 pub const FEATURE_SPREAD_CELLS: usize = 6;
 
-/// The same for correlation ties (patches overlapping by half): at most 64 per pair. They
-/// decide the final orientation, so more are kept: at 36 the 100-frame simulation's median
-/// attitude error after adjustment rose from 0.008 to 0.011 degrees.
+/// The same for correlation ties (patches overlapping by half): at most 64 per pair in the
+/// rounds' solves. At 36 the 100-frame simulation's median attitude error after adjustment rose
+/// from 0.008 to 0.011 degrees. The solve that ends the rounds takes every reliable tie
+/// instead (the rest travel as [`PairMatch::spare`]; see
+/// [`super::FlightOptions::final_all_ties`]).
 pub const CORRELATION_SPREAD_CELLS: usize = 8;
 
 /// The indices (ascending) of a well-spread subset of `points` (a pair's ties in one frame's
