@@ -138,9 +138,10 @@ pub struct FlightOptions {
     /// 0.083 / 0.304 -> 0.053 / 0.216, the nadir block 0.010 / 0.025 -> 0.007 / 0.024; the
     /// extra solve took about as long as one round's (fixed wing: 36,356 -> 58,036 ties, 14.5 s
     /// and 46 iterations after the four rounds' 60 s of solves, `batch --adjust` 60.7 ->
-    /// 75.3 s, the rounds themselves unchanged to the bit; nadir block 10.1 -> 11.2 s). On the 1,000-frame nadir block (`40 25`): 0.008 /
-    /// 0.029 -> 0.006 / 0.026, 217,512 -> 338,848 ties, 13.7 s more (the rounds' solves 93 s,
-    /// the whole flight 283 s on two busy cores) and peak memory 1,086 -> 1,390 MB.
+    /// 75.3 s, the rounds themselves unchanged to the bit; nadir block 10.1 -> 11.2 s). On
+    /// the 1,000-frame nadir block (`40 25`): 0.008 / 0.029 -> 0.006 / 0.026, 217,512 ->
+    /// 338,848 ties, 13.7 s more (the rounds' solves 93 s, the whole flight 283 s on two busy
+    /// cores; 5.9 s more on quieter ones) and peak memory 1,086 -> 1,390 MB.
     /// Correlation's ties alone (40,454) won back only 0.164 -> 0.161: the feature ties of
     /// the pairs correlation does not tie (strips flown in opposite directions) carry it.
     pub final_all_ties: bool,
@@ -290,7 +291,7 @@ pub struct RoundSummary {
     pub final_solve: Option<FinalSolve>,
 }
 
-/// The solve that ends the rounds with every reliable correlation tie
+/// The solve that ends the rounds with every reliable tie
 /// ([`FlightOptions::final_all_ties`]): its tie points, residual RMS, how far it turned the
 /// frames from the round's capped solve (degrees), and its time.
 #[derive(Debug, Clone, Serialize, Deserialize)]
