@@ -95,6 +95,22 @@ impl Dem {
         world.same_definition(&self.crs) || world.same_as(&self.crs)
     }
 
+    /// [`Self::height_in`] for many lookups in `world`: whether it is the DEM's CRS
+    /// ([`Self::shares_crs`]) is decided here, once.
+    pub fn heights_in<D>(
+        dem: D,
+        world: &Crs,
+    ) -> impl Fn(f64, f64) -> Option<f64> + Send + Sync + use<D>
+    where
+        D: std::ops::Deref<Target = Dem> + Send + Sync,
+    {
+        let (direct, world) = (dem.shares_crs(world), world.clone());
+        move |x, y| match direct {
+            true => dem.height_at(x, y),
+            false => dem.height_in(&world, x, y),
+        }
+    }
+
     /// Lowest and highest valid heights.
     pub fn range(&self) -> Option<(f64, f64)> {
         let v = self
@@ -149,17 +165,14 @@ impl HeightGrid {
         let origin = [bounds[0] - spacing / 2.0, bounds[3] + spacing / 2.0];
         let mut values = Vec::with_capacity(width * height);
         let mut filled = 0;
-        let direct = dem.shares_crs(world);
+        let height_at = Dem::heights_in(dem, world);
         for r in 0..height {
             for c in 0..width {
                 let (x, y) = (
                     origin[0] + c as f64 * spacing,
                     origin[1] - r as f64 * spacing,
                 );
-                let h = match direct {
-                    true => dem.height_at(x, y),
-                    false => dem.height_in(world, x, y),
-                };
+                let h = height_at(x, y);
                 filled += h.is_none() as usize;
                 values.push(h.unwrap_or(fill) as f32);
             }

@@ -87,17 +87,9 @@ pub(super) fn ground_fn(
     world: &Crs,
 ) -> Box<dyn Fn(f64, f64) -> f64 + Send + Sync> {
     if let Some(dem) = &opts.dem {
-        let dem = std::sync::Arc::clone(dem);
-        let world = world.clone();
         let mid = dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1));
-        let direct = dem.shares_crs(&world);
-        return Box::new(move |x, y| {
-            match direct {
-                true => dem.height_at(x, y),
-                false => dem.height_in(&world, x, y),
-            }
-            .unwrap_or(mid)
-        });
+        let height_at = aerorect_geo::Dem::heights_in(std::sync::Arc::clone(dem), world);
+        return Box::new(move |x, y| height_at(x, y).unwrap_or(mid));
     }
     let z = opts.ground_height_m.unwrap_or(0.0);
     Box::new(move |_, _| z)
