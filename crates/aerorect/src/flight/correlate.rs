@@ -176,16 +176,8 @@ pub(super) fn pair_ties(
         // The pair ties; the rounds' solves take its ties spread over the overlap (the most
         // confident match per cell), and `inliers` counts those; the rest are spare, for the
         // solve that ends the rounds.
-        let mut kept = vec![false; ties.len()];
-        for k in spread(&at_a, CORRELATION_SPREAD_CELLS, |k| ties[k].weight) {
-            kept[k] = true;
-        }
-        for (t, keep) in ties.into_iter().zip(kept) {
-            match keep {
-                true => report.ties.push(t),
-                false => report.spare.push(t),
-            }
-        }
+        let kept = spread(&at_a, CORRELATION_SPREAD_CELLS, |k| ties[k].weight);
+        (report.ties, report.spare) = split_kept(ties, &kept);
         report.inliers = report.ties.len();
     }
     Ok(report)

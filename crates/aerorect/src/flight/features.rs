@@ -132,17 +132,12 @@ impl FlightPlan {
         };
         // The rounds' solves take the spread ties; the rest are spare, for the solve that
         // ends the rounds.
-        let mut kept = vec![false; inliers.len()];
-        for s in spread(&at_a, FEATURE_SPREAD_CELLS, |_| 0.0) {
-            kept[s] = true;
-        }
-        let (mut ties, mut spare) = (Vec::new(), Vec::new());
-        for (&k, keep) in inliers.iter().zip(kept) {
-            match keep {
-                true => ties.extend(tie(k)),
-                false => spare.extend(tie(k)),
-            }
-        }
+        let (kept, rest) = split_kept(
+            inliers.iter().copied(),
+            &spread(&at_a, FEATURE_SPREAD_CELLS, |_| 0.0),
+        );
+        let ties: Vec<PairTie> = kept.into_iter().filter_map(tie).collect();
+        let spare: Vec<PairTie> = rest.into_iter().filter_map(tie).collect();
         let enough = inliers.len() >= MIN_FEATURE_INLIERS;
         Ok(PairMatch {
             a: i,

@@ -180,9 +180,43 @@ pub(super) fn spread(points: &[[f64; 2]], n: usize, score: impl Fn(usize) -> f64
     out
 }
 
+/// `items` split into those whose index is in `kept` (ascending, as [`spread`] gives them) and
+/// the rest, each in its order: a pair's ties for every round's solve and its spare ones.
+pub(super) fn split_kept<T>(
+    items: impl IntoIterator<Item = T>,
+    kept: &[usize],
+) -> (Vec<T>, Vec<T>) {
+    let (mut kept_items, mut rest) = (Vec::new(), Vec::new());
+    let mut next = kept.iter().peekable();
+    for (k, item) in items.into_iter().enumerate() {
+        match next.next_if_eq(&&k) {
+            Some(_) => kept_items.push(item),
+            None => rest.push(item),
+        }
+    }
+    (kept_items, rest)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn split_kept_is_a_filter_by_index_and_its_complement() {
+        let items: Vec<u32> = (0..12).map(|k| 100 + k).collect();
+        let kept = [0, 3, 4, 11];
+        let (a, b) = split_kept(items.iter().copied(), &kept);
+        let want: Vec<u32> = (0..12)
+            .filter(|k| kept.contains(k))
+            .map(|k| 100 + k as u32)
+            .collect();
+        let rest: Vec<u32> = (0..12)
+            .filter(|k| !kept.contains(k))
+            .map(|k| 100 + k as u32)
+            .collect();
+        assert_eq!((a, b), (want, rest));
+        assert_eq!(split_kept(items, &[]).0, Vec::<u32>::new());
+    }
 
     #[test]
     fn spread_keeps_the_best_tie_of_each_cell() {
