@@ -65,9 +65,6 @@ pub(super) fn match_and_adjust(
     let cams: Vec<&Camera> = rec.camera_of.iter().map(|&c| &rec.cameras[c]).collect();
     let mut reports = Vec::with_capacity(matched.len());
     let mut ties = Vec::new();
-    // Feature ties are points anywhere in 3-D: without a DEM their heights may leave the level
-    // ground by the relief; correlation ties were matched on it.
-    let relief = matched.iter().any(|(m, _, _)| m.features && m.reliable());
     for (m, a, b) in matched {
         let t: Vec<TiePoint> = m.solve_ties(all).map(|t| t.tie_point(m.a, m.b)).collect();
         reports.push(PairReport {
@@ -130,10 +127,11 @@ pub(super) fn match_and_adjust(
         refine_boresight: fo.refine_boresight,
         terrain: Some((
             ground,
-            match (dem, relief) {
-                (true, _) => 1.0,
-                (false, true) => RELIEF_SIGMA_M,
-                (false, false) => 0.1,
+            // Without a DEM the level ground is a guess: every tie, a feature's or the
+            // correlator's, is a real point on the hills (see RELIEF_SIGMA_M).
+            match dem {
+                true => 1.0,
+                false => RELIEF_SIGMA_M,
             },
         )),
         max_iterations: 100,
