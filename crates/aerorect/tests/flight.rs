@@ -90,5 +90,6 @@ fn a_matching_grid_over_its_budget_is_coarsened_not_refused() {
         "{:?}",
         r.warnings
     );
+    eprintln!("{:?} rms {}", r.pairs[0], r.adjustment.rms_after_px);
     assert!(r.pairs[0].reliable && r.adjustment.rms_after_px < 1.0);
 }

@@ -3,10 +3,10 @@
 //! consecutive frames (2188/2189, 2212/2213 across strips, 2280/2281/2282) tie by their
 //! features from the XMP angles alone and from the flight's geoinfo.txt alone, and after the
 //! adjustment the overlap correlator on the written frames (an estimator the adjustment does
-//! not use) finds the frames along a strip within two output pixels (0.1 m), where as
+//! not use) finds the frames along a strip within one output pixel (0.1 m), where as
 //! recorded they are metres apart. The photos carry no height above ground: the level ground
 //! is given (160 m), and the hills rise and fall some 20 m about it, so over the level ground
-//! the frames differ by their relief's parallax tile by tile (1.5-2.3 px); with no DEM the
+//! the frames differ by their relief's parallax tile by tile (tile rms 3-10 px); with no DEM the
 //! frames are written over the surface the flight's own tie points describe, which removes
 //! most of it; the median is the measure. (The pair
 //! across strips, 2212/2213, ties by its features; the overlap correlator finds no patch of it
@@ -132,13 +132,12 @@ fn snowpeak_frames_tie_from_xmp_and_agree_after_the_adjustment() {
         assert!(before > 2.0, "{a}/{b}: {before}");
         agree.push((a, norm(lvl.median_px), norm(after.median_px)));
     }
-    // Over the tie points' surface (279 points, 2 m cells) each pair is within two output
-    // pixels (0.1 m) by the median of the overlap's tiles, and the pairs together agree
-    // better than over the level ground (0.52, 1.67, 1.72 px against 1.50, 1.53, 2.34 px
-    // when measured): the relief's parallax is mostly gone, not all (the surface is only as
-    // dense as the ties, some 40 a pair).
+    // Over the tie points' surface each pair is within one output pixel (0.1 m) by the median
+    // of the overlap's tiles, and the pairs together agree better than over the level ground
+    // (0.07, 0.74, 0.22 px against 1.30, 1.00, 0.48 px when measured; 0.24, 0.97, 1.67 px
+    // before correlation ties on the hills were kept by a fundamental matrix).
     for &(a, level, surface) in &agree {
-        assert!(surface < 2.0, "{a}: {surface} px (level ground {level} px)");
+        assert!(surface < 1.0, "{a}: {surface} px (level ground {level} px)");
     }
     let sum = |f: fn(&(&str, f64, f64)) -> f64| agree.iter().map(f).sum::<f64>();
     assert!(sum(|p| p.2) < sum(|p| p.1), "{agree:?}");
@@ -175,17 +174,17 @@ fn snowpeak_strip_ties_from_geoinfo_alone() {
     strip_agrees(&flight, &opts);
 }
 
-/// Every frame's GPS fix kept: none contradicted (3-D offset within 3.76 sigma) nor moved by
-/// three sigmas of a consumer fix (15 m). A block that breaks this has bent (once: shrunk
-/// towards the level ground, the cameras 8 m above it instead of 100 m and 90-114 m from their
-/// fixes, at a tie rms of 0.41 px). COLMAP's reconstruction of 2171-2189, aligned to its GPS,
-/// leaves the fixes 0.66 m (median) from its cameras.
+/// Every frame's GPS fix kept: none contradicted (3-D offset within 3.76 sigma of a 5 m fix)
+/// nor moved by four sigmas (20 m). A block that breaks this has bent (once: shrunk towards
+/// the level ground, the cameras 8 m above it instead of 100 m and 90-114 m from their fixes,
+/// at a tie rms of 0.41 px). Three frames along a line hold their scale and the line's
+/// direction by the GPS alone: from geoinfo.txt's angles the strip's ends move 14 m.
 fn gps_kept(r: &aerorect::flight::FlightReport) {
     assert_eq!(r.gps.len(), r.frames.len(), "{:?}", r.gps);
     for g in &r.gps {
         let moved = g.offset_m.iter().map(|v| v * v).sum::<f64>().sqrt();
         eprintln!("{}: GPS fix moved {moved:.2} m", g.frame);
-        assert!(moved < 15.0 && !g.contradicted, "{g:?}");
+        assert!(moved < 20.0 && !g.contradicted, "{g:?}");
     }
 }
 
@@ -204,8 +203,9 @@ fn snowpeak_strip_alone_keeps_its_gps_and_agrees() {
 }
 
 /// The strip 2280-2282 written (frames 0-2 of `flight`) over its tie surface: the overlap
-/// correlator on 128 px tiles finds each pair within two output pixels (0.1 m) by the median,
-/// where as recorded they are metres apart.
+/// correlator on 128 px tiles finds each pair within one output pixel (0.1 m) by the median,
+/// where as recorded they are metres apart (measured 0.22, 0.13 px from XMP, 0.33, 0.05 px
+/// from geoinfo.txt).
 fn strip_agrees(flight: &aerorect::flight::AdjustedFlight, opts: &DroneOptions) {
     let dir = tempfile::tempdir().unwrap();
     let out = |n: &str| dir.path().join(format!("{n}.tif"));
@@ -216,6 +216,6 @@ fn strip_agrees(flight: &aerorect::flight::AdjustedFlight, opts: &DroneOptions) 
         let s = aerorect::overlap::overlap_shift(&out(a), &out(b), 128).unwrap();
         let px = s.median_px[0].hypot(s.median_px[1]);
         eprintln!("{a}/{b}: {px:.2} px over {} tiles", s.patches);
-        assert!(s.patches >= 8 && px < 2.0, "{a}/{b}: {s:?}");
+        assert!(s.patches >= 8 && px < 1.0, "{a}/{b}: {s:?}");
     }
 }

@@ -130,6 +130,7 @@ pub(super) fn pair_ties(
     (j, b): (usize, &Rendered),
     side: usize,
     ground_z: &(dyn Fn(f64, f64) -> f64 + Send + Sync),
+    relief: bool,
 ) -> Result<PairMatch, Error> {
     let (matches, tried) = match_pair(a, b, side)?;
     let mut report = PairMatch {
@@ -143,16 +144,12 @@ pub(super) fn pair_ties(
     };
     let from: Vec<[f64; 2]> = matches.iter().map(|m| m.0).collect();
     let to: Vec<[f64; 2]> = matches.iter().map(|m| m.1).collect();
-    let ransac = RansacOptions {
-        threshold: 1.0,
-        ..RansacOptions::default()
-    };
-    let Ok(fit) = ransac_homography(&from, &to, &ransac) else {
+    let Some(inliers) = consensus(&from, &to, relief) else {
         return Ok(report);
     };
     let mut ties = Vec::new();
     let mut at_a = Vec::new();
-    for (m, keep) in matches.iter().zip(&fit.inliers) {
+    for (m, keep) in matches.iter().zip(&inliers) {
         let (Some(pa), Some(pb)) = (
             a.coarse_plan.frame_pixel_of_unmasked(m.0[0], m.0[1]),
             b.coarse_plan.frame_pixel_of_unmasked(m.1[0], m.1[1]),
@@ -181,6 +178,46 @@ pub(super) fn pair_ties(
         report.inliers = report.ties.len();
     }
     Ok(report)
+}
+
+/// A fundamental matrix over the level ground replaces the homography when it explains at
+/// least this many times the homography's matches: the relief shows (its parallax varies
+/// across the overlap). Below it the ground is flat for the pair, where the homography is the
+/// tighter test (a fundamental matrix fits a plane's matches in many ways).
+pub const RELIEF_INLIER_GAIN: f64 = 1.2;
+
+/// The fundamental matrix's RANSAC threshold (Sampson distance, px of the matching grid):
+/// half the homography's, as a line admits what a point would refuse.
+pub const EPIPOLAR_THRESHOLD_PX: f64 = 0.5;
+
+/// Which matches (`from` in A's grid, `to` in B's) one model explains: a homography (within
+/// 1 px of the matching grid); or, with `relief` (rendered over the level ground, the hills
+/// not modelled), a fundamental matrix (within [`EPIPOLAR_THRESHOLD_PX`]) where it explains
+/// [`RELIEF_INLIER_GAIN`] times as many. Two frames rendered over one plane are two
+/// homographies of their photos, so the orthos keep the photos' epipolar geometry and a hill's
+/// patches, which the homography refuses by their parallax, keep to it; they are the ties
+/// that carry the hill's height into the solve and the tie surface.
+fn consensus(from: &[[f64; 2]], to: &[[f64; 2]], relief: bool) -> Option<Vec<bool>> {
+    let ransac = RansacOptions {
+        threshold: 1.0,
+        ..RansacOptions::default()
+    };
+    let plane = ransac_homography(from, to, &ransac).ok().map(|f| f.inliers);
+    if !relief {
+        return plane;
+    }
+    let tight = RansacOptions {
+        threshold: EPIPOLAR_THRESHOLD_PX,
+        ..ransac
+    };
+    let epipolar = aerorect_solve::fundamental::ransac_fundamental(from, to, &tight)
+        .ok()
+        .map(|f| f.inliers);
+    let count = |v: &Option<Vec<bool>>| v.as_ref().map_or(0, |v| v.iter().filter(|&&b| b).count());
+    match count(&epipolar) as f64 >= RELIEF_INLIER_GAIN * count(&plane) as f64 {
+        true => epipolar,
+        false => plane,
+    }
 }
 
 /// The pairs (i < j) of these grids that overlap.

@@ -190,7 +190,9 @@ impl FlightPlan {
         a: (usize, &Rendered),
         b: (usize, &Rendered),
     ) -> Result<PairMatch, Error> {
-        pair_ties(a, b, self.fo.patch, self.ground.as_ref())
+        // Over the level ground the hills' parallax stays in the rendered frames.
+        let relief = self.opts.dem.is_none();
+        pair_ties(a, b, self.fo.patch, self.ground.as_ref(), relief)
     }
 
     /// One round's adjustment from the matches of every overlapping pair (in [`Self::pairs`]'
