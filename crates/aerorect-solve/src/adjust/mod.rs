@@ -23,7 +23,9 @@
 //! (freedoms the ties cannot see), `report` (statistics and the adjusted frames),
 //! `corrections` (a solve's result as the next one's start).
 //! The loop is the crate's one Levenberg-Marquardt ([`crate::lm`]), stopped by Ceres's
-//! tolerances ([`AdjustOptions::tolerances`]).
+//! tolerances ([`AdjustOptions::tolerances`]); after each step, the tie points with an
+//! observation in Huber's linear arm are moved to their own minimum (`polish`: the loop's
+//! weighted steps alone let them slide for tens of iterations).
 
 mod blocks;
 mod corrections;
@@ -33,6 +35,7 @@ mod normal;
 #[cfg(test)]
 mod oracle;
 mod points;
+mod polish;
 mod report;
 mod residuals;
 mod solve;

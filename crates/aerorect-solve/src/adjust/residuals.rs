@@ -151,7 +151,7 @@ impl Problem<'_> {
     }
 
     /// A tie point's terms of the cost: each observation's, then its prior's.
-    fn tie_costs(&self, s: &State, tie: &TiePoint, x: &Vec3) -> Option<Vec<f64>> {
+    pub(super) fn tie_costs(&self, s: &State, tie: &TiePoint, x: &Vec3) -> Option<Vec<f64>> {
         let mut out = Vec::with_capacity(tie.observations.len() + 1);
         for o in &tie.observations {
             let r = self.residual(s, o, x)?;

@@ -27,6 +27,8 @@ pub(super) struct PointLin {
     pub bp: Vec3,
     /// H_cp by reduced index.
     pub hpc: Vec<(usize, Vec3)>,
+    /// Whether an observation is in Huber's linear arm (the point is polished after a step).
+    pub robust: bool,
 }
 
 /// The undamped normal equations at one state: the frame-and-camera block (data and
@@ -69,8 +71,10 @@ impl Problem<'_> {
         let mut bp = Vec3::zeros();
         let mut hpc: BTreeMap<usize, Vec3> = BTreeMap::new();
         let mut obs = Vec::with_capacity(tie.observations.len());
+        let mut robust = false;
         for o in &tie.observations {
             let l = self.observation_lin(s, o, x)?;
+            robust |= l.w < o.weight;
             hpp += l.w * l.point.transpose() * l.point;
             bp -= l.w * l.point.transpose() * l.r;
             let cross = l.w * l.local.transpose() * l.point;
@@ -90,6 +94,7 @@ impl Problem<'_> {
                 hpp: hpp + hp,
                 bp: bp - b,
                 hpc: hpc.into_iter().collect(),
+                robust,
             },
             obs,
         })
@@ -97,7 +102,7 @@ impl Problem<'_> {
 
     /// A tie point's prior (its surveyed position, or the terrain under it): what it adds to
     /// H_pp and what it takes from b_p.
-    fn point_prior_blocks(&self, tie: &TiePoint, x: &Vec3) -> (Matrix3<f64>, Vec3) {
+    pub(super) fn point_prior_blocks(&self, tie: &TiePoint, x: &Vec3) -> (Matrix3<f64>, Vec3) {
         if let Some(c) = &tie.control {
             // (x - surveyed) / sigma, axis by axis.
             let j = Matrix3::from_diagonal(&Vec3::from(c.sigma_m.map(|s| 1.0 / s)));
@@ -344,6 +349,7 @@ impl crate::lm::Model for Solver<'_, '_> {
         if !step2.is_finite() {
             return None;
         }
+        step2 += self.problem.polish(lin, &mut next);
         let params: f64 = self.problem.layout.values(s).iter().map(|v| v * v).sum();
         let points: f64 = s
             .points
