@@ -4,7 +4,7 @@
 //!
 //! `F` relates pixel positions x in the first frame and x' in the second by x'^T F x = 0.
 
-use crate::ransac::RansacOptions;
+use crate::ransac::{RansacOptions, hopeless_after, iterations_for};
 use crate::{SolveError, normaliser};
 use aerorect_core::Mat3;
 use nalgebra::{DMatrix, Vector3};
@@ -139,7 +139,11 @@ pub fn ransac_fundamental(
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let (mut best, mut best_count) = (None::<Vec<bool>>, 0usize);
     let (mut needed, mut it) = (opts.max_iterations, 0);
+    let hopeless = hopeless_after(n, 8, opts);
     while it < needed.min(opts.max_iterations) {
+        if best_count < opts.min_inliers && it >= hopeless {
+            break;
+        }
         it += 1;
         let pick = sample(&mut rng, n, 8).into_vec();
         let (f, t): (Vec<_>, Vec<_>) = pick.iter().map(|&k| (a[k], b[k])).unzip();
@@ -151,12 +155,7 @@ pub fn ransac_fundamental(
         if count > best_count {
             best_count = count;
             best = Some(inl);
-            let miss = 1.0 - (count as f64 / n as f64).powi(8);
-            needed = if miss <= f64::EPSILON {
-                it
-            } else {
-                ((1.0 - opts.confidence).ln() / miss.ln()).ceil().max(1.0) as usize
-            };
+            needed = iterations_for(count as f64 / n as f64, 8, opts.confidence).max(it);
         }
     }
     let mut inliers = best.ok_or(SolveError::Degenerate)?;

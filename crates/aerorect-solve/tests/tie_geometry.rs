@@ -5,7 +5,9 @@
 use aerorect_core::{Homography, Mat3};
 use aerorect_solve::fundamental::{fit_fundamental, ransac_fundamental};
 use aerorect_solve::pairs::{PairOptions, candidate_pairs, convex_overlap, nearest_neighbours};
-use aerorect_solve::ransac::{RansacOptions, ransac_homography};
+use aerorect_solve::ransac::{
+    RansacOptions, iterations_for, iterations_for_count, ransac_homography,
+};
 use nalgebra::{Rotation3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -99,6 +101,58 @@ fn ransac_fundamental_finds_the_inliers_among_forty_percent_outliers() {
         .map(|i| fit.model.sampson(a[i], b[i]))
         .fold(0.0, f64::max);
     assert!(worst < 1.0, "{worst}");
+}
+
+/// Samples for one all-inlier sample of 8 at 99.9 % with `m` inliers of `n`, by the closed form.
+fn want_at_999(m: u64, n: u64) -> usize {
+    let choose = |n: u64, k: u64| (0..k).fold(1.0f64, |c, i| c * (n - i) as f64 / (i + 1) as f64);
+    let hit = choose(m, 8) / choose(n, 8);
+    (0.001f64.ln() / (1.0 - hit).ln()).ceil() as usize
+}
+
+#[test]
+fn ransac_gives_up_on_chance_matches_once_the_needed_consensus_would_have_been_drawn() {
+    // Hartley & Zisserman, table 4.3 (p = 0.99, half the data outliers): 72 samples of 4,
+    // 1177 of 8, drawn with replacement; 20 inliers of 30, eight drawn without replacement:
+    // C(20, 8) / C(30, 8) = 125970 / 5852925 a sample.
+    assert_eq!(iterations_for(0.5, 4, 0.99), 72);
+    assert_eq!(iterations_for(0.5, 8, 0.99), 1177);
+    let hit: f64 = 125_970.0 / 5_852_925.0;
+    let want = (0.001f64.ln() / (1.0 - hit).ln()).ceil() as usize;
+    assert_eq!(iterations_for_count(20, 30, 8, 0.999), want);
+    let opts = RansacOptions {
+        threshold: 1.0,
+        max_iterations: 4000,
+        ..RansacOptions::default()
+    };
+    let wanting = RansacOptions {
+        min_inliers: 20,
+        ..opts
+    };
+    // Thirty matches of which ten agree (the 8-12 chance inliers of two frames that share
+    // nothing): no consensus of 20 exists. Without a least consensus RANSAC draws every
+    // sample; with one it stops once 20 inliers of 30 would have been sampled.
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let (_, a, mut b) = two_views(30, &mut rng);
+    for p in b.iter_mut().skip(10) {
+        *p = [rng.random_range(0.0..1280.0), rng.random_range(0.0..960.0)];
+    }
+    let all = ransac_fundamental(&a, &b, &opts).expect("ransac");
+    assert_eq!(all.iterations, 4000);
+    let gave_up = ransac_fundamental(&a, &b, &wanting).expect("ransac");
+    assert_eq!(gave_up.iterations, want_at_999(20, 30));
+    assert!(gave_up.inlier_count() < 20, "{}", gave_up.inlier_count());
+    // Exactly 20 true correspondences among 30: every seed still finds all of them.
+    for seed in 1..=20 {
+        let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
+        let (_, a, mut b) = two_views(30, &mut rng);
+        for p in b.iter_mut().skip(20) {
+            *p = [rng.random_range(0.0..1280.0), rng.random_range(0.0..960.0)];
+        }
+        let fit = ransac_fundamental(&a, &b, &RansacOptions { seed, ..wanting }).expect("fit");
+        assert!(fit.inliers[..20].iter().all(|&k| k), "seed {seed}: {fit:?}");
+        assert!(fit.iterations < 4000, "seed {seed}: {}", fit.iterations);
+    }
 }
 
 #[test]
