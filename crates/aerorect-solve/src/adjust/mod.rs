@@ -152,10 +152,10 @@ pub struct AdjustOptions<'a> {
     pub start: Option<&'a Corrections>,
     /// From a warm [`Self::start`], also stop when an accepted step turns no frame by this
     /// many degrees (and moves no centre by a millimetre, no camera parameter by a
-    /// millionth): with
-    /// Huber's loss the cost's last relative decreases of 1e-6 took 42 iterations on a
-    /// 1,000-frame block, turning frames by far less than their precision. `None`: the
-    /// tolerances alone.
+    /// millionth): with Huber's loss the cost's last relative decreases of 1e-6 took 42
+    /// iterations on a 1,000-frame block, turning frames by far less than their precision
+    /// (measured before the tie points in Huber's linear arm were polished after each step,
+    /// `polish`, which removed most of that crawl). `None`: the tolerances alone.
     pub settled: Option<f64>,
 }
 
@@ -377,7 +377,8 @@ pub fn adjust(
 
 /// The damping a solve from [`AdjustOptions::start`] starts with: near the minimum the
 /// Gauss-Newton step is good, and at the loop's usual 1e-3 the 1,000-frame simulated block
-/// took 42 iterations from its last round's corrections to meet the function tolerance.
+/// took 42 iterations from its last round's corrections to meet the function tolerance
+/// (measured before `polish`).
 const WARM_START_DAMPING: f64 = 1e-8;
 
 /// The state [`AdjustOptions::start`] gives (its free parameters; the held ones stay at

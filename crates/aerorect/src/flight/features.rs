@@ -7,6 +7,7 @@
 use super::*;
 use crate::features::{FrameFeatures, TieOptions, frame_features, match_frames};
 use aerorect_solve::pairs::candidate_pairs;
+use aerorect_solve::ransac::RansacOptions;
 
 /// Where a flight's tie points come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -56,12 +57,21 @@ const HOMOGRAPHY_SLACK: f64 = 0.05;
 const FEATURE_SIGMA_REDUCED_PX: f64 = 0.5;
 
 impl FlightPlan {
-    /// How frames are reduced and described for feature matching: a pair with fewer
-    /// matches than [`MIN_FEATURE_INLIERS`] cannot tie, so it is not verified.
+    /// How frames are reduced and described for feature matching: a pair with fewer matches
+    /// than [`MIN_FEATURE_INLIERS`] cannot tie, so it is not verified, and RANSAC gives up on
+    /// a pair once a consensus of that many would have been found (`min_inliers`): most of
+    /// the candidate pairs of a flight (8,406 on the 1,000-frame simulation, about 4,400 of
+    /// them nearest neighbours, the rest predicted footprints' overlaps) share nothing, and
+    /// ran all their iterations (F-RANSAC 22.9 -> 2.3 s of CPU there).
     pub fn tie_options(&self) -> TieOptions {
+        let base = TieOptions::default();
         TieOptions {
             min_matches: MIN_FEATURE_INLIERS,
-            ..TieOptions::default()
+            ransac: RansacOptions {
+                min_inliers: MIN_FEATURE_INLIERS,
+                ..base.ransac
+            },
+            ..base
         }
     }
 
