@@ -227,3 +227,74 @@ pub(super) fn overlapping(grids: &[OrthoGrid]) -> Vec<(usize, usize)> {
         .filter(|&(i, j)| overlap(&grids[i], &grids[j]).is_some())
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Where a ground point (x, y, z) falls on the level ground z = 0 seen from camera
+    /// centre `c`, in 0.1 m pixels: its position in that frame's level-ground ortho.
+    fn on_level_ground(c: [f64; 3], p: [f64; 3]) -> [f64; 2] {
+        let t = c[2] / (c[2] - p[2]);
+        [
+            (c[0] + t * (p[0] - c[0])) / 0.1,
+            (c[1] + t * (p[1] - c[1])) / 0.1,
+        ]
+    }
+
+    /// Two frames 100 m up, 30 m apart along x, over a grid of ground points with heights
+    /// `height(x, y)`; every tenth match moved 3-6 px across the baseline (a wrong match).
+    fn matches(height: impl Fn(f64, f64) -> f64) -> (Vec<[f64; 2]>, Vec<[f64; 2]>, Vec<bool>) {
+        let (ca, cb) = ([0.0, 0.0, 100.0], [30.0, 0.0, 100.0]);
+        let (mut from, mut to, mut wrong) = (vec![], vec![], vec![]);
+        for i in 0..20 {
+            for j in 0..20 {
+                let (x, y) = (-10.0 + 2.5 * i as f64, -25.0 + 2.5 * j as f64);
+                let p = [x, y, height(x, y)];
+                let k = from.len();
+                let mut b = on_level_ground(cb, p);
+                if k % 10 == 3 {
+                    b[1] += 3.0 + (k % 4) as f64;
+                }
+                from.push(on_level_ground(ca, p));
+                to.push(b);
+                wrong.push(k % 10 == 3);
+            }
+        }
+        (from, to, wrong)
+    }
+
+    fn kept(inliers: &[bool], wrong: &[bool], of_wrong: bool) -> f64 {
+        let n = wrong.iter().filter(|&&w| w == of_wrong).count();
+        let k = (0..wrong.len())
+            .filter(|&i| wrong[i] == of_wrong && inliers[i])
+            .count();
+        k as f64 / n as f64
+    }
+
+    #[test]
+    fn over_hills_the_epipolar_consensus_keeps_what_the_homography_refuses() {
+        // Hills of +-6 m: at a base of 0.3 the parallax varies by some 36 px (0.1 m pixels).
+        let (from, to, wrong) = matches(|x, y| 6.0 * (x / 9.0).sin() * (y / 11.0).cos());
+        let plane = consensus(&from, &to, false).unwrap();
+        let hills = consensus(&from, &to, true).unwrap();
+        let (p, h) = (kept(&plane, &wrong, false), kept(&hills, &wrong, false));
+        eprintln!("true matches kept: homography {p:.2}, epipolar {h:.2}");
+        assert!(p < 0.5 && h > 0.95, "{p} {h}");
+        // A wrong match off its epipolar line stays out.
+        assert!(
+            kept(&hills, &wrong, true) < 0.1,
+            "{}",
+            kept(&hills, &wrong, true)
+        );
+    }
+
+    #[test]
+    fn over_flat_ground_the_homography_decides() {
+        let (from, to, wrong) = matches(|_, _| 0.0);
+        let plane = consensus(&from, &to, false).unwrap();
+        assert_eq!(consensus(&from, &to, true).unwrap(), plane);
+        assert_eq!(kept(&plane, &wrong, false), 1.0);
+        assert_eq!(kept(&plane, &wrong, true), 0.0);
+    }
+}
