@@ -215,7 +215,7 @@ pub const UNCONVERGED_RMS_PX: f64 = 2.0;
 /// one point of the hill, not of the level ground. Held to it at 0.1 m, as they once were,
 /// three senseFly photos along a strip over hills (2280-2282, relief about 10 m, every pair
 /// tied by correlation) shrank with their tie points towards the level plane: the cameras
-/// 8 m above the ground instead of 100 m, every GPS fix 90-114 m away, at 0.41 px rms.
+/// 8 m above the ground instead of 100 m, every GPS fix 91-101 m away, at 0.41 px rms.
 pub const RELIEF_SIGMA_M: f64 = 10.0;
 
 /// Standard deviation (m) of a consumer GPS position, the prior of frames with no RTK tags.
