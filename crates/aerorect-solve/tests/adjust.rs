@@ -22,6 +22,16 @@ fn errors(truth: &[AdjustFrame], got: &[AdjustFrame]) -> Vec<Vec3> {
         .collect()
 }
 
+/// The simulated ground of most tests: 25 +- 20 m, repeating every 250 m east, 220 m north.
+fn hills(x: f64, y: f64) -> f64 {
+    25.0 + 20.0 * (x / 40.0).sin() * (y / 35.0).cos()
+}
+
+/// Ridges about the zero height: +-30 m, repeating every 280 m east, 190 m north.
+fn ridges(x: f64, y: f64) -> f64 {
+    30.0 * (x / 45.0).sin() * (y / 30.0).cos()
+}
+
 fn max_norm(v: &[Vec3]) -> f64 {
     v.iter().map(|e| e.norm()).fold(0.0, f64::max)
 }
@@ -29,7 +39,6 @@ fn max_norm(v: &[Vec3]) -> f64 {
 #[test]
 fn one_degree_attitude_errors_are_recovered_over_hills() {
     // Over relief the common tilt is observable too: every frame is recovered absolutely.
-    let hills = |x: f64, y: f64| 25.0 + 20.0 * (x / 40.0).sin() * (y / 35.0).cos();
     let fl = flight(5, 4, 1.0, &hills, 3);
     let before = max_norm(&errors(&fl.truth, &fl.recorded));
     let opts = AdjustOptions {
@@ -84,12 +93,11 @@ fn frames_agree_after_adjustment_on_flat_ground() {
 
 #[test]
 fn focal_length_error_is_recovered_with_the_attitudes() {
-    let hills = |x: f64, y: f64| 30.0 * (x / 45.0).sin() * (y / 30.0).cos();
-    let fl = flight(5, 4, 1.0, &hills, 9);
+    let fl = flight(5, 4, 1.0, &ridges, 9);
     let opts = AdjustOptions {
         refine_focal: true,
         refine_principal_point: false,
-        terrain: Some((&hills, 0.05)),
+        terrain: Some((&ridges, 0.05)),
         ..Default::default()
     };
     // The camera recorded 0.5 % long.
@@ -101,7 +109,6 @@ fn focal_length_error_is_recovered_with_the_attitudes() {
 
 #[test]
 fn a_contradicting_frame_is_down_weighted_not_followed() {
-    let hills = |x: f64, y: f64| 25.0 + 20.0 * (x / 40.0).sin() * (y / 35.0).cos();
     let mut fl = flight(5, 4, 1.0, &hills, 11);
     // Frame 7's observations are shifted by 15 px (a wrong match set).
     for t in &mut fl.ties {
@@ -182,13 +189,12 @@ fn ties_that_name_no_frame_are_refused() {
 
 #[test]
 fn a_wrong_radial_lens_is_corrected_with_the_attitudes() {
-    let hills = |x: f64, y: f64| 30.0 * (x / 45.0).sin() * (y / 30.0).cos();
-    let fl = flight(5, 4, 1.0, &hills, 13);
+    let fl = flight(5, 4, 1.0, &ridges, 13);
     let opts = AdjustOptions {
         refine_focal: true,
         refine_principal_point: false,
         refine_radial: true,
-        terrain: Some((&hills, 0.05)),
+        terrain: Some((&ridges, 0.05)),
         ..Default::default()
     };
     // The ties were seen through a pinhole; the camera is recorded with k1 = 0.05.
@@ -210,8 +216,7 @@ fn a_wrong_radial_lens_is_corrected_with_the_attitudes() {
 
 #[test]
 fn a_common_boresight_error_goes_to_the_camera() {
-    let hills = |x: f64, y: f64| 30.0 * (x / 45.0).sin() * (y / 30.0).cos();
-    let mut fl = flight(6, 5, 0.3, &hills, 17);
+    let mut fl = flight(6, 5, 0.3, &ridges, 17);
     // Every frame's camera turned by the same 2 degrees about its own x and y.
     let b = Rotation3::new(Vector3::new(2f64.to_radians(), -1.5f64.to_radians(), 0.0));
     for f in &mut fl.recorded {
@@ -222,7 +227,7 @@ fn a_common_boresight_error_goes_to_the_camera() {
         refine_principal_point: false,
         refine_boresight: true,
         attitude_sigma_deg: 0.3,
-        terrain: Some((&hills, 0.05)),
+        terrain: Some((&ridges, 0.05)),
         ..Default::default()
     };
     let out = adjust(&fl.recorded, &[camera(800.0)], &fl.ties, &opts).unwrap();
@@ -335,7 +340,6 @@ fn frames_from_one_point_hold_their_positions_and_are_turned_right() {
 
 #[test]
 fn a_solve_cut_by_its_iteration_limit_says_so_and_gives_its_result() {
-    let hills = |x: f64, y: f64| 25.0 + 20.0 * (x / 40.0).sin() * (y / 35.0).cos();
     let fl = flight(4, 3, 1.0, &hills, 5);
     let opts = AdjustOptions {
         refine_focal: false,
@@ -372,7 +376,6 @@ fn a_solve_cut_by_its_iteration_limit_says_so_and_gives_its_result() {
 /// 25 px off along both image axes (partly along the epipolar line, so the point could
 /// absorb it by moving along its first ray, which the terrain prior resists).
 fn with_wrong_matches(seed: u64, wrong: usize) -> aerorect_testkit::flight::Flight {
-    let hills = |x: f64, y: f64| 25.0 + 20.0 * (x / 40.0).sin() * (y / 35.0).cos();
     let mut fl = flight(5, 4, 1.0, &hills, seed);
     for t in fl.ties.iter_mut().take(wrong) {
         t.observations.truncate(2);
@@ -391,7 +394,6 @@ fn wrong_matches_do_not_keep_the_solve_crawling() {
     // frames 0.019 of their standard deviation from the minimum). The solve must stop by a
     // tolerance in few iterations at the minimum: where a solve held to tolerances a million
     // times tighter ends.
-    let hills = |x: f64, y: f64| 25.0 + 20.0 * (x / 40.0).sin() * (y / 35.0).cos();
     let fl = with_wrong_matches(21, 40);
     let cams = [camera(800.0)];
     let opts = AdjustOptions {
