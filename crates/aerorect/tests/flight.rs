@@ -43,6 +43,36 @@ fn adjustment_brings_the_nadir_pair_within_a_pixel() {
         .map(|p| p.inliers)
         .sum();
     assert_eq!(counted, all.tie_points);
+    // The rounds settled once the median frame's turn moved its ground by under a tenth of a
+    // matching-grid pixel, at the frames' height above the level ground (the upper of the
+    // two's relative altitudes, as the median of two).
+    let h = [&a, &b]
+        .map(|p| {
+            aerorect::io::read_photo_metadata(p)
+                .unwrap()
+                .dji
+                .relative_altitude_m
+                .unwrap()
+        })
+        .into_iter()
+        .fold(0.0, f64::max);
+    let want = (aerorect::flight::SETTLED_GRID_PX * r.match_gsd_m / h).to_degrees();
+    eprintln!(
+        "settled below {:.4} deg, turns {:?}",
+        r.settled_deg,
+        r.rounds
+            .iter()
+            .map(|t| t.median_turn_deg)
+            .collect::<Vec<_>>()
+    );
+    assert!(
+        (r.settled_deg - want).abs() < 1e-9 * want,
+        "{} {want}",
+        r.settled_deg
+    );
+    // This pair's rounds keep turning its frames by tenths of a degree (issue 28): they end at
+    // the passes, unsettled.
+    assert_eq!(r.settled, last.median_turn_deg < r.settled_deg);
     for k in 0..2 {
         flight.write_frame(k, &out("adj", k), &opts).unwrap();
     }

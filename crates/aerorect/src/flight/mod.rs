@@ -102,7 +102,9 @@ pub struct FlightOptions {
     /// (one weakly held frame at the edge of a block can wander by a hundredth of a degree
     /// from round to round without the others moving). At most [`MAX_PASSES`].
     pub passes: usize,
-    pub settled_deg: f64,
+    /// `None` (the default): the turn that moves the median frame's ground by
+    /// [`SETTLED_GRID_PX`] of the matching grid (see [`FlightPlan::settled_deg`]).
+    pub settled_deg: Option<f64>,
     /// Where the tie points come from (features first, then correlation, by default).
     pub ties: TieSource,
     /// Ground control points and check points.
@@ -170,9 +172,27 @@ impl FlightOptions {
                 crate::sane::MAX_HEIGHT_M
             )));
         }
+        if let Some(d) = self.settled_deg
+            && !(d.is_finite() && d > 0.0)
+        {
+            return Err(Error::Invalid(format!(
+                "settled turn {} deg: must be > 0",
+                aerorect_core::error::Num(d)
+            )));
+        }
         Ok(())
     }
 }
+
+/// Rounds settle once the median frame's turn from the round before moves its ground by less
+/// than this many pixels of the matching grid (at the frame's height above the plan's
+/// ground): rendered again, the frames would differ by less than the correlator resolves, so
+/// another round would measure the same ties. On the 1,000-frame simulation (0.25 m grid,
+/// 130 m up: 0.011 deg) the second correlation round turned the median frame 0.0054 deg, the
+/// third (under the old fixed 0.005 deg) 0.0011 deg for no gain: 0.006 / 0.021 deg from the
+/// truth after three rounds, 0.005 / 0.019 after two. On a DJI frame at 4x its own GSD
+/// (3,666 px focal) it is 0.006 deg.
+pub const SETTLED_GRID_PX: f64 = 0.1;
 
 impl Default for FlightOptions {
     fn default() -> Self {
@@ -186,7 +206,7 @@ impl Default for FlightOptions {
             refine_radial: false,
             refine_boresight: false,
             passes: 8,
-            settled_deg: 0.005,
+            settled_deg: None,
             ties: TieSource::Both,
             control: None,
             robust_gps: false,
@@ -317,10 +337,12 @@ pub struct FlightReport {
     /// round before.
     pub rounds: Vec<RoundSummary>,
     pub match_gsd_m: f64,
-    /// Whether the last round's median turn met [`FlightOptions::settled_deg`]; when not,
+    /// Whether the last round's median turn was below `settled_deg`; when not,
     /// `oscillating` says whether the turns stopped shrinking (the last round's median turn
     /// is above half the smallest before it) and a warning lists the turns per round.
     pub settled: bool,
+    /// The median turn that settles the rounds ([`FlightPlan::settled_deg`]).
+    pub settled_deg: f64,
     pub oscillating: bool,
     /// What the user should know: the matching grid coarsened, passes capped, gauge
     /// freedoms held, a solve kept at its iteration limit, rounds that did not settle.

@@ -3,6 +3,10 @@
 
 use super::*;
 
+/// [`FlightPlan::settled_deg`] when no camera is above the plan's ground (no height to turn a
+/// grid pixel into an angle): the fixed stop rounds had before [`SETTLED_GRID_PX`].
+const FALLBACK_SETTLED_DEG: f64 = 0.005;
+
 /// A flight planned for matching (every frame's metadata, camera and recorded pose, its plan
 /// on the matching grid, the flight's CRS and ground): the steps of [`adjust_flight`], each a
 /// pure function of the plan and its arguments, so that they can run apart (a pair on each
@@ -98,6 +102,28 @@ impl FlightPlan {
             warnings,
             roll: None,
         })
+    }
+
+    /// The median turn (degrees) below which the rounds are settled:
+    /// [`FlightOptions::settled_deg`] when given, else the turn that moves the median frame's
+    /// ground by [`SETTLED_GRID_PX`] of the matching grid, at its recorded height above the
+    /// plan's ground.
+    pub fn settled_deg(&self) -> f64 {
+        if let Some(d) = self.fo.settled_deg {
+            return d;
+        }
+        let mut heights: Vec<f64> = self
+            .rec
+            .poses
+            .iter()
+            .map(|p| p.centre[2] - (self.ground)(p.centre[0], p.centre[1]))
+            .filter(|h| h.is_finite() && *h > 0.0)
+            .collect();
+        heights.sort_by(f64::total_cmp);
+        match heights.get(heights.len() / 2) {
+            Some(h) => (SETTLED_GRID_PX * self.gsd / h).to_degrees(),
+            None => FALLBACK_SETTLED_DEG,
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -198,7 +224,7 @@ impl FlightPlan {
     /// One round's adjustment from the matches of every overlapping pair (in [`Self::pairs`]'
     /// order): the recorded orientation adjusted to their tie points; `progress` gets the
     /// round's orientation and summary, and is done after [`FlightOptions::passes`] rounds or
-    /// when the median frame turned by less than [`FlightOptions::settled_deg`]. Returns the
+    /// when the median frame turned by less than [`Self::settled_deg`]. Returns the
     /// flight's report as of this round.
     pub fn adjust(
         &self,
@@ -257,7 +283,7 @@ impl FlightPlan {
         let since = progress.since.unwrap_or(self.started);
         let mut summary = round.summary((before, &poses), since);
         progress.done = progress.rounds.len() + 1 >= self.fo.passes.min(MAX_PASSES)
-            || (!progress.rounds.is_empty() && typical < self.fo.settled_deg)
+            || (!progress.rounds.is_empty() && typical < self.settled_deg())
             || self.fo.ties == TieSource::Features;
         let all = progress.done && all_at_end && pairs.iter().any(|(m, _, _)| !m.spare.is_empty());
         let (round, poses, cameras) = match all {
@@ -316,7 +342,7 @@ impl FlightPlan {
         round: Round,
     ) -> (FlightReport, Vec<TieVector>) {
         let (poses, cameras) = round.orientation(&self.rec);
-        let (settled, oscillating) = settling(&progress.rounds, self.fo.settled_deg);
+        let (settled, oscillating) = settling(&progress.rounds, self.settled_deg());
         let mut warnings = self.warnings.clone();
         if self.fo.passes > MAX_PASSES {
             warnings.push(format!(
@@ -328,7 +354,7 @@ impl FlightPlan {
         if !settled {
             warnings.push(rounds_warning(
                 &progress.rounds,
-                self.fo.settled_deg,
+                self.settled_deg(),
                 oscillating,
             ));
         }
@@ -345,6 +371,7 @@ impl FlightPlan {
             rounds: progress.rounds.clone(),
             match_gsd_m: self.gsd,
             settled,
+            settled_deg: self.settled_deg(),
             oscillating,
             warnings,
             unconnected: unconnected(&self.frames, &round.reports),

@@ -425,9 +425,9 @@ pub(super) fn median_turn_deg(a: &[Pose], b: &[Pose]) -> f64 {
     t.get(t.len() / 2).copied().unwrap_or(0.0)
 }
 
-/// A round's solve stops when a step turns no frame by this many degrees (a fiftieth of
-/// [`FlightOptions::settled_deg`]'s default, a twentieth of the simulated flights' attitude
-/// errors after adjustment).
+/// A round's solve stops when a step turns no frame by this many degrees (a hundredth of
+/// the rounds' settled turn on the 1,000-frame simulation, 0.011 deg; a twentieth of the
+/// simulated flights' attitude errors after adjustment).
 pub const SOLVE_SETTLED_DEG: f64 = 1e-4;
 
 /// A GPS fix moved by more than this many of its sigmas is contradicted by the images (the
