@@ -5,7 +5,7 @@
 //! tests and a fundamental matrix (RANSAC), so relief does not reject them.
 
 use super::*;
-use crate::features::{FrameFeatures, TieOptions, frame_features, match_frames};
+use crate::features::{FrameFeatures, TieOptions, match_frames, raster_features};
 use aerorect_solve::pairs::candidate_pairs;
 use aerorect_solve::ransac::RansacOptions;
 
@@ -80,7 +80,10 @@ impl FlightPlan {
         let f = self.frames.get(k).ok_or_else(|| {
             Error::Invalid(format!("frame {k} of a flight of {} frames", self.len()))
         })?;
-        frame_features(&f.input, &self.tie_options())
+        let image = self.decoded.get(k, &f.input)?;
+        timing::time("features: sift", || {
+            raster_features(&f.input, &image, &self.tie_options())
+        })
     }
 
     /// The pairs to match by features: the nearest neighbours and Delaunay neighbours of the

@@ -26,6 +26,8 @@ pub struct FlightPlan {
     pub(super) control: Option<control::Resolved>,
     /// How senseFly's roll was read, when the images decided it.
     pub(super) roll: Option<RollChoice>,
+    /// The photos decoded once for the features and every round's render.
+    pub(super) decoded: std::sync::Arc<decoded::Decoded>,
 }
 
 /// Every frame's pose and camera (a round's adjusted orientation).
@@ -101,6 +103,10 @@ impl FlightPlan {
             started,
             warnings,
             roll: None,
+            decoded: std::sync::Arc::new(decoded::Decoded::new(
+                inputs.len(),
+                decoded::DECODED_BUDGET_BYTES,
+            )),
         })
     }
 
@@ -170,7 +176,7 @@ impl FlightPlan {
     ) -> Result<Rendered, Error> {
         let coarse_plan = self.matching_plan(k, orientation)?;
         let input = &self.frames[k].input;
-        let image = aerorect_io::read_image(input)?;
+        let image = self.decoded.get(k, input)?;
         let gray = AnyRaster::F32(crate::motion::gray(&image)?);
         drop(image);
         let AnyRaster::F32(coarse) = coarse_plan.run(&gray)? else {
@@ -405,6 +411,7 @@ impl FlightPlan {
             cameras,
             report,
             crs: self.crs,
+            decoded: self.decoded,
         }
     }
 
@@ -463,6 +470,7 @@ impl FlightPlan {
             camera,
             crs: &self.crs,
             surface: surface.as_ref(),
+            decoded: (&self.decoded, k),
         };
         oriented.write_staged(output, opts, staged)
     }

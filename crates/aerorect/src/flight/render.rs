@@ -17,6 +17,8 @@ pub struct AdjustedFlight {
     /// The ground the tie points describe, when the frames are rendered over it (see
     /// [`FlightOptions::tie_surface`]; `None`: the level ground, or the DEM of `opts`).
     pub surface: Option<std::sync::Arc<aerorect_geo::Dem>>,
+    /// The photos the rounds decoded.
+    pub(super) decoded: std::sync::Arc<decoded::Decoded>,
 }
 
 /// A frame with a pose and camera, and the flight's CRS.
@@ -27,6 +29,8 @@ pub(super) struct Oriented<'a> {
     pub(super) crs: &'a Crs,
     /// The tie surface, the ground when `opts` has no DEM.
     pub(super) surface: Option<&'a std::sync::Arc<aerorect_geo::Dem>>,
+    /// The flight's decoded photos, and the frame's index among them.
+    pub(super) decoded: (&'a decoded::Decoded, usize),
 }
 
 impl Oriented<'_> {
@@ -59,7 +63,7 @@ impl Oriented<'_> {
         let t = std::time::Instant::now();
         let mut lap_t = t;
         let f = self.frame;
-        let image = aerorect_io::read_image(&f.input)?;
+        let image = self.decoded.0.get(self.decoded.1, &f.input)?;
         let read = crate::drone::lap(&mut lap_t);
         let plan = self.plan(opts)?;
         let plan_s = crate::drone::lap(&mut lap_t);
@@ -99,6 +103,7 @@ impl AdjustedFlight {
             camera: &self.cameras[k],
             crs: &self.crs,
             surface: self.surface.as_ref(),
+            decoded: (&self.decoded, k),
         }
     }
 

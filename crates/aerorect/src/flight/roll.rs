@@ -116,6 +116,8 @@ impl FlightPlan {
         };
         let mut plan = FlightPlan::new(&inputs, &opts, &self.fo)?;
         plan.started = self.started;
+        // The same photos.
+        plan.decoded = std::sync::Arc::clone(&self.decoded);
         Ok(plan)
     }
 
