@@ -276,6 +276,8 @@ impl MosaicPlan {
     }
 }
 
+mod assemble;
+mod cache;
 mod request;
 mod run;
 
