@@ -3,7 +3,7 @@
 
 use super::assemble::{assemble, paste};
 use super::cache::FrameCache;
-use super::distance::distance_to;
+use super::distance::distance_within;
 use super::score::best_of;
 use super::{Blend, MosaicFrame, MosaicOptions, MosaicPlan, Window};
 use crate::Error;
@@ -148,7 +148,7 @@ fn weights(
     labels: &[Option<usize>],
     scores: &[f64],
 ) -> Vec<f32> {
-    let (ww, wh) = (win.size.width, win.size.height);
+    let ww = win.size.width;
     let at = |c: usize, r: usize| (r + tile.row0 - win.row0) * ww + c + tile.col0 - win.col0;
     let cells = (0..tile.size.height).flat_map(|r| (0..tile.size.width).map(move |c| (c, r)));
     let mine: Vec<bool> = labels.iter().map(|l| *l == Some(k)).collect();
@@ -163,9 +163,12 @@ fn weights(
             let n = opts.feather_px as f32;
             let not_mine: Vec<bool> = mine.iter().map(|m| !m).collect();
             let uncovered: Vec<bool> = scores.iter().map(|s| !s.is_finite()).collect();
-            let d_in = distance_to(&not_mine, ww, wh);
-            let d_out = distance_to(&mine, ww, wh);
-            let d_cov = distance_to(&uncovered, ww, wh);
+            // Distances beyond the feather's width do not change the weight (both terms are
+            // 0 or 1 there): left infinite.
+            let cap = opts.feather_px;
+            let d_in = distance_within(&not_mine, ww, cap);
+            let d_out = distance_within(&mine, ww, cap);
+            let d_cov = distance_within(&uncovered, ww, cap);
             cells
                 .map(|(c, r)| {
                     let i = at(c, r);
