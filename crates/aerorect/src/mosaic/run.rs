@@ -1,5 +1,5 @@
-//! Compositing tiles: weights from the labels, frames rendered only over the tile, a small
-//! cache of decoded frames, and the tiled GeoTIFF writer.
+//! Compositing tiles: weights from the labels, frames rendered only over the tile, decoded
+//! frames shared between the threads, and the tiled GeoTIFF or COG written from the tiles.
 
 use super::assemble::{assemble, paste};
 use super::cache::FrameCache;
@@ -41,7 +41,7 @@ pub struct MosaicReport {
 }
 
 /// Tiles of a plan, composited by any number of threads at once, sharing at most
-/// `cache_frames` decoded frames (plus the one each thread is rendering: see [`FrameCache`]).
+/// `cache_frames` decoded frames (plus the one each thread is rendering).
 /// `load` runs while its frame's slot is held, so it must not wait on rayon work (a rayon
 /// thread waiting may be handed a tile that wants the same frame).
 pub struct MosaicRun<'a, L> {
