@@ -94,12 +94,12 @@ impl MosaicTiles {
         }
         let (tiles, cells) = py
             .detach(|| -> Result<_> {
-                let mut run = MosaicRun::new(&self.plan, read_frame);
+                let run = MosaicRun::new(&self.plan, read_frame);
                 let tiles = indices
                     .iter()
                     .map(|&i| run.tile(self.windows[i]))
                     .collect::<Result<Vec<_>, _>>()?;
-                Ok((tiles, run.cells))
+                Ok((tiles, run.cells()))
             })
             .map_err(py_err)?;
         let arrays = tiles

@@ -56,5 +56,5 @@ pub use metadata::{BodyAngles, BodySchema, PhotoMetadata, read_photo_metadata};
 pub use sensors::{SensorMatch, sensor_count, sensor_key, sensor_width_mm};
 pub use staged::{Abandoned, StagedOutputs, remove_pending};
 pub use table_error::TableError;
-pub use tiled_tiff::write_tiled_tiff;
+pub use tiled_tiff::{tiles_per_batch, write_tiled_tiff, write_tiled_tiff_parallel};
 pub use whole::check_image_whole;

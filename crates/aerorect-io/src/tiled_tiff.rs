@@ -9,6 +9,7 @@ use crate::error::{CodecError, IoError};
 use crate::geotiff::GeoReference;
 use aerorect_core::ImageSize;
 use aerorect_raster::AnyRaster;
+use rayon::prelude::*;
 use std::io::{Seek, Write};
 use std::path::Path;
 use tiff::encoder::compression::{CompressionAlgorithm, Deflate, DeflateLevel};
@@ -30,39 +31,158 @@ pub fn write_tiled_tiff<E: From<IoError>>(
     geo: Option<&GeoReference>,
     mut tile_at: impl FnMut(usize, usize, ImageSize) -> Result<AnyRaster, E>,
 ) -> Result<(), E> {
-    if tile == 0 || !tile.is_multiple_of(16) || size.width == 0 || size.height == 0 {
-        return Err(IoError::encode(
-            path,
-            format!(
-                "a tiled TIFF needs tiles of a multiple of 16 px (got {tile}) and a non-empty image ({} x {})",
-                size.width, size.height
-            ),
-        )
-        .into());
+    let layout = Layout::new(path, size, tile)?;
+    write_packed(path, layout, geo, |c, r| {
+        pack(tile_at(c, r, layout.tile_size(c, r)), layout, c, r)
+    })
+}
+
+/// Tiles made and compressed at once by [`write_tiled_tiff_parallel`]: four per thread of
+/// the rayon pool (each thread kept busy while tiles take unequal times; the tiles of a batch
+/// are held, compressed, until the batch is written).
+pub fn tiles_per_batch() -> usize {
+    4 * rayon::current_num_threads().max(1)
+}
+
+/// [`write_tiled_tiff`] with the tiles made and compressed on every thread of the rayon pool,
+/// [`tiles_per_batch`] at a time, and appended in row-major order: the same file, byte for
+/// byte (each tile is compressed on its own). An error from `tile_at` (the first in row-major
+/// order of its batch) is returned as is, and nothing is written.
+pub fn write_tiled_tiff_parallel<E: From<IoError> + Send>(
+    path: &Path,
+    size: ImageSize,
+    tile: usize,
+    geo: Option<&GeoReference>,
+    tile_at: impl Fn(usize, usize, ImageSize) -> Result<AnyRaster, E> + Sync,
+) -> Result<(), E> {
+    let layout = Layout::new(path, size, tile)?;
+    let corners: Vec<(usize, usize)> = (0..size.height)
+        .step_by(tile)
+        .flat_map(|r| (0..size.width).step_by(tile).map(move |c| (c, r)))
+        .collect();
+    let mut batches = corners.chunks(tiles_per_batch());
+    let mut ready = std::collections::VecDeque::new();
+    write_packed(path, layout, geo, |c, r| {
+        if ready.is_empty() {
+            let batch = batches.next().unwrap_or_default();
+            let made: Vec<_> = batch
+                .par_iter()
+                .map(|&(c, r)| {
+                    (
+                        (c, r),
+                        pack(tile_at(c, r, layout.tile_size(c, r)), layout, c, r),
+                    )
+                })
+                .collect();
+            ready.extend(made);
+        }
+        match ready.pop_front() {
+            Some((at, packed)) if at == (c, r) => packed,
+            _ => Err(TileError::Codec(
+                format!("no tile made at ({c}, {r})").into(),
+            )),
+        }
+    })
+}
+
+#[derive(Clone, Copy)]
+struct Layout {
+    size: ImageSize,
+    tile: usize,
+}
+
+impl Layout {
+    fn new(path: &Path, size: ImageSize, tile: usize) -> Result<Self, IoError> {
+        if tile == 0 || !tile.is_multiple_of(16) || size.width == 0 || size.height == 0 {
+            return Err(IoError::encode(
+                path,
+                format!(
+                    "a tiled TIFF needs tiles of a multiple of 16 px (got {tile}) and a non-empty image ({} x {})",
+                    size.width, size.height
+                ),
+            ));
+        }
+        Ok(Self { size, tile })
     }
+
+    /// The size of the tile at (c, r): smaller than `tile` at the right and bottom edges.
+    fn tile_size(&self, c: usize, r: usize) -> ImageSize {
+        ImageSize::new(
+            self.tile.min(self.size.width - c),
+            self.tile.min(self.size.height - r),
+        )
+    }
+}
+
+/// A tile compressed for the file, with the format every tile must share.
+struct Packed {
+    bytes: Vec<u8>,
+    bands: usize,
+    sample: &'static str,
+}
+
+/// Why a tile is missing: its source failed, or it could not be written.
+enum TileError<E> {
+    Source(E),
+    Codec(CodecError),
+}
+
+/// The tile at (c, r) from its source, checked for size and compressed (Deflate, after the
+/// predictor for integer samples).
+fn pack<E>(
+    made: Result<AnyRaster, E>,
+    layout: Layout,
+    c: usize,
+    r: usize,
+) -> Result<Packed, TileError<E>> {
+    let t = made.map_err(TileError::Source)?;
+    let s = layout.tile_size(c, r);
+    if t.size() != s {
+        return Err(TileError::Codec(
+            format!(
+                "tile at ({c}, {r}) is {} x {}, expected {} x {}",
+                t.size().width,
+                t.size().height,
+                s.width,
+                s.height
+            )
+            .into(),
+        ));
+    }
+    let raw = tile_bytes(&t, layout.tile);
+    let mut bytes = Vec::with_capacity(raw.len() / 2);
+    Deflate::with_level(DeflateLevel::Fast)
+        .write_to(&mut bytes, &raw)
+        .map_err(|e| TileError::Codec(e.into()))?;
+    Ok(Packed {
+        bytes,
+        bands: t.bands(),
+        sample: t.sample_name(),
+    })
+}
+
+/// Writes the file of `layout` at `path` atomically, asking `packed_at(col0, row0)` for each
+/// tile in row-major order; a source's error is returned as is, and nothing is written.
+fn write_packed<E: From<IoError>>(
+    path: &Path,
+    layout: Layout,
+    geo: Option<&GeoReference>,
+    mut packed_at: impl FnMut(usize, usize) -> Result<Packed, TileError<E>>,
+) -> Result<(), E> {
     let mut failed: Option<E> = None;
     let written = crate::write_atomically(path, |w| {
-        let mut next = |c: usize, r: usize| {
-            let s = ImageSize::new(tile.min(size.width - c), tile.min(size.height - r));
-            match tile_at(c, r, s) {
-                Ok(t) if t.size() == s => Ok(Some(t)),
-                Ok(t) => Err(CodecError::from(format!(
-                    "tile at ({c}, {r}) is {} x {}, expected {} x {}",
-                    t.size().width,
-                    t.size().height,
-                    s.width,
-                    s.height
-                ))),
-                Err(e) => {
-                    failed = Some(e);
-                    Ok(None)
-                }
+        let mut next = |c: usize, r: usize| match packed_at(c, r) {
+            Ok(p) => Ok(Some(p)),
+            Err(TileError::Source(e)) => {
+                failed = Some(e);
+                Ok(None)
             }
+            Err(TileError::Codec(e)) => Err(e),
         };
-        let layout = Layout { size, tile };
         let result = match next(0, 0) {
             Ok(Some(first)) => {
-                let bytes = size.pixels() as u128 * first.bands() as u128 * sample_bytes(&first);
+                let bytes =
+                    layout.size.pixels() as u128 * first.bands as u128 * sample_bytes(first.sample);
                 if bytes > CLASSIC_LIMIT_BYTES {
                     let enc = TiffEncoder::new_big(w).map_err(CodecError::from);
                     enc.and_then(|e| encode::<_, TiffKindBig>(e, layout, geo, first, &mut next))
@@ -89,38 +209,32 @@ pub fn write_tiled_tiff<E: From<IoError>>(
     }
 }
 
-#[derive(Clone, Copy)]
-struct Layout {
-    size: ImageSize,
-    tile: usize,
-}
-
-fn sample_bytes(r: &AnyRaster) -> u128 {
-    match r {
-        AnyRaster::U8(_) => 1,
-        AnyRaster::U16(_) => 2,
-        AnyRaster::F32(_) => 4,
+fn sample_bytes(sample: &str) -> u128 {
+    match sample {
+        "u8" => 1,
+        "u16" => 2,
+        _ => 4,
     }
 }
 
-type NextTile<'a> = dyn FnMut(usize, usize) -> Result<Option<AnyRaster>, CodecError> + 'a;
+type NextTile<'a> = dyn FnMut(usize, usize) -> Result<Option<Packed>, CodecError> + 'a;
 
 fn encode<W: Write + Seek, K: TiffKind>(
     mut enc: TiffEncoder<W, K>,
     layout: Layout,
     geo: Option<&GeoReference>,
-    first: AnyRaster,
+    first: Packed,
     next: &mut NextTile<'_>,
 ) -> Result<(), CodecError> {
     let e = CodecError::from;
-    let (bands, kind) = (first.bands(), first.sample_name());
+    let (bands, kind) = (first.bands, first.sample);
     if !(1..=4).contains(&bands) {
         return Err(format!("TIFF output holds 1 to 4 bands, this image has {bands}").into());
     }
-    let (bits, format, integer) = match first {
-        AnyRaster::U8(_) => (8u16, 1u16, true),
-        AnyRaster::U16(_) => (16, 1, true),
-        AnyRaster::F32(_) => (32, 3, false),
+    let (bits, format, integer) = match kind {
+        "u8" => (8u16, 1u16, true),
+        "u16" => (16, 1, true),
+        _ => (32, 3, false),
     };
     let Layout { size, tile } = layout;
     let mut dir = enc.image_directory().map_err(e)?;
@@ -135,20 +249,16 @@ fn encode<W: Write + Seek, K: TiffKind>(
                     None => return Ok(()), // the source failed; the caller reports it
                 },
             };
-            if t.bands() != bands || t.sample_name() != kind {
+            if t.bands != bands || t.sample != kind {
                 return Err(format!(
                     "tile at ({c}, {r}) has {} {} bands, the first had {bands} {kind}",
-                    t.bands(),
-                    t.sample_name(),
+                    t.bands, t.sample,
                 )
                 .into());
             }
-            let raw = tile_bytes(&t, tile);
-            let mut packed = Vec::with_capacity(raw.len() / 2);
-            Deflate::with_level(DeflateLevel::Fast).write_to(&mut packed, &raw)?;
-            let at = dir.write_data(&packed[..]).map_err(e)?;
+            let at = dir.write_data(&t.bytes[..]).map_err(e)?;
             offsets.push(K::convert_offset(at).map_err(e)?);
-            counts.push(K::convert_offset(packed.len() as u64).map_err(e)?);
+            counts.push(K::convert_offset(t.bytes.len() as u64).map_err(e)?);
         }
     }
     dir.write_tag(Tag::ImageWidth, size.width as u32)
@@ -276,18 +386,96 @@ mod tests {
         assert_eq!(back.planes(), full.planes());
     }
 
+    /// The tile of `full` at (c, r) of `s` pixels.
+    fn crop(full: &Raster<u16>, c: usize, r: usize, s: ImageSize) -> AnyRaster {
+        let w = full.width();
+        let planes = (0..full.bands())
+            .map(|b| {
+                (0..s.pixels())
+                    .map(|i| full.plane(b)[(r + i / s.width) * w + c + i % s.width])
+                    .collect()
+            })
+            .collect();
+        AnyRaster::U16(Raster::from_planes(s, planes).expect("tile"))
+    }
+
+    #[test]
+    fn the_parallel_writer_writes_the_serial_writers_bytes() {
+        // 7 x 6 tiles: more than one batch on 1, 2 and 3 threads (4 tiles a thread).
+        let dir = tempfile::tempdir().expect("dir");
+        let size = ImageSize::new(100, 90);
+        let full = image(size, 3);
+        let serial = dir.path().join("serial.tif");
+        write_tiled_tiff::<IoError>(&serial, size, 16, None, |c, r, s| Ok(crop(&full, c, r, s)))
+            .expect("serial");
+        let want = std::fs::read(&serial).expect("read");
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool");
+            let path = dir.path().join(format!("parallel{threads}.tif"));
+            pool.install(|| {
+                write_tiled_tiff_parallel::<IoError>(&path, size, 16, None, |c, r, s| {
+                    Ok(crop(&full, c, r, s))
+                })
+            })
+            .expect("parallel");
+            assert!(
+                std::fs::read(&path).expect("read") == want,
+                "{threads} threads"
+            );
+        }
+        let AnyRaster::U16(back) = crate::read_image(&serial).expect("read") else {
+            panic!("u16 expected")
+        };
+        assert_eq!(back.planes(), full.planes());
+    }
+
     #[test]
     fn a_failing_source_leaves_nothing() {
         let dir = tempfile::tempdir().expect("dir");
         let path = dir.path().join("t.tif");
-        let r: Result<(), IoError> =
-            write_tiled_tiff(&path, ImageSize::new(40, 40), 16, None, |c, _, s| {
-                if c == 16 {
-                    return Err(IoError::field("source", "boom"));
-                }
+        let source = |c: usize, r: usize, s: ImageSize| {
+            if (c, r) == (16, 0) || (c, r) == (32, 96) {
+                return Err(IoError::field("source", format!("boom at ({c}, {r})")));
+            }
+            Ok(AnyRaster::U8(Raster::new(s, 1).expect("tile")))
+        };
+        let size = ImageSize::new(40, 120);
+        let r = write_tiled_tiff(&path, size, 16, None, source);
+        assert!(
+            r.expect_err("fails")
+                .to_string()
+                .contains("boom at (16, 0)")
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).expect("dir").count(), 0);
+        // In parallel: the first failure in row-major order, whichever thread met it first.
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .expect("pool");
+        let r = pool.install(|| write_tiled_tiff_parallel(&path, size, 16, None, source));
+        assert!(
+            r.expect_err("fails")
+                .to_string()
+                .contains("boom at (16, 0)")
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).expect("dir").count(), 0);
+        // A failure in a later batch (tile 21 of 24; 8 tiles a batch on two threads).
+        let late = |c: usize, r: usize, s: ImageSize| {
+            if (c, r) == (16, 0) {
                 Ok(AnyRaster::U8(Raster::new(s, 1).expect("tile")))
-            });
-        assert!(r.expect_err("fails").to_string().contains("boom"));
+            } else {
+                source(c, r, s)
+            }
+        };
+        let r = pool.install(|| write_tiled_tiff_parallel(&path, size, 16, None, late));
+        assert!(
+            r.expect_err("fails")
+                .to_string()
+                .contains("boom at (32, 96)")
+        );
         assert_eq!(std::fs::read_dir(dir.path()).expect("dir").count(), 0);
     }
 }

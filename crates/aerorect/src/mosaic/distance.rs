@@ -1,38 +1,74 @@
-//! Exact Euclidean distance transform (Felzenszwalb and Huttenlocher's lower envelope of
-//! parabolas, one pass along rows and one along columns).
+//! Exact Euclidean distance transform: each cell's distance to the nearest feature in its
+//! column (two scans, a row of cells at a time), then along rows the lower envelope of the
+//! parabolas those distances make (Felzenszwalb and Huttenlocher; the column pass of a binary
+//! image needs no envelope, as in Meijster et al.).
 
-/// For each cell of a `width` x `height` grid, the distance (in cells, between centres) to the
-/// nearest cell where `feature` is true; infinity when there is none.
-pub(crate) fn distance_to(feature: &[bool], width: usize, height: usize) -> Vec<f32> {
+/// For each cell of a grid `width` cells wide (`feature` row-major), the distance (in cells,
+/// between centres) to the nearest cell where `feature` is true, where that is at most `cap`;
+/// infinity where it is more (or there is no feature). Beyond `cap` nothing is computed: a row whose columns have
+/// no feature within `cap`, and the part of a row farther than `cap` from every such column.
+pub(crate) fn distance_within(feature: &[bool], width: usize, cap: usize) -> Vec<f32> {
     const FAR: f64 = 1e20;
-    let mut d: Vec<f64> = feature.iter().map(|&f| if f { 0.0 } else { FAR }).collect();
-    let n = width.max(height);
-    let mut scratch = Envelope::new(n);
-    let mut line = vec![0.0; n];
-    for r in 0..height {
-        let row = &mut d[r * width..(r + 1) * width];
-        line[..width].copy_from_slice(row);
-        scratch.transform(&line[..width], row);
+    let mut out = vec![f32::INFINITY; feature.len()];
+    if !feature.iter().any(|&f| f) {
+        return out;
     }
-    let mut col = vec![0.0; height];
-    for c in 0..width {
-        for r in 0..height {
-            line[r] = d[r * width + c];
-        }
-        scratch.transform(&line[..height], &mut col);
-        for r in 0..height {
-            d[r * width + c] = col[r];
-        }
-    }
-    d.iter()
-        .map(|&s| {
-            if s >= FAR * 0.5 {
-                f32::INFINITY
+    let along = column_distances(feature, width, cap);
+    let mut scratch = Envelope::new(width);
+    let (mut f, mut row_out) = (vec![0.0; width], vec![0.0; width]);
+    let cap2 = (cap as f64) * (cap as f64);
+    for (row, dst) in along.chunks_exact(width).zip(out.chunks_exact_mut(width)) {
+        let (Some(first), Some(last)) = (
+            row.iter().position(|&d| d != u32::MAX),
+            row.iter().rposition(|&d| d != u32::MAX),
+        ) else {
+            continue;
+        };
+        let end = last.saturating_add(cap).saturating_add(1).min(width);
+        let span = first.saturating_sub(cap)..end;
+        for (fi, &d) in f[span.clone()].iter_mut().zip(&row[span.clone()]) {
+            *fi = if d == u32::MAX {
+                FAR
             } else {
-                s.sqrt() as f32
+                f64::from(d) * f64::from(d)
+            };
+        }
+        let n = span.len();
+        scratch.transform(&f[span.clone()], &mut row_out[..n]);
+        for (o, &s) in dst[span].iter_mut().zip(&row_out[..n]) {
+            if s <= cap2 {
+                *o = s.sqrt() as f32;
             }
-        })
-        .collect()
+        }
+    }
+    out
+}
+
+/// Each cell's distance (cells) to the nearest feature in its column, `u32::MAX` when that is
+/// more than `cap`: down the grid, then up, a whole row at a time.
+fn column_distances(feature: &[bool], width: usize, cap: usize) -> Vec<u32> {
+    let mut d = vec![u32::MAX; feature.len()];
+    let mut above = vec![u32::MAX; width];
+    for (row, feat) in d.chunks_exact_mut(width).zip(feature.chunks_exact(width)) {
+        for ((v, &f), a) in row.iter_mut().zip(feat).zip(&above) {
+            *v = if f { 0 } else { a.saturating_add(1) };
+        }
+        above.copy_from_slice(row);
+    }
+    let mut below = vec![u32::MAX; width];
+    for row in d.chunks_exact_mut(width).rev() {
+        for (v, b) in row.iter_mut().zip(&below) {
+            *v = (*v).min(b.saturating_add(1));
+        }
+        below.copy_from_slice(row);
+    }
+    let cap = u32::try_from(cap).unwrap_or(u32::MAX - 1);
+    for v in &mut d {
+        if *v > cap {
+            *v = u32::MAX;
+        }
+    }
+    d
 }
 
 /// Buffers of the 1-D squared distance transform.
@@ -90,26 +126,34 @@ impl Envelope {
 #[cfg(test)]
 mod tests {
     use super::*;
-
     #[test]
-    fn equals_brute_force() {
+    fn equals_brute_force_within_the_cap() {
         let (w, h) = (37, 23);
         let feature: Vec<bool> = (0..w * h)
             .map(|i| (i * 7919 + i / 5 * 31) % 53 == 0)
             .collect();
-        let d = distance_to(&feature, w, h);
-        for (i, &got) in d.iter().enumerate() {
-            let (x, y) = ((i % w) as f64, (i / w) as f64);
-            let want = (0..w * h)
-                .filter(|&j| feature[j])
-                .map(|j| ((j % w) as f64 - x).hypot((j / w) as f64 - y))
-                .fold(f64::INFINITY, f64::min);
-            assert!((got as f64 - want).abs() < 1e-4, "{i}: {got} {want}");
+        let mut capped = 0;
+        for cap in [0, 1, 3, 8, usize::MAX] {
+            let d = distance_within(&feature, w, cap);
+            for (i, &got) in d.iter().enumerate() {
+                let (x, y) = ((i % w) as f64, (i / w) as f64);
+                let want = (0..w * h)
+                    .filter(|&j| feature[j])
+                    .map(|j| ((j % w) as f64 - x).hypot((j / w) as f64 - y))
+                    .fold(f64::INFINITY, f64::min);
+                if want > cap as f64 {
+                    assert!(got.is_infinite(), "cap {cap}, {i}: {got} {want}");
+                    capped += 1;
+                } else {
+                    assert!(
+                        (got as f64 - want).abs() < 1e-4,
+                        "cap {cap}, {i}: {got} {want}"
+                    );
+                }
+            }
         }
-        assert!(
-            distance_to(&[false; 6], 3, 2)
-                .iter()
-                .all(|v| v.is_infinite())
-        );
+        assert!(capped > w * h, "{capped}");
+        let none = distance_within(&[false; 6], 3, usize::MAX);
+        assert!(none.iter().all(|v| v.is_infinite()));
     }
 }

@@ -1,18 +1,20 @@
-//! Compositing tiles: weights from the labels, frames rendered only over the tile, a small
-//! cache of decoded frames, and the tiled GeoTIFF writer.
+//! Compositing tiles: weights from the labels, frames rendered only over the tile, decoded
+//! frames shared between the threads, and the tiled GeoTIFF or COG written from the tiles.
 
-use super::distance::distance_to;
+use super::assemble::{assemble, paste};
+use super::cache::FrameCache;
+use super::distance::distance_within;
 use super::score::best_of;
 use super::{Blend, MosaicFrame, MosaicOptions, MosaicPlan, Window};
 use crate::Error;
 use crate::drone::{DroneOptions, plan_from_metadata, plan_from_pose, pose_for};
-use aerorect_core::ImageSize;
 use aerorect_geo::Crs;
 use aerorect_io::GeoReference;
-use aerorect_raster::{AnyRaster, Raster, Sample};
+use aerorect_raster::AnyRaster;
+use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// How much of the mosaic one frame gave.
 #[derive(Debug, Clone, Serialize)]
@@ -38,100 +40,51 @@ pub struct MosaicReport {
     pub seconds: f64,
 }
 
-/// Sample type and bands of the frames.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Format {
-    sample: &'static str,
-    bands: usize,
-}
-
-/// Tiles of a plan, one at a time, with at most `cache_frames` decoded frames held.
+/// Tiles of a plan, composited by any number of threads at once, sharing at most
+/// `cache_frames` decoded frames (plus the one each thread is rendering).
+/// `load` runs while its frame's slot is held, so it must not wait on rayon work (a rayon
+/// thread waiting may be handed a tile that wants the same frame).
 pub struct MosaicRun<'a, L> {
     plan: &'a MosaicPlan,
-    load: L,
-    cache: Vec<(usize, Arc<AnyRaster>)>,
-    format: Option<Format>,
-    /// Per frame: cells taken and decodes.
-    pub cells: Vec<usize>,
-    pub loads: Vec<usize>,
+    cache: FrameCache<'a, L>,
+    /// Per frame: cells taken.
+    cells: Vec<AtomicUsize>,
 }
 
-impl<'a, L: FnMut(&MosaicFrame) -> Result<AnyRaster, Error>> MosaicRun<'a, L> {
+impl<'a, L: Fn(&MosaicFrame) -> Result<AnyRaster, Error> + Sync> MosaicRun<'a, L> {
     /// `load` decodes a frame (its image must have its camera's size).
     pub fn new(plan: &'a MosaicPlan, load: L) -> Self {
-        let n = plan.frames.len();
         Self {
             plan,
-            load,
-            cache: Vec::new(),
-            format: None,
-            cells: vec![0; n],
-            loads: vec![0; n],
+            cache: FrameCache::new(&plan.frames, load, plan.opts.cache_frames),
+            cells: plan.frames.iter().map(|_| AtomicUsize::new(0)).collect(),
         }
     }
 
-    fn frame(&mut self, k: usize) -> Result<Arc<AnyRaster>, Error> {
-        if let Some(i) = self.cache.iter().position(|e| e.0 == k) {
-            let e = self.cache.remove(i);
-            self.cache.insert(0, e.clone());
-            return Ok(e.1);
-        }
-        let f = &self.plan.frames[k];
-        let img = (self.load)(f)?;
-        self.loads[k] += 1;
-        let name = f.path.display();
-        if img.size() != f.plan.camera.size {
-            return Err(Error::Invalid(format!(
-                "{name}: the image is {} x {}, its plan is for {} x {}",
-                img.size().width,
-                img.size().height,
-                f.plan.camera.size.width,
-                f.plan.camera.size.height
-            )));
-        }
-        let format = Format {
-            sample: img.sample_name(),
-            bands: img.bands(),
-        };
-        match self.format {
-            None => self.format = Some(format),
-            Some(want) if want != format => {
-                return Err(Error::Invalid(format!(
-                    "{name}: {} bands of {}, the mosaic's other frames have {} of {}",
-                    format.bands, format.sample, want.bands, want.sample
-                )));
-            }
-            Some(_) => {}
-        }
-        let img = Arc::new(img);
-        self.cache.truncate(self.plan.opts.cache_frames - 1);
-        self.cache.insert(0, (k, Arc::clone(&img)));
-        Ok(img)
+    /// Per frame: the cells it gave the tiles made so far (summed over the tiles).
+    pub fn cells(&self) -> Vec<usize> {
+        self.cells
+            .iter()
+            .map(|n| n.load(Ordering::Relaxed))
+            .collect()
+    }
+
+    /// Per frame: its decodes so far (more than one when the cache had let it go).
+    pub fn loads(&self) -> Vec<usize> {
+        self.cache.loads()
     }
 
     /// The mosaic's pixels over `tile`.
-    pub fn tile(&mut self, tile: Window) -> Result<AnyRaster, Error> {
+    pub fn tile(&self, tile: Window) -> Result<AnyRaster, Error> {
         let plan = self.plan;
-        if self.format.is_none() {
-            self.frame(0)?;
-        }
+        let format = self.cache.format()?;
         let margin = plan.opts.margin();
         let win = tile.grown(margin, plan.grid.size);
         let cands = plan.meeting(win);
         let scores: Vec<Vec<f64>> = cands.iter().map(|&k| plan.scores(k, win)).collect();
         let labels = best_of(&cands, &scores, win.size.pixels());
         let n = tile.size.pixels();
-        for i in 0..n {
-            let (c, r) = (i % tile.size.width, i / tile.size.width);
-            let j = (r + tile.row0 - win.row0) * win.size.width + c + tile.col0 - win.col0;
-            if let Some(k) = labels[j] {
-                self.cells[k] += 1;
-            }
-        }
-        let format = self.format.unwrap_or(Format {
-            sample: "u8",
-            bands: 1,
-        });
+        self.count_cells(tile, win, &labels);
         let mut acc = vec![vec![0f32; n]; format.bands];
         let mut wsum = vec![0f32; n];
         for (j, &k) in cands.iter().enumerate() {
@@ -139,7 +92,7 @@ impl<'a, L: FnMut(&MosaicFrame) -> Result<AnyRaster, Error>> MosaicRun<'a, L> {
             if w.iter().all(|&v| v <= 0.0) {
                 continue;
             }
-            let img = self.frame(k)?;
+            let img = self.cache.frame(k)?;
             let f = &plan.frames[k];
             let off = plan.offsets[k];
             let r = f.plan.render_window(
@@ -168,6 +121,22 @@ impl<'a, L: FnMut(&MosaicFrame) -> Result<AnyRaster, Error>> MosaicRun<'a, L> {
         }
         assemble(format, tile.size, acc, &wsum, &plan.opts)
     }
+
+    /// Adds the cells of `tile` each frame is best at (`labels` over `win`) to the counts.
+    fn count_cells(&self, tile: Window, win: Window, labels: &[Option<usize>]) {
+        let mut cells = vec![0usize; self.cells.len()];
+        for r in 0..tile.size.height {
+            let j = (r + tile.row0 - win.row0) * win.size.width + tile.col0 - win.col0;
+            for k in labels[j..j + tile.size.width].iter().flatten() {
+                cells[*k] += 1;
+            }
+        }
+        for (total, n) in self.cells.iter().zip(cells) {
+            if n > 0 {
+                total.fetch_add(n, Ordering::Relaxed);
+            }
+        }
+    }
 }
 
 /// Frame k's weight over the cells of `tile`.
@@ -179,7 +148,7 @@ fn weights(
     labels: &[Option<usize>],
     scores: &[f64],
 ) -> Vec<f32> {
-    let (ww, wh) = (win.size.width, win.size.height);
+    let ww = win.size.width;
     let at = |c: usize, r: usize| (r + tile.row0 - win.row0) * ww + c + tile.col0 - win.col0;
     let cells = (0..tile.size.height).flat_map(|r| (0..tile.size.width).map(move |c| (c, r)));
     let mine: Vec<bool> = labels.iter().map(|l| *l == Some(k)).collect();
@@ -194,9 +163,12 @@ fn weights(
             let n = opts.feather_px as f32;
             let not_mine: Vec<bool> = mine.iter().map(|m| !m).collect();
             let uncovered: Vec<bool> = scores.iter().map(|s| !s.is_finite()).collect();
-            let d_in = distance_to(&not_mine, ww, wh);
-            let d_out = distance_to(&mine, ww, wh);
-            let d_cov = distance_to(&uncovered, ww, wh);
+            // Distances beyond the feather's width do not change the weight (both terms are
+            // 0 or 1 there): left infinite.
+            let cap = opts.feather_px;
+            let d_in = distance_within(&not_mine, ww, cap);
+            let d_out = distance_within(&mine, ww, cap);
+            let d_cov = distance_within(&uncovered, ww, cap);
             cells
                 .map(|(c, r)| {
                     let i = at(c, r);
@@ -213,51 +185,6 @@ fn weights(
                 .collect()
         }
     }
-}
-
-/// The tile from its weighted sums: the frames' sample type, an alpha band when asked.
-fn assemble(
-    format: Format,
-    size: ImageSize,
-    acc: Vec<Vec<f32>>,
-    wsum: &[f32],
-    opts: &MosaicOptions,
-) -> Result<AnyRaster, Error> {
-    fn build<T: Sample>(
-        size: ImageSize,
-        acc: Vec<Vec<f32>>,
-        wsum: &[f32],
-        opts: &MosaicOptions,
-    ) -> Result<Raster<T>, Error> {
-        let nodata = T::from_f64_exact(opts.nodata).ok_or_else(|| {
-            Error::Invalid(format!(
-                "nodata {} does not fit the frames' {} samples",
-                opts.nodata,
-                T::NAME
-            ))
-        })?;
-        let mut planes: Vec<Vec<T>> = acc
-            .into_iter()
-            .map(|a| {
-                a.iter()
-                    .zip(wsum)
-                    .map(|(&v, &w)| if w > 0.0 { T::from_f32(v / w) } else { nodata })
-                    .collect()
-            })
-            .collect();
-        if opts.alpha {
-            let a = wsum
-                .iter()
-                .map(|&w| if w > 0.0 { T::OPAQUE } else { T::default() });
-            planes.push(a.collect());
-        }
-        Ok(Raster::from_planes(size, planes)?)
-    }
-    Ok(match format.sample {
-        "u8" => AnyRaster::U8(build(size, acc, wsum, opts)?),
-        "u16" => AnyRaster::U16(build(size, acc, wsum, opts)?),
-        _ => AnyRaster::F32(build(size, acc, wsum, opts)?),
-    })
 }
 
 /// The plan of a mosaic written to `out` and its georeference, after refusing an `out` that
@@ -289,21 +216,21 @@ fn prepare(
     Ok((plan, geo))
 }
 
-fn report<L>(
+fn report<L: Fn(&MosaicFrame) -> Result<AnyRaster, Error> + Sync>(
     plan: &MosaicPlan,
     run: &MosaicRun<'_, L>,
     out: &Path,
-    tiles: usize,
     t0: std::time::Instant,
 ) -> MosaicReport {
+    let (cells, loads) = (run.cells(), run.loads());
     let frames = plan
         .frames
         .iter()
         .enumerate()
         .map(|(k, f)| FrameUse {
             path: f.path.display().to_string(),
-            cells: run.cells[k],
-            loads: run.loads[k],
+            cells: cells[k],
+            loads: loads[k],
         })
         .collect();
     MosaicReport {
@@ -311,9 +238,9 @@ fn report<L>(
         size: [plan.grid.size.width, plan.grid.size.height],
         gsd_m: plan.grid.gsd,
         top_left: plan.grid.top_left,
-        tiles,
+        tiles: plan.tile_windows().count(),
         blend: plan.opts.blend,
-        covered_cells: run.cells.iter().sum(),
+        covered_cells: cells.iter().sum(),
         frames,
         seconds: t0.elapsed().as_secs_f64(),
     }
@@ -324,8 +251,9 @@ fn read_frame(f: &MosaicFrame) -> Result<AnyRaster, Error> {
 }
 
 /// Builds the mosaic of `frames` (all planned at one GSD on the global grid of `crs`) and
-/// writes it to `out` as a tiled GeoTIFF, tile by tile; atomically (nothing is left when a
-/// frame fails). Frames are decoded with `aerorect_io::read_image`.
+/// writes it to `out` as a tiled GeoTIFF, its tiles composited and compressed on every thread
+/// of the rayon pool; atomically (nothing is left when a frame fails). The file is the same,
+/// byte for byte, on any number of threads. Frames are decoded with `aerorect_io::read_image`.
 pub fn mosaic(
     frames: Vec<MosaicFrame>,
     crs: Crs,
@@ -334,15 +262,13 @@ pub fn mosaic(
 ) -> Result<MosaicReport, Error> {
     let t0 = std::time::Instant::now();
     let (plan, geo) = prepare(frames, crs, out, opts)?;
-    let mut run = MosaicRun::new(&plan, read_frame);
-    let mut tiles = 0;
-    aerorect_io::write_tiled_tiff::<Error>(
+    let run = MosaicRun::new(&plan, read_frame);
+    aerorect_io::write_tiled_tiff_parallel::<Error>(
         out,
         plan.grid.size,
         opts.tile_px,
         Some(&geo),
         |c, r, s| {
-            tiles += 1;
             run.tile(Window {
                 col0: c,
                 row0: r,
@@ -350,16 +276,16 @@ pub fn mosaic(
             })
         },
     )?;
-    Ok(report(&plan, &run, out, tiles, t0))
+    Ok(report(&plan, &run, out, t0))
 }
 
 /// The largest mosaic (pixels) [`mosaic_cog`] composites in memory: the COG writer takes a
 /// whole raster.
 pub const COG_MAX_PX: usize = 200_000_000;
 
-/// [`mosaic`], composited tile by tile into one raster and written as a cloud-optimised
-/// GeoTIFF (an alpha band becomes its internal mask); a mosaic over [`COG_MAX_PX`] pixels is
-/// refused before any frame is read.
+/// [`mosaic`], composited (in batches of tiles, each batch on every thread) into one raster
+/// and written as a cloud-optimised GeoTIFF (an alpha band becomes its internal mask); a
+/// mosaic over [`COG_MAX_PX`] pixels is refused before any frame is read.
 pub fn mosaic_cog(
     frames: Vec<MosaicFrame>,
     crs: Crs,
@@ -379,14 +305,14 @@ pub fn mosaic_cog(
             COG_MAX_PX / 1_000_000
         )));
     }
-    let mut run = MosaicRun::new(&plan, read_frame);
+    let run = MosaicRun::new(&plan, read_frame);
     let mut whole: Option<AnyRaster> = None;
-    let mut tiles = 0;
     let windows: Vec<Window> = plan.tile_windows().collect();
-    for w in windows {
-        let t = run.tile(w)?;
-        tiles += 1;
-        paste(&mut whole, size, &t, w)?;
+    for batch in windows.chunks(aerorect_io::tiles_per_batch()) {
+        let tiles: Vec<Result<AnyRaster, Error>> = batch.par_iter().map(|&w| run.tile(w)).collect();
+        for (&w, t) in batch.iter().zip(tiles) {
+            paste(&mut whole, size, &t?, w)?;
+        }
     }
     let whole = whole.ok_or_else(|| Error::Invalid("the mosaic is empty".into()))?;
     let mut cog = cog.clone();
@@ -394,45 +320,7 @@ pub fn mosaic_cog(
         cog.mask = aerorect_io::CogMask::AlphaBand;
     }
     aerorect_io::write_cog(out, &whole, &geo, &cog)?;
-    Ok(report(&plan, &run, out, tiles, t0))
-}
-
-/// Copies `tile` into the mosaic `whole` (made, of the tile's type and bands, at the first).
-fn paste(
-    whole: &mut Option<AnyRaster>,
-    size: ImageSize,
-    tile: &AnyRaster,
-    w: Window,
-) -> Result<(), Error> {
-    fn copy<T: Sample>(dst: &mut Raster<T>, src: &Raster<T>, w: Window) {
-        let (width, tw) = (dst.size().width, w.size.width);
-        for b in 0..src.bands() {
-            let d = dst.plane_mut(b);
-            for (r, row) in src.plane(b).chunks(tw).enumerate() {
-                let at = (w.row0 + r) * width + w.col0;
-                d[at..at + tw].copy_from_slice(row);
-            }
-        }
-    }
-    if whole.is_none() {
-        let bands = tile.bands();
-        *whole = Some(match tile {
-            AnyRaster::U8(_) => AnyRaster::U8(Raster::new(size, bands)?),
-            AnyRaster::U16(_) => AnyRaster::U16(Raster::new(size, bands)?),
-            AnyRaster::F32(_) => AnyRaster::F32(Raster::new(size, bands)?),
-        });
-    }
-    match (whole.as_mut(), tile) {
-        (Some(AnyRaster::U8(d)), AnyRaster::U8(s)) if d.bands() == s.bands() => copy(d, s, w),
-        (Some(AnyRaster::U16(d)), AnyRaster::U16(s)) if d.bands() == s.bands() => copy(d, s, w),
-        (Some(AnyRaster::F32(d)), AnyRaster::F32(s)) if d.bands() == s.bands() => copy(d, s, w),
-        _ => {
-            return Err(Error::Invalid(
-                "mosaic tiles of different sample types or bands".into(),
-            ));
-        }
-    }
-    Ok(())
+    Ok(report(&plan, &run, out, t0))
 }
 
 /// Plans photos for a mosaic from their metadata (or `opts.poses`): one GSD for all (`opts`'s,
