@@ -300,7 +300,7 @@ pub(super) fn rounds_warning(
         .map(|r| format!("{:.3}", r.median_turn_deg))
         .collect();
     format!(
-        "the matching rounds {} in {} rounds: the median frame turned by {} deg per round (largest {:.3} deg in the last), never below {settled_deg} deg; the last round's orientation is kept",
+        "the matching rounds {} in {} rounds: the median frame turned by {} deg per round (largest {:.3} deg in the last), never below {settled_deg:.4} deg; the last round's orientation is kept",
         if oscillating {
             "oscillate"
         } else {
