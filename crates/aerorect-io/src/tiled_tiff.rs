@@ -119,6 +119,7 @@ struct Packed {
     bytes: Vec<u8>,
     bands: usize,
     sample: &'static str,
+    sample_bytes: usize,
 }
 
 /// Why a tile is missing: its source failed, or it could not be written.
@@ -158,6 +159,7 @@ fn pack<E>(
         bytes,
         bands: t.bands(),
         sample: t.sample_name(),
+        sample_bytes: t.sample_bytes(),
     })
 }
 
@@ -182,7 +184,7 @@ fn write_packed<E: From<IoError>>(
         let result = match next(0, 0) {
             Ok(Some(first)) => {
                 let bytes =
-                    layout.size.pixels() as u128 * first.bands as u128 * sample_bytes(first.sample);
+                    layout.size.pixels() as u128 * first.bands as u128 * first.sample_bytes as u128;
                 if bytes > CLASSIC_LIMIT_BYTES {
                     let enc = TiffEncoder::new_big(w).map_err(CodecError::from);
                     enc.and_then(|e| encode::<_, TiffKindBig>(e, layout, geo, first, &mut next))
@@ -206,14 +208,6 @@ fn write_packed<E: From<IoError>>(
         (_, Some(e)) => Err(e),
         (Err(e), None) => Err(e.into()),
         (Ok(()), None) => Ok(()),
-    }
-}
-
-fn sample_bytes(sample: &str) -> u128 {
-    match sample {
-        "u8" => 1,
-        "u16" => 2,
-        _ => 4,
     }
 }
 

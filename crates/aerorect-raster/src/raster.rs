@@ -322,6 +322,15 @@ impl AnyRaster {
         }
     }
 
+    /// Bytes of one sample: 1, 2 or 4.
+    pub fn sample_bytes(&self) -> usize {
+        match self {
+            AnyRaster::U8(_) => std::mem::size_of::<u8>(),
+            AnyRaster::U16(_) => std::mem::size_of::<u16>(),
+            AnyRaster::F32(_) => std::mem::size_of::<f32>(),
+        }
+    }
+
     /// Band `b` as f32 values (for metrics).
     pub fn plane_f32(&self, b: usize) -> Vec<f32> {
         match self {

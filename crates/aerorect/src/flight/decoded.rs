@@ -63,12 +63,7 @@ impl Decoded {
 }
 
 fn byte_len(image: &AnyRaster) -> usize {
-    let sample = match image {
-        AnyRaster::U8(_) => 1,
-        AnyRaster::U16(_) => 2,
-        AnyRaster::F32(_) => 4,
-    };
-    image.size().pixels() * image.bands() * sample
+    image.size().pixels() * image.bands() * image.sample_bytes()
 }
 
 #[cfg(test)]
