@@ -1,6 +1,7 @@
 //! Scale- and rotation-invariant keypoints and descriptors: SIFT (Lowe 2004) through
-//! `kornia-imgproc` (pure Rust, a port of OpenCV's `cv::SIFT`: the same scale space, extremum
-//! refinement, orientation histogram and 128-value descriptor), wrapped in our raster types.
+//! `aerorect-sift` (kornia-imgproc's pure-Rust port of OpenCV's `cv::SIFT`, forked so that its
+//! x86 loops vectorise: the same scale space, extremum refinement, orientation histogram and
+//! 128-value descriptor), wrapped in our raster types.
 //!
 //! Positions follow the crate's pixel convention (0-based, pixel centres at integers). Frames
 //! are reduced first ([`gray_reduced`], box means of `factor` x `factor` pixels): a position x in
@@ -11,7 +12,7 @@ mod gray;
 pub use gray::{full_from_reduced, gray_reduced};
 
 use crate::Raster;
-use kornia_imgproc::features::{FirstOctave, SiftConfig, SiftWorkspace, sift_detect_and_compute};
+use aerorect_sift::{FirstOctave, SiftConfig, SiftWorkspace, sift_detect_and_compute};
 use thiserror::Error;
 
 /// Values per descriptor.
