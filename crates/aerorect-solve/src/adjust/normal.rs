@@ -14,6 +14,10 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
+/// Block pairs are hashed by foldhash with a fixed seed: SipHash's cost was 3 % of a large
+/// flight's solve, and the map is never exposed to untrusted keys.
+type BlockPairs = HashMap<(u32, u32), usize, foldhash::fast::FixedState>;
+
 /// Which parameter block each parameter of the reduced system belongs to. A block's
 /// parameters are consecutive.
 #[derive(Debug)]
@@ -53,18 +57,32 @@ impl Blocks {
 pub(super) struct SymBlocks {
     blocks: Arc<Blocks>,
     /// Each block pair's first slot (row-major, rows of the first block).
-    base: HashMap<(u32, u32), usize>,
+    base: BlockPairs,
     values: Vec<f64>,
     written: Vec<bool>,
+    /// [`SymBlocks::add_outer`]'s working space, kept between calls (it allocated four
+    /// vectors per call: a fifth of a large flight's solve went to the allocator).
+    scratch: OuterScratch,
+}
+
+/// Per call of [`SymBlocks::add_outer`]: the call's distinct blocks, each position's place
+/// among them and in its block, the blocks' lengths and the block pairs' first slots.
+#[derive(Debug, Clone, Default)]
+struct OuterScratch {
+    here: Vec<u32>,
+    located: Vec<Option<(usize, usize)>>,
+    lens: Vec<usize>,
+    bases: Vec<usize>,
 }
 
 impl SymBlocks {
     pub fn new(blocks: Arc<Blocks>) -> Self {
         Self {
             blocks,
-            base: HashMap::new(),
+            base: BlockPairs::default(),
             values: Vec::new(),
             written: Vec::new(),
+            scratch: OuterScratch::default(),
         }
     }
 
@@ -98,38 +116,42 @@ impl SymBlocks {
     /// index, rows outer, columns inner (the order a loop over entries would add them in).
     /// The first slots of the call's block pairs are looked up once, before the loop.
     pub fn add_outer(&mut self, idx: &[Option<usize>], mut value: impl FnMut(usize, usize) -> f64) {
+        let mut sc = std::mem::take(&mut self.scratch);
         // Each position's block, as its place among the call's distinct blocks, and its
         // place in the block.
-        let mut here: Vec<u32> = Vec::with_capacity(4);
-        let located: Vec<Option<(usize, usize)>> = idx
-            .iter()
-            .map(|i| {
-                let (b, o) = self.blocks.locate((*i)?);
-                let u = here.iter().position(|&x| x == b).unwrap_or_else(|| {
-                    here.push(b);
-                    here.len() - 1
+        sc.here.clear();
+        sc.located.clear();
+        for i in idx {
+            let located = i.map(|i| {
+                let (b, o) = self.blocks.locate(i);
+                let u = sc.here.iter().position(|&x| x == b).unwrap_or_else(|| {
+                    sc.here.push(b);
+                    sc.here.len() - 1
                 });
-                Some((u, o))
-            })
-            .collect();
-        let n = here.len();
-        let lens: Vec<usize> = here.iter().map(|&b| self.blocks.len(b)).collect();
-        let mut bases = Vec::with_capacity(n * n);
-        for &ba in &here {
-            for &bb in &here {
-                bases.push(self.base(ba, bb));
+                (u, o)
+            });
+            sc.located.push(located);
+        }
+        let n = sc.here.len();
+        sc.lens.clear();
+        sc.lens.extend(sc.here.iter().map(|&b| self.blocks.len(b)));
+        sc.bases.clear();
+        for &ba in &sc.here {
+            for &bb in &sc.here {
+                sc.bases.push(self.base(ba, bb));
             }
         }
-        for (a, la) in located.iter().enumerate() {
+        for (a, la) in sc.located.iter().enumerate() {
             let Some((ua, oa)) = *la else { continue };
-            let row = &bases[ua * n..ua * n + n];
-            for (b, lb) in located.iter().enumerate() {
+            let row = &sc.bases[ua * n..ua * n + n];
+            for (b, lb) in sc.located.iter().enumerate() {
                 let Some((ub, ob)) = *lb else { continue };
-                let s = row[ub] + oa * lens[ub] + ob;
+                let s = row[ub] + oa * sc.lens[ub] + ob;
                 self.values[s] += value(a, b);
                 self.written[s] = true;
             }
         }
+        self.scratch = sc;
     }
 
     /// The written entries of the lower triangle (i >= j), ordered by (i, j).

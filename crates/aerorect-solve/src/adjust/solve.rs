@@ -13,7 +13,6 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMat, Triplet};
 use nalgebra::{Matrix3, SMatrix, SVector};
 use rayon::prelude::*;
-use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// The damped reduced system, its right-hand side, and each point's damped H_pp^-1 (none
@@ -69,7 +68,8 @@ impl Problem<'_> {
     fn point_part(&self, s: &State, tie: &TiePoint, x: &Vec3) -> Option<PointPart> {
         let mut hpp = Matrix3::<f64>::zeros();
         let mut bp = Vec3::zeros();
-        let mut hpc: BTreeMap<usize, Vec3> = BTreeMap::new();
+        // (reduced index, H_cp row) per observation and local column, summed by index below.
+        let mut hpc: Vec<(usize, Vec3)> = Vec::with_capacity(LOCAL * tie.observations.len());
         let mut obs = Vec::with_capacity(tie.observations.len());
         let mut robust = false;
         for o in &tie.observations {
@@ -80,7 +80,7 @@ impl Problem<'_> {
             let cross = l.w * l.local.transpose() * l.point;
             for (a, i) in l.idx.iter().enumerate() {
                 let Some(i) = *i else { continue };
-                *hpc.entry(i).or_insert_with(Vec3::zeros) += cross.row(a).transpose();
+                hpc.push((i, cross.row(a).transpose()));
             }
             obs.push(ObservationPart {
                 hcc: l.w * l.local.transpose() * l.local,
@@ -93,7 +93,7 @@ impl Problem<'_> {
             point: PointLin {
                 hpp: hpp + hp,
                 bp: bp - b,
-                hpc: hpc.into_iter().collect(),
+                hpc: summed_by_index(hpc),
                 robust,
             },
             obs,
@@ -159,6 +159,25 @@ impl Problem<'_> {
     }
 }
 
+/// The rows of `rows` summed per index, in index order: each sum starts at zero and adds its
+/// rows in their order in `rows` (what a map of sums filled in that order holds; a map of
+/// nodes cost an allocation per index).
+fn summed_by_index(mut rows: Vec<(usize, Vec3)>) -> Vec<(usize, Vec3)> {
+    rows.sort_by_key(|&(i, _)| i);
+    let mut kept = 0;
+    for r in 0..rows.len() {
+        let (i, v) = rows[r];
+        if kept > 0 && rows[kept - 1].0 == i {
+            rows[kept - 1].1 += v;
+        } else {
+            rows[kept] = (i, Vec3::zeros() + v);
+            kept += 1;
+        }
+    }
+    rows.truncate(kept);
+    rows
+}
+
 /// Tie points per parallel chunk of [`Problem::linear`]: a chunk's observation blocks are
 /// held until they are added (about 2 KB each).
 const CHUNK: usize = 4096;
@@ -194,19 +213,25 @@ impl Linear {
         }
         let mut rhs = self.rhs.clone();
         let mut inverses = Vec::with_capacity(self.points.len());
+        let mut idx: Vec<Option<usize>> = Vec::new();
         for points in self.points.chunks(SCHUR_CHUNK) {
-            let parts: Vec<Option<SchurPart>> =
-                points.par_iter().map(|p| schur_part(p, lambda)).collect();
+            let parts: Vec<Option<SchurPart>> = points
+                .par_iter()
+                .map_init(Vec::new, |t, p| schur_part(p, lambda, t))
+                .collect();
             for (p, part) in points.iter().zip(parts) {
                 let Some(part) = part else {
                     inverses.push(None);
                     continue;
                 };
-                for ((i, _), d) in p.hpc.iter().zip(&part.rhs) {
+                let n = p.hpc.len();
+                let (outer, subtract) = part.outer_rhs.split_at(n * n);
+                for ((i, _), d) in p.hpc.iter().zip(subtract) {
                     rhs[*i] -= d;
                 }
-                let n = p.hpc.len();
-                entries.add_outer(&part.idx, |a, b| part.outer[a * n + b]);
+                idx.clear();
+                idx.extend(p.hpc.iter().map(|(i, _)| Some(*i)));
+                entries.add_outer(&idx, |a, b| outer[a * n + b]);
                 inverses.push(Some(part.inv));
             }
         }
@@ -218,35 +243,32 @@ impl Linear {
 /// they are added (n x n values for a point seen through n reduced parameters).
 const SCHUR_CHUNK: usize = 1024;
 
-/// One point's elimination: S -= H_cp H_pp^-1 H_pc (`outer`, row-major over the point's
-/// reduced indices `idx`) and rhs -= H_cp H_pp^-1 b_p (`rhs`, what is subtracted).
+/// One point's elimination, for a point seen through n reduced parameters (its `hpc`):
+/// S -= H_cp H_pp^-1 H_pc, n x n values row-major over the point's reduced indices, then
+/// rhs -= H_cp H_pp^-1 b_p, n values (what is subtracted), in one vector.
 struct SchurPart {
     inv: Matrix3<f64>,
-    idx: Vec<Option<usize>>,
-    outer: Vec<f64>,
-    rhs: Vec<f64>,
+    outer_rhs: Vec<f64>,
 }
 
 /// Point `p`'s [`SchurPart`] at damping `lambda`; `None` where its damped H_pp is singular.
-fn schur_part(p: &PointLin, lambda: f64) -> Option<SchurPart> {
+/// `t` is working space (H_pp^-1 H_pc by column).
+fn schur_part(p: &PointLin, lambda: f64, t: &mut Vec<Vec3>) -> Option<SchurPart> {
     let mut hpp = p.hpp;
     for k in 0..3 {
         hpp[(k, k)] += lambda * p.hpp[(k, k)].max(1e-9);
     }
     let inv = hpp.try_inverse()?;
-    let t: Vec<Vec3> = p.hpc.iter().map(|(_, v)| inv * v).collect();
+    t.clear();
+    t.extend(p.hpc.iter().map(|(_, v)| inv * v));
     let ib = inv * p.bp;
-    let outer = p
-        .hpc
-        .iter()
-        .flat_map(|(_, va)| t.iter().map(move |tb| -va.dot(tb)))
-        .collect();
-    Some(SchurPart {
-        inv,
-        idx: p.hpc.iter().map(|(i, _)| Some(*i)).collect(),
-        outer,
-        rhs: p.hpc.iter().map(|(_, vi)| vi.dot(&ib)).collect(),
-    })
+    let n = p.hpc.len();
+    let mut outer_rhs = Vec::with_capacity(n * n + n);
+    for (_, va) in &p.hpc {
+        outer_rhs.extend(t.iter().map(|tb| -va.dot(tb)));
+    }
+    outer_rhs.extend(p.hpc.iter().map(|(_, vi)| vi.dot(&ib)));
+    Some(SchurPart { inv, outer_rhs })
 }
 
 /// Factorises a symmetric system given by its entries (both triangles).
@@ -362,5 +384,37 @@ impl crate::lm::Model for Solver<'_, '_> {
             step_norm: step2.sqrt(),
             x_norm: (params + points).sqrt(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use std::collections::BTreeMap;
+
+    /// The same sums, bit for bit and in index order, as a map of sums filled in order
+    /// (negative zeros and repeated indices included).
+    #[test]
+    fn summed_by_index_equals_a_map_of_sums() {
+        let rows: Vec<(usize, Vec3)> = (0..40)
+            .map(|k| {
+                let i = (k * 7) % 9;
+                let v = Vec3::new(0.1 * k as f64, -0.0, 1.0 / (k as f64 + 0.3));
+                (i, if k % 5 == 0 { -v } else { v })
+            })
+            .collect();
+        let mut map: BTreeMap<usize, Vec3> = BTreeMap::new();
+        for (i, v) in &rows {
+            *map.entry(*i).or_insert_with(Vec3::zeros) += v;
+        }
+        let got = summed_by_index(rows);
+        assert_eq!(got.len(), map.len());
+        for ((gi, gv), (mi, mv)) in got.iter().zip(&map) {
+            assert_eq!(gi, mi);
+            for k in 0..3 {
+                assert_eq!(gv[k].to_bits(), mv[k].to_bits());
+            }
+        }
     }
 }
