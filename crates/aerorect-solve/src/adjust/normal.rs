@@ -70,7 +70,8 @@ pub(super) struct SymBlocks {
 #[derive(Debug, Clone, Default)]
 struct OuterScratch {
     here: Vec<u32>,
-    located: Vec<Option<(usize, usize)>>,
+    /// (position in `idx`, place among `here`, place in the block).
+    located: Vec<(usize, usize, usize)>,
     lens: Vec<usize>,
     bases: Vec<usize>,
 }
@@ -117,20 +118,20 @@ impl SymBlocks {
     /// The first slots of the call's block pairs are looked up once, before the loop.
     pub fn add_outer(&mut self, idx: &[Option<usize>], mut value: impl FnMut(usize, usize) -> f64) {
         let mut sc = std::mem::take(&mut self.scratch);
-        // Each position's block, as its place among the call's distinct blocks, and its
-        // place in the block.
+        // Each position that holds an index: the position, its block as its place among
+        // the call's distinct blocks, and its place in the block. Positions without one
+        // are dropped here (an observation holds 3 of its 14 when only attitudes are
+        // solved for, and the double loop below ran over all 14 x 14).
         sc.here.clear();
         sc.located.clear();
-        for i in idx {
-            let located = i.map(|i| {
-                let (b, o) = self.blocks.locate(i);
-                let u = sc.here.iter().position(|&x| x == b).unwrap_or_else(|| {
-                    sc.here.push(b);
-                    sc.here.len() - 1
-                });
-                (u, o)
+        for (a, i) in idx.iter().enumerate() {
+            let Some(i) = *i else { continue };
+            let (b, o) = self.blocks.locate(i);
+            let u = sc.here.iter().position(|&x| x == b).unwrap_or_else(|| {
+                sc.here.push(b);
+                sc.here.len() - 1
             });
-            sc.located.push(located);
+            sc.located.push((a, u, o));
         }
         let n = sc.here.len();
         sc.lens.clear();
@@ -141,11 +142,9 @@ impl SymBlocks {
                 sc.bases.push(self.base(ba, bb));
             }
         }
-        for (a, la) in sc.located.iter().enumerate() {
-            let Some((ua, oa)) = *la else { continue };
+        for &(a, ua, oa) in &sc.located {
             let row = &sc.bases[ua * n..ua * n + n];
-            for (b, lb) in sc.located.iter().enumerate() {
-                let Some((ub, ob)) = *lb else { continue };
+            for &(b, ub, ob) in &sc.located {
                 let s = row[ub] + oa * sc.lens[ub] + ob;
                 self.values[s] += value(a, b);
                 self.written[s] = true;
