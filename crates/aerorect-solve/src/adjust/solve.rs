@@ -70,7 +70,7 @@ impl Problem<'_> {
         let mut bp = Vec3::zeros();
         // (reduced index, H_cp row) per observation and local column, summed by index below.
         let mut hpc: Vec<(usize, Vec3)> = Vec::with_capacity(LOCAL * tie.observations.len());
-        let mut obs = Vec::with_capacity(tie.observations.len());
+        let mut obs = ObservationParts::default();
         let mut robust = false;
         for o in &tie.observations {
             let l = self.observation_lin(s, o, x)?;
@@ -82,11 +82,11 @@ impl Problem<'_> {
                 let Some(i) = *i else { continue };
                 hpc.push((i, cross.row(a).transpose()));
             }
-            obs.push(ObservationPart {
-                hcc: l.w * l.local.transpose() * l.local,
-                bc: -l.w * l.local.transpose() * l.r,
-                idx: l.idx,
-            });
+            obs.push(
+                &l.idx,
+                &(l.w * l.local.transpose() * l.local),
+                &(-l.w * l.local.transpose() * l.r),
+            );
         }
         let (hp, b) = self.point_prior_blocks(tie, x);
         Some(PointPart {
@@ -136,13 +136,7 @@ impl Problem<'_> {
                 .collect();
             for part in parts {
                 let part = part?;
-                for o in &part.obs {
-                    for (a, i) in o.idx.iter().enumerate() {
-                        let Some(i) = *i else { continue };
-                        lin.rhs[i] += o.bc[a];
-                    }
-                    lin.entries.add_outer(&o.idx, |a, b| o.hcc[(a, b)]);
-                }
+                part.obs.add_to(&mut lin.entries, &mut lin.rhs);
                 lin.points.push(part.point);
             }
         }
@@ -185,17 +179,66 @@ fn summed_by_index(mut rows: Vec<(usize, Vec3)>) -> Vec<(usize, Vec3)> {
 /// held until they are added (about 2 KB each).
 const CHUNK: usize = 4096;
 
-/// One observation's frame-camera products: H_cc, -J_c^T W r, and their indices.
-struct ObservationPart {
-    hcc: SMatrix<f64, LOCAL, LOCAL>,
-    bc: SVector<f64, LOCAL>,
-    idx: [Option<usize>; LOCAL],
+/// A tie point's observations' frame-camera products over the local columns that hold a
+/// reduced index (3 of 14 when only attitudes are solved for), one observation after another:
+/// its count n (`len`), its n indices (`idx`, in column order), then H_cc over them (n x n,
+/// row-major) and -J_c^T W r (n) in `values`. Three small vectors per point: an observation's
+/// full 14 x 14 block, 1.9 KB, went through the allocator's slow path for every point and
+/// step (a sixth of a large flight's solve).
+#[derive(Default)]
+struct ObservationParts {
+    len: Vec<usize>,
+    idx: Vec<Option<usize>>,
+    values: Vec<f64>,
+}
+
+impl ObservationParts {
+    fn push(
+        &mut self,
+        idx: &[Option<usize>; LOCAL],
+        hcc: &SMatrix<f64, LOCAL, LOCAL>,
+        bc: &SVector<f64, LOCAL>,
+    ) {
+        let mut held = [0usize; LOCAL];
+        let mut n = 0;
+        for (a, i) in idx.iter().enumerate() {
+            if i.is_some() {
+                held[n] = a;
+                n += 1;
+            }
+        }
+        let held = &held[..n];
+        self.len.push(n);
+        self.idx.extend(held.iter().map(|&a| idx[a]));
+        for &a in held {
+            self.values.extend(held.iter().map(|&b| hcc[(a, b)]));
+        }
+        self.values.extend(held.iter().map(|&a| bc[a]));
+    }
+
+    /// Adds every observation's products to the reduced system, in observation order, each
+    /// the right-hand side's entries first, then H_cc (what adding the full blocks added).
+    fn add_to(&self, entries: &mut SymBlocks, rhs: &mut [f64]) {
+        let (mut at_idx, mut at_value) = (0, 0);
+        for &n in &self.len {
+            let idx = &self.idx[at_idx..at_idx + n];
+            let (hcc, bc) = self.values[at_value..at_value + n * n + n].split_at(n * n);
+            for (i, b) in idx.iter().zip(bc) {
+                if let Some(i) = *i {
+                    rhs[i] += b;
+                }
+            }
+            entries.add_outer(idx, |a, b| hcc[a * n + b]);
+            at_idx += n;
+            at_value += n * n + n;
+        }
+    }
 }
 
 /// One tie point's blocks and its observations' products.
 struct PointPart {
     point: PointLin,
-    obs: Vec<ObservationPart>,
+    obs: ObservationParts,
 }
 
 impl Linear {
@@ -395,6 +438,43 @@ mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
     use std::collections::BTreeMap;
+
+    /// An observation's products added from the compact form give the reduced system and
+    /// right-hand side that adding its full 14 x 14 block gave, bit for bit.
+    #[test]
+    fn compact_observations_add_what_full_blocks_added() {
+        use super::super::normal::Blocks;
+        let blocks = Arc::new(Blocks::new([3, 3, 8]));
+        let (mut compact, mut full) = (SymBlocks::new(blocks.clone()), SymBlocks::new(blocks));
+        let (mut rhs_c, mut rhs_f) = (vec![0.0; 14], vec![0.0; 14]);
+        let mut parts = ObservationParts::default();
+        let held: [&[usize]; 3] = [&[0, 1, 2], &[3, 4, 5, 9, 13], &[]];
+        for (k, held) in held.iter().enumerate() {
+            let mut idx = [None; LOCAL];
+            for (n, &a) in held.iter().enumerate() {
+                idx[a] = Some((3 * k + 2 * n) % 14);
+            }
+            let hcc = SMatrix::<f64, LOCAL, LOCAL>::from_fn(|a, b| {
+                ((a * 31 + b * 17 + k) as f64).sin() / 3.0
+            });
+            let bc = SVector::<f64, LOCAL>::from_fn(|a, _| -(((a + k) as f64) * 0.7).cos());
+            parts.push(&idx, &hcc, &bc);
+            for (a, i) in idx.iter().enumerate() {
+                if let Some(i) = *i {
+                    rhs_f[i] += bc[a];
+                }
+            }
+            full.add_outer(&idx, |a, b| hcc[(a, b)]);
+        }
+        parts.add_to(&mut compact, &mut rhs_c);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&rhs_c), bits(&rhs_f));
+        let (c, f) = (compact.lower_triplets(), full.lower_triplets());
+        assert_eq!(c.len(), f.len());
+        for (x, y) in c.iter().zip(&f) {
+            assert_eq!((x.0, x.1, x.2.to_bits()), (y.0, y.1, y.2.to_bits()));
+        }
+    }
 
     /// The same sums, bit for bit and in index order, as a map of sums filled in order
     /// (negative zeros and repeated indices included).
