@@ -171,7 +171,7 @@ const LANES: usize = 16;
 /// Per query the best and second-best train row by squared L2 distance, and per train row the
 /// best query, from matrix products of blocks of queries with all train rows. Each block's
 /// products are stored one query per contiguous column, so the scans over train rows
-/// ([`two_smallest`], [`update_columns`]) run on contiguous slices and vectorise (they were
+/// ([`two_smallest`], [`Columns::update`]) run on contiguous slices and vectorise (they were
 /// strided through the product and cost more than the product itself: 20 s of CPU against
 /// its 16 s on the 1,000-frame simulation).
 fn nearest_float(query: &[f32], train: &[f32], dim: usize) -> (RowBest, ColumnBest) {
