@@ -1,9 +1,10 @@
 //! Descriptor matching speed: one pair of frames' SIFT-like descriptors (1,000 and 2,000 a
 //! frame, the 1,000-frame simulation's 1,051 on average), half of them noisy copies of the
-//! other frame's, by `match_float` (ratio test and mutual check).
+//! other frame's, by `match_float` (ratio test and mutual check), and guided within a window
+//! around each query's predicted position (`match_float_within`).
 #![allow(clippy::unwrap_used)]
 
-use aerorect_solve::matching::{MatchOptions, match_float};
+use aerorect_solve::matching::{MatchOptions, Window, match_float, match_float_within};
 use criterion::{Criterion, criterion_group, criterion_main};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -38,6 +39,24 @@ fn pair(n: usize, seed: u64) -> (Vec<f32>, Vec<f32>) {
     (a, b)
 }
 
+/// Positions for [`pair`]'s rows on a 480 x 360 frame (the simulation's): the second frame's
+/// copies where the first frame's rows are, the rest anywhere; each query predicted within
+/// 20 px of its row's position.
+fn positions(n: usize, seed: u64) -> (Vec<Option<[f64; 2]>>, Vec<[f64; 2]>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut anywhere = || [rng.random_range(0.0..480.0), rng.random_range(0.0..360.0)];
+    let a: Vec<[f64; 2]> = (0..n).map(|_| anywhere()).collect();
+    let b: Vec<[f64; 2]> = (0..n)
+        .map(|i| if i < n / 2 { a[i] } else { anywhere() })
+        .collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed + 1);
+    let predicted = a
+        .iter()
+        .map(|p| Some(p.map(|v| v + rng.random_range(-20.0..20.0))))
+        .collect();
+    (predicted, b)
+}
+
 fn bench(c: &mut Criterion) {
     let opts = MatchOptions::default();
     for n in [1000, 2000] {
@@ -46,6 +65,18 @@ fn bench(c: &mut Criterion) {
         assert!(found.len() > n / 4, "{} matches of {n}", found.len());
         c.bench_function(&format!("match_float {n} x {n}"), |bch| {
             bch.iter(|| match_float(&a, &b, DIM, &opts))
+        });
+        // Guided, at about the 1,000-frame simulation's radius (a 1 degree prior: 70 px).
+        let (query_at, train_at) = positions(n, 9);
+        let w = Window {
+            query_at: &query_at,
+            train_at: &train_at,
+            radius: 70.0,
+        };
+        let found = match_float_within(&a, &b, DIM, &w, &opts).unwrap();
+        assert!(found.len() > n / 4, "{} guided matches of {n}", found.len());
+        c.bench_function(&format!("match_float_within {n} x {n}, radius 70"), |bch| {
+            bch.iter(|| match_float_within(&a, &b, DIM, &w, &opts))
         });
     }
 }

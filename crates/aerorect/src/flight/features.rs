@@ -5,7 +5,9 @@
 //! tests and a fundamental matrix (RANSAC), so relief does not reject them.
 
 use super::*;
-use crate::features::{FrameFeatures, TieOptions, match_frames, raster_features};
+use crate::features::{
+    FrameFeatures, PairTies, TieOptions, match_frames, match_frames_within, raster_features,
+};
 use aerorect_solve::pairs::candidate_pairs;
 use aerorect_solve::ransac::RansacOptions;
 
@@ -81,9 +83,11 @@ impl FlightPlan {
             Error::Invalid(format!("frame {k} of a flight of {} frames", self.len()))
         })?;
         let image = self.decoded.get(k, &f.input)?;
-        timing::time("features: sift", || {
+        let mut features = timing::time("features: sift", || {
             raster_features(&f.input, &image, &self.tie_options())
-        })
+        })?;
+        features.ground = self.keypoints_on_ground(k, &features);
+        Ok(features)
     }
 
     /// The pairs to match by features: the nearest neighbours and Delaunay neighbours of the
@@ -110,8 +114,9 @@ impl FlightPlan {
             .map_err(Error::context("candidate pairs"))
     }
 
-    /// Frames `i` and `j` matched by their features: the pair's tie points, each with its
-    /// first guess on the ground where frame `i`'s recorded ray meets the ground.
+    /// Frames `i` and `j` matched by their features (guided where the recorded orientation
+    /// bounds the search, see `guide`): the pair's tie points, each with its first guess on
+    /// the ground where frame `i`'s recorded ray meets the ground.
     pub fn feature_match(
         &self,
         (i, a): (usize, &FrameFeatures),
@@ -123,10 +128,7 @@ impl FlightPlan {
                 self.len()
             )));
         }
-        let m = match_frames(a, b, (i, j), &self.tie_options())?;
-        let inliers = timing::time("features: H-RANSAC", || {
-            near_one_homography(&m, a.size.width.max(a.size.height))
-        });
+        let (m, inliers) = self.verified_matches((i, a), (j, b))?;
         // A relative weight: the adjustment's pixel sigma is a correlation tie's (0.5 px at
         // full resolution); a feature's is its reduced position's, scaled up.
         let factor = a.factor.max(b.factor) as f64;
@@ -201,10 +203,40 @@ impl FlightPlan {
     }
 }
 
+impl FlightPlan {
+    /// Frames `i` and `j`'s matches and the indices of those verified: guided by the recorded
+    /// orientation where it is known well enough ([`FlightPlan::guide`]), and matched again in
+    /// full when a guided pair predicted to overlap does not tie.
+    fn verified_matches(
+        &self,
+        (i, a): (usize, &FrameFeatures),
+        (j, b): (usize, &FrameFeatures),
+    ) -> Result<(PairTies, Vec<usize>), Error> {
+        let opts = self.tie_options();
+        let verify = |m: &PairTies| {
+            timing::time("features: H-RANSAC", || {
+                near_one_homography(m, a.size.width.max(a.size.height))
+            })
+        };
+        if let Some(g) = self.guide((i, a), (j, b)) {
+            let window = Some((&g.query_at[..], g.radius));
+            let m = match_frames_within(a, b, (i, j), &opts, window)?;
+            let inliers = verify(&m);
+            if inliers.len() >= MIN_FEATURE_INLIERS || g.inside < GUIDE_RETRY_OVERLAP {
+                return Ok((m, inliers));
+            }
+            timing::add("features: guided, matched again", 0.0);
+        }
+        let m = match_frames(a, b, (i, j), &opts)?;
+        let inliers = verify(&m);
+        Ok((m, inliers))
+    }
+}
+
 /// The fundamental matrix's inliers that also lie within [`HOMOGRAPHY_SLACK`] of the long
 /// side (`long_px`) of one homography (none when no homography fits, or when there are fewer
 /// than [`MIN_FEATURE_INLIERS`] to fit).
-fn near_one_homography(m: &crate::features::PairTies, long_px: usize) -> Vec<usize> {
+fn near_one_homography(m: &PairTies, long_px: usize) -> Vec<usize> {
     let kept: Vec<usize> = (0..m.inliers.len()).filter(|&k| m.inliers[k]).collect();
     if kept.len() < MIN_FEATURE_INLIERS {
         // Too few to tie the pair whatever the homography keeps.

@@ -9,7 +9,8 @@
 //! its ties replace the pair's features.
 //!
 //! One file per stage: `frames` (the photos and their first orientation), `features` (the
-//! first round's tie points from SIFT features, which need no attitude), `correlate` (the
+//! first round's tie points from SIFT features, which need no attitude; `guide` narrows each
+//! pair's search where the recorded orientation bounds it), `correlate` (the
 //! later rounds' tie points, by correlation of the frames rendered on one grid), `ties` (a
 //! pair's tie points as the adjustment takes them), `solve` (a round's adjustment), `checks`
 //! (the GPS fixes and recorded attitudes against the images after it), `plan`
@@ -28,6 +29,7 @@ mod decoded;
 mod exchange;
 mod features;
 mod frames;
+mod guide;
 mod plan;
 mod predict;
 mod render;
@@ -48,6 +50,7 @@ pub use control::{ControlOptions, MARK_SIGMA_PX, Role, SURVEY_SIGMA_M};
 pub use decoded::DECODED_BUDGET_BYTES;
 pub use exchange::{exact_json, from_exact_json};
 pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource};
+pub use guide::{GUIDE_RETRY_OVERLAP, GUIDE_SIGMAS, GUIDE_SLACK_PX, Guide, MAX_GUIDE_FRACTION};
 pub use plan::{FlightPlan, FlightProgress, Orientation};
 pub use predict::{MarkPrediction, chip};
 pub use render::AdjustedFlight;

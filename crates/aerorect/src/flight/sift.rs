@@ -12,7 +12,7 @@ use aerorect_raster::features::{
     DESCRIPTOR_LEN, FeatureOptions, Features, full_from_reduced, gray_reduced, sift,
 };
 use aerorect_solve::fundamental::ransac_fundamental;
-use aerorect_solve::matching::{MatchOptions, match_float};
+use aerorect_solve::matching::{MatchOptions, Window, match_float, match_float_within};
 use aerorect_solve::pairs::{PairOptions, candidate_pairs};
 use aerorect_solve::ransac::{RansacOptions, ransac_homography};
 use rayon::prelude::*;
@@ -76,6 +76,10 @@ pub struct FrameFeatures {
     pub features: Features,
     /// Seconds to reduce and describe the frame (decoding not counted).
     pub seconds: f64,
+    /// In a flight, each keypoint on the ground by the frame's recorded orientation (none
+    /// where its ray misses), to guide matching; empty otherwise.
+    #[serde(default)]
+    pub ground: Vec<Option<[f64; 3]>>,
 }
 
 /// The matches of one pair, in full-resolution pixels of each frame, with RANSAC's verdict.
@@ -151,6 +155,7 @@ fn frame_features_of(
         factor,
         features,
         seconds: start.elapsed().as_secs_f64(),
+        ground: Vec::new(),
     }
 }
 
@@ -221,22 +226,46 @@ pub fn frame_features(path: &Path, opts: &TieOptions) -> Result<FrameFeatures, E
 pub fn match_frames(
     a: &FrameFeatures,
     b: &FrameFeatures,
-    (first, second): (usize, usize),
+    pair: (usize, usize),
     opts: &TieOptions,
 ) -> Result<PairTies, Error> {
+    match_frames_within(a, b, pair, opts, None)
+}
+
+/// [`match_frames`], each of `a`'s keypoints compared only with `b`'s within `window` of
+/// where it is predicted in `b` (reduced pixels of `b`: each keypoint's predicted position,
+/// and the radius) when given.
+pub fn match_frames_within(
+    a: &FrameFeatures,
+    b: &FrameFeatures,
+    (first, second): (usize, usize),
+    opts: &TieOptions,
+    window: Option<(&[Option<[f64; 2]>], f64)>,
+) -> Result<PairTies, Error> {
     let t = Instant::now();
-    let m = match_float(
-        &a.features.descriptors,
-        &b.features.descriptors,
-        DESCRIPTOR_LEN,
-        &opts.matching,
-    )
+    let (qa, tb) = (&a.features.descriptors, &b.features.descriptors);
+    let m = match window {
+        None => match_float(qa, tb, DESCRIPTOR_LEN, &opts.matching),
+        Some((query_at, radius)) => {
+            let train_at = b.features.positions();
+            let w = Window {
+                query_at,
+                train_at: &train_at,
+                radius,
+            };
+            match_float_within(qa, tb, DESCRIPTOR_LEN, &w, &opts.matching)
+        }
+    }
     .map_err(Error::context(format!(
         "matching {} with {}",
         a.path.display(),
         b.path.display()
     )))?;
-    crate::flight::timing::add("features: descriptor matching", t.elapsed().as_secs_f64());
+    let stage = match window {
+        None => "features: descriptor matching",
+        Some(_) => "features: guided matching",
+    };
+    crate::flight::timing::add(stage, t.elapsed().as_secs_f64());
     let t = Instant::now();
     let pa: Vec<[f64; 2]> = m.iter().map(|m| position(a, m.query)).collect();
     let pb: Vec<[f64; 2]> = m.iter().map(|m| position(b, m.train)).collect();

@@ -85,34 +85,23 @@ pub(super) fn match_and_adjust(
         });
         ties.extend(t);
     }
-    // Ground control moves the recorded positions, pose tables' too.
+    // Ground control that moves the recorded positions.
     let control = plan
         .control
         .as_ref()
         .filter(|c| c.datum() != Datum::Recorded);
-    let position_sigma_m = match fo.positions {
-        PositionPrior::Hold => None,
-        PositionPrior::Sigma(s) => Some(s),
-        PositionPrior::Recorded => (!posed || control.is_some()).then_some(GPS_SIGMA_M),
-    };
-    let own = fo.positions == PositionPrior::Recorded;
+    let position_sigma_m = plan.position_sigma_m(posed);
     let adjust_frames: Vec<AdjustFrame> = rec
         .poses
         .iter()
         .zip(&rec.camera_of)
-        .zip(frames)
-        .map(|((p, &camera), f)| AdjustFrame {
+        .enumerate()
+        .map(|(k, (p, &camera))| AdjustFrame {
             camera,
             centre: p.centre,
             world_from_camera: p.world_from_camera(),
-            // A receiver's claim of a millimetre is held to 5 mm.
-            position_sigma_m: f.rtk_std_m.filter(|_| own).map(|s| s.map(|v| v.max(0.005))),
-            // A source that needs a wider prior than the flight's (body angles, GPS track).
-            attitude_sigma_deg: f
-                .info
-                .attitude
-                .prior_sigma_deg
-                .map(|s| s.max(fo.attitude_sigma_deg)),
+            position_sigma_m: plan.own_position_sigma_m(k),
+            attitude_sigma_deg: frames[k].own_attitude_sigma_deg(fo.attitude_sigma_deg),
         })
         .collect();
     let aopts = AdjustOptions {
@@ -129,10 +118,7 @@ pub(super) fn match_and_adjust(
             ground,
             // Without a DEM the level ground is a guess: every tie, a feature's or the
             // correlator's, is a real point on the hills (see RELIEF_SIGMA_M).
-            match dem {
-                true => 1.0,
-                false => RELIEF_SIGMA_M,
-            },
+            terrain_sigma_m(dem),
         )),
         max_iterations: 100,
         start,
@@ -433,3 +419,65 @@ pub const SOLVE_SETTLED_DEG: f64 = 1e-4;
 /// A GPS fix moved by more than this many of its sigmas is contradicted by the images (the
 /// Huber threshold of each axis with robust GPS).
 pub const GPS_CONTRADICTION_SIGMAS: f64 = 3.0;
+
+/// The standard deviation (m) of the ground's height under a tie: a DEM's, else the level
+/// ground's guess ([`RELIEF_SIGMA_M`]).
+pub(super) fn terrain_sigma_m(dem: bool) -> f64 {
+    match dem {
+        true => 1.0,
+        false => RELIEF_SIGMA_M,
+    }
+}
+
+impl FlightPlan {
+    /// The recorded positions' prior standard deviation (m) for the frames without their own
+    /// (`posed`: the frames come from a pose table); none when they are held.
+    pub(super) fn position_sigma_m(&self, posed: bool) -> Option<f64> {
+        // Ground control moves the recorded positions, pose tables' too.
+        let control = self
+            .control
+            .as_ref()
+            .is_some_and(|c| c.datum() != Datum::Recorded);
+        match self.fo.positions {
+            PositionPrior::Hold => None,
+            PositionPrior::Sigma(s) => Some(s),
+            PositionPrior::Recorded => (!posed || control).then_some(GPS_SIGMA_M),
+        }
+    }
+
+    /// Frame `k`'s own position prior (m; east, north, up): its receiver's RTK standard
+    /// deviations when the recorded positions are taken as they come (a claim of a millimetre
+    /// held to 5 mm).
+    pub(super) fn own_position_sigma_m(&self, k: usize) -> Option<[f64; 3]> {
+        let own = self.fo.positions == PositionPrior::Recorded;
+        self.frames[k]
+            .rtk_std_m
+            .filter(|_| own)
+            .map(|s| s.map(|v| v.max(0.005)))
+    }
+
+    /// Frame `k`'s position prior (m, its largest axis); none when its position is held.
+    pub(super) fn frame_position_sigma_m(&self, k: usize) -> Option<f64> {
+        match self.own_position_sigma_m(k) {
+            Some(s) => Some(s.into_iter().fold(0.0, f64::max)),
+            None => self.position_sigma_m(self.opts.poses.is_some()),
+        }
+    }
+}
+
+impl Frame {
+    /// The frame's own attitude prior (degrees, each axis): a source that needs a wider one
+    /// than the flight's `flight_deg` (body angles, GPS track headings); none otherwise.
+    pub(super) fn own_attitude_sigma_deg(&self, flight_deg: f64) -> Option<f64> {
+        self.info
+            .attitude
+            .prior_sigma_deg
+            .map(|s| s.max(flight_deg))
+    }
+
+    /// The frame's attitude prior (degrees, each axis).
+    pub(super) fn attitude_sigma_deg(&self, flight_deg: f64) -> f64 {
+        self.own_attitude_sigma_deg(flight_deg)
+            .unwrap_or(flight_deg)
+    }
+}

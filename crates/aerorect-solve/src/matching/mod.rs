@@ -9,6 +9,9 @@
 
 use thiserror::Error;
 
+mod within;
+pub use within::{Window, match_float_within};
+
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum MatchError {
     #[error("descriptor length {dim} is not usable (it must be at least 1)")]
@@ -23,6 +26,14 @@ pub enum MatchError {
     Ratio { ratio: f32 },
     #[error("{rows} {which} descriptors: at most {} can be matched", u32::MAX - 1)]
     TooMany { which: &'static str, rows: usize },
+    #[error("{positions} {which} positions for {rows} {which} descriptors")]
+    Positions {
+        which: &'static str,
+        positions: usize,
+        rows: usize,
+    },
+    #[error("search radius {radius} is not a positive finite number")]
+    Radius { radius: f64 },
 }
 
 /// Matching settings.
@@ -71,6 +82,15 @@ fn rows(which: &'static str, len: usize, dim: usize) -> Result<usize, MatchError
         return Err(MatchError::Ragged { which, len, dim });
     }
     Ok(len / dim)
+}
+
+/// [`rows`], refusing more than `u32` indices (the searches keep them as `u32`).
+fn counted_rows(which: &'static str, len: usize, dim: usize) -> Result<usize, MatchError> {
+    let rows = rows(which, len, dim)?;
+    if rows >= u32::MAX as usize {
+        return Err(MatchError::TooMany { which, rows });
+    }
+    Ok(rows)
 }
 
 /// Squared Euclidean distance; eight running sums so the loop vectorises.
@@ -214,21 +234,8 @@ fn nearest_float(query: &[f32], train: &[f32], dim: usize) -> (RowBest, ColumnBe
             }
             let (best, second) = two_smallest(&dist);
             columns.update(&dist, i);
-            // The two candidates' exact distances (the product's rounding is a few units of
-            // the norms' last place), best first.
-            let exact = |j: usize| {
-                if j == usize::MAX {
-                    f32::INFINITY
-                } else {
-                    l2_squared(
-                        &query[i * dim..(i + 1) * dim],
-                        &train[j * dim..(j + 1) * dim],
-                    )
-                }
-            };
-            let (b, s) = ((exact(best.1), best.1), (exact(second.1), second.1));
-            let (b, s) = if s.0 < b.0 { (s, b) } else { (b, s) };
-            row.push((b.1, b.0, s.0));
+            let q = &query[i * dim..(i + 1) * dim];
+            row.push(exact_two(q, train, dim, [best.1, second.1]));
         }
     }
     let column = columns
@@ -247,6 +254,19 @@ fn nearest_float(query: &[f32], train: &[f32], dim: usize) -> (RowBest, ColumnBe
         })
         .collect();
     (row, column)
+}
+
+/// The two candidates' (train rows, `usize::MAX` for none) exact squared distances to query
+/// row `q` (a matrix product's rounding is a few units of the norms' last place): (best row,
+/// best, second best).
+fn exact_two(q: &[f32], train: &[f32], dim: usize, candidates: [usize; 2]) -> (usize, f32, f32) {
+    let exact = |j: usize| match j {
+        usize::MAX => f32::INFINITY,
+        j => l2_squared(q, &train[j * dim..(j + 1) * dim]),
+    };
+    let [b, s] = candidates.map(|j| (exact(j), j));
+    let (b, s) = if s.0 < b.0 { (s, b) } else { (b, s) };
+    (b.1, b.0, s.0)
 }
 
 /// The smallest and second-smallest `(value, index)` of `values`, ties to the lower index
@@ -341,12 +361,8 @@ pub fn match_float(
     opts: &MatchOptions,
 ) -> Result<Vec<Match>, MatchError> {
     opts.validate()?;
-    for (which, len) in [("query", query.len()), ("train", train.len())] {
-        let rows = rows(which, len, dim)?;
-        if rows >= u32::MAX as usize {
-            return Err(MatchError::TooMany { which, rows });
-        }
-    }
+    counted_rows("query", query.len(), dim)?;
+    counted_rows("train", train.len(), dim)?;
     let (row, column) = nearest_float(query, train, dim);
     Ok(select(&row, &column, opts, true))
 }
