@@ -17,7 +17,7 @@ use crate::features::FrameFeatures;
 
 /// Standard deviations of the priors a window spans: a pair's relative turn beyond it (both
 /// frames' errors, each N(0, sigma) about each axis) has a chance of about 3e-4 (a Rayleigh
-/// tail), and a pair guided wrongly is matched again in full (see [`FlightPlan::guide`]).
+/// tail), and a pair guided wrongly is matched again in full ([`GUIDE_RETRY_OVERLAP`]).
 pub const GUIDE_SIGMAS: f64 = 4.0;
 
 /// Added to every window's radius, pixels of the reduced frame: a keypoint's position and the
