@@ -92,6 +92,17 @@ fn adjust_perturbed(
     Some(truth)
 }
 
+/// Every adjusted attitude in `dir`'s `out/adjusted_poses.csv` within `deg` of `truth`'s.
+fn attitudes_within(truth: &BTreeMap<String, [f64; 6]>, dir: &std::path::Path, deg: f64) {
+    let adjusted = published(&std::fs::read_to_string(dir.join("out/adjusted_poses.csv")).unwrap());
+    for (name, t) in truth {
+        let a = adjusted[&format!("{name}.tif")];
+        let err = angle_deg([t[3], t[4], t[5]], [a[3], a[4], a[5]]);
+        eprintln!("{name}: attitude error {err:.4} deg");
+        assert!(err < deg, "{name}: {err} deg from the published attitude");
+    }
+}
+
 #[test]
 fn perturbed_ngi_poses_are_recovered_and_the_frames_agree() {
     let tmp = tempfile::tempdir().unwrap();
@@ -105,15 +116,7 @@ fn perturbed_ngi_poses_are_recovered_and_the_frames_agree() {
     let Some(truth) = adjust_perturbed(tmp.path(), offsets) else {
         return;
     };
-    let adjusted =
-        published(&std::fs::read_to_string(tmp.path().join("out/adjusted_poses.csv")).unwrap());
-    for (name, t) in &truth {
-        let a = adjusted[&format!("{name}.tif")];
-        let (t3, a3) = ([t[3], t[4], t[5]], [a[3], a[4], a[5]]);
-        let err = angle_deg(t3, a3);
-        eprintln!("{name}: attitude error {err:.4} deg");
-        assert!(err < 0.05, "{name}: {err} deg from the published attitude");
-    }
+    attitudes_within(&truth, tmp.path(), 0.05);
     let json: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(tmp.path().join("out/adjustment.json")).unwrap(),
     )
@@ -152,12 +155,5 @@ fn a_frame_far_beyond_its_prior_is_still_tied_and_recovered() {
     let Some(truth) = adjust_perturbed(tmp.path(), offsets) else {
         return;
     };
-    let adjusted =
-        published(&std::fs::read_to_string(tmp.path().join("out/adjusted_poses.csv")).unwrap());
-    for (name, t) in &truth {
-        let a = adjusted[&format!("{name}.tif")];
-        let err = angle_deg([t[3], t[4], t[5]], [a[3], a[4], a[5]]);
-        eprintln!("{name}: attitude error {err:.4} deg");
-        assert!(err < 0.05, "{name}: {err} deg from the published attitude");
-    }
+    attitudes_within(&truth, tmp.path(), 0.05);
 }

@@ -397,26 +397,38 @@ mod tests {
 
     /// The slow oracle: every distance sorted, per query and per train row.
     fn oracle(q: &[Vec<f32>], t: &[Vec<f32>], opts: &MatchOptions) -> Vec<(usize, usize)> {
+        oracle_where(q, t, opts, |_, _| true)
+    }
+
+    /// The slow oracle over the pairs (query, train) that `holds`: per query every such train
+    /// row sorted by distance (f64), per train row every such query.
+    pub(super) fn oracle_where(
+        q: &[Vec<f32>],
+        t: &[Vec<f32>],
+        opts: &MatchOptions,
+        holds: impl Fn(usize, usize) -> bool,
+    ) -> Vec<(usize, usize)> {
         let d = |a: &[f32], b: &[f32]| -> f64 {
-            a.iter()
-                .zip(b)
-                .map(|(x, y)| ((x - y) as f64).powi(2))
-                .sum::<f64>()
-                .sqrt()
+            let s: f64 = a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum();
+            s.sqrt()
         };
         let mut out = vec![];
         for (i, a) in q.iter().enumerate() {
-            let mut ds: Vec<(f64, usize)> =
-                t.iter().enumerate().map(|(j, b)| (d(a, b), j)).collect();
+            let mut ds: Vec<(f64, usize)> = (0..t.len())
+                .filter(|&j| holds(i, j))
+                .map(|j| (d(a, &t[j]), j))
+                .collect();
             ds.sort_by(|x, y| x.0.total_cmp(&y.0));
-            let (best, j) = ds[0];
-            if best >= opts.ratio as f64 * ds[1].0 {
+            let Some(&(best, j)) = ds.first() else {
+                continue;
+            };
+            let second = ds.get(1).map_or(f64::INFINITY, |s| s.0);
+            if best >= opts.ratio as f64 * second {
                 continue;
             }
-            let back = q
-                .iter()
-                .enumerate()
-                .map(|(k, c)| (d(c, &t[j]), k))
+            let back = (0..q.len())
+                .filter(|&k| holds(k, j))
+                .map(|k| (d(&q[k], &t[j]), k))
                 .min_by(|x, y| x.0.total_cmp(&y.0))
                 .map(|x| x.1);
             if !opts.mutual || back == Some(i) {

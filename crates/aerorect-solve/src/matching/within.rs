@@ -188,48 +188,20 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// The slow oracle: per query every train row within the radius sorted by distance (f64),
-    /// per train row every query whose window holds it.
+    /// The slow oracle: per query the train rows within the radius of its predicted position,
+    /// per train row the queries whose window holds it.
     fn oracle(
         q: &[Vec<f32>],
         t: &[Vec<f32>],
         w: &Window,
         opts: &MatchOptions,
     ) -> Vec<(usize, usize)> {
-        let d = |a: &[f32], b: &[f32]| -> f64 {
-            let s: f64 = a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum();
-            s.sqrt()
-        };
-        let holds = |i: usize, j: usize| {
+        super::super::tests::oracle_where(q, t, opts, |i, j| {
             w.query_at[i].is_some_and(|p| {
                 let t = w.train_at[j];
                 (t[0] - p[0]).hypot(t[1] - p[1]) <= w.radius
             })
-        };
-        let mut out = vec![];
-        for (i, a) in q.iter().enumerate() {
-            let mut ds: Vec<(f64, usize)> = (0..t.len())
-                .filter(|&j| holds(i, j))
-                .map(|j| (d(a, &t[j]), j))
-                .collect();
-            ds.sort_by(|x, y| x.0.total_cmp(&y.0));
-            let Some(&(best, j)) = ds.first() else {
-                continue;
-            };
-            let second = ds.get(1).map_or(f64::INFINITY, |s| s.0);
-            if best >= opts.ratio as f64 * second {
-                continue;
-            }
-            let back = (0..q.len())
-                .filter(|&k| holds(k, j))
-                .map(|k| (d(&q[k], &t[j]), k))
-                .min_by(|x, y| x.0.total_cmp(&y.0))
-                .map(|x| x.1);
-            if !opts.mutual || back == Some(i) {
-                out.push((i, j));
-            }
-        }
-        out
+        })
     }
 
     /// Train rows scattered over a 300 x 200 frame; queries are noisy copies of some of them
