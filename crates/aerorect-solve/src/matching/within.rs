@@ -80,8 +80,13 @@ impl Grid {
         Some(grid)
     }
 
+    /// The cell of `p`, clamped to one cell beyond the grid's border (a position far outside,
+    /// even 1e300, is as far as that from every row).
     fn cell_of(&self, p: [f64; 2]) -> [i64; 2] {
-        [0, 1].map(|a| ((p[a] - self.origin[a]) / self.cell).floor() as i64)
+        [0, 1].map(|a| {
+            let c = ((p[a] - self.origin[a]) / self.cell).floor();
+            c.clamp(-2.0, self.side[a] as f64 + 1.0) as i64
+        })
     }
 
     fn index(&self, x: i64, y: i64) -> Option<usize> {
@@ -276,6 +281,17 @@ mod tests {
         let got = match_float_within(&q, &t, dim, &w, &opts).expect("guided");
         assert_eq!(got, match_float(&q, &t, dim, &opts).expect("brute force"));
         assert_eq!(got.len(), 100);
+        // Predicted far beyond every row (a ray near the horizon): no candidate, no match.
+        let far = vec![Some([1e300, -1e300]); 100];
+        let w = Window {
+            query_at: &far,
+            ..w
+        };
+        assert!(
+            match_float_within(&q, &t, dim, &w, &opts)
+                .expect("far")
+                .is_empty()
+        );
     }
 
     #[test]
