@@ -2,10 +2,13 @@
 //! (ORB), with Lowe's ratio test and a mutual (cross) check. Float distances come from one
 //! matrix product per block of queries (`|q|^2 + |t|^2 - 2 q.t`, faer's SIMD kernels: about
 //! ten times the plain loop's speed), the best and second-best of each query recomputed
-//! directly so that the ratio test sees exact distances.
+//! directly so that the ratio test sees exact distances. Guided matching
+//! ([`match_float_within`]) compares each query only with the train rows near where it is
+//! predicted to lie.
 //!
 //! Descriptors are rows of one flat slice (`dim` values a row), so this crate needs no image
-//! or keypoint type: the caller keeps the keypoints' positions in the same order.
+//! or keypoint type: the caller keeps the keypoints' positions in the same order (and passes
+//! them as plain `[x, y]` for guided matching).
 
 use thiserror::Error;
 
