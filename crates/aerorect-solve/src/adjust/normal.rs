@@ -87,6 +87,11 @@ impl SymBlocks {
         }
     }
 
+    /// An empty matrix over the same blocks.
+    pub fn empty_like(&self) -> Self {
+        Self::new(self.blocks.clone())
+    }
+
     /// The first slot of block pair (a, b), allocated at its first use.
     fn base(&mut self, a: u32, b: u32) -> usize {
         if let Some(&s) = self.base.get(&(a, b)) {
@@ -151,6 +156,25 @@ impl SymBlocks {
             }
         }
         self.scratch = sc;
+    }
+
+    /// Adds every written entry of `other` (a matrix over the same blocks) to this one's,
+    /// and marks it written: a partial sum of [`Self::add_outer`] calls merged into the whole.
+    pub fn add_matrix(&mut self, other: &SymBlocks) {
+        for (&(a, b), &from) in &other.base {
+            let n = self.blocks.len(a) * self.blocks.len(b);
+            let to = self.base(a, b);
+            let (values, written) = (
+                &other.values[from..from + n],
+                &other.written[from..from + n],
+            );
+            for (k, (&v, &w)) in values.iter().zip(written).enumerate() {
+                if w {
+                    self.values[to + k] += v;
+                    self.written[to + k] = true;
+                }
+            }
+        }
     }
 
     /// The written entries of the lower triangle (i >= j), ordered by (i, j).

@@ -120,8 +120,9 @@ impl Problem<'_> {
         (Matrix3::zeros(), Vec3::zeros())
     }
 
-    /// The undamped normal equations at `s`. The tie points' blocks are computed in
-    /// parallel, a chunk at a time, and added in tie order: the same sums as one loop.
+    /// The undamped normal equations at `s`. The tie points are taken [`PART`] at a time in
+    /// parallel, each part summing its points' products into its own matrix, and the parts
+    /// are added in tie order: the same sums whatever the number of threads.
     pub fn linear(&self, s: &State) -> Option<Linear> {
         let mut lin = Linear {
             entries: SymBlocks::new(Arc::new(self.layout.blocks())),
@@ -129,15 +130,27 @@ impl Problem<'_> {
             points: Vec::with_capacity(self.ties.len()),
         };
         for (ties, xs) in self.ties.chunks(CHUNK).zip(s.points.chunks(CHUNK)) {
-            let parts: Vec<Option<PointPart>> = ties
-                .par_iter()
-                .zip(xs)
-                .map(|(tie, x)| self.point_part(s, tie, x))
+            let parts: Vec<Option<(Partial, Vec<PointLin>)>> = ties
+                .par_chunks(PART)
+                .zip(xs.par_chunks(PART))
+                .map(|(ties, xs)| {
+                    let mut sum = Partial::new(&lin.entries, lin.rhs.len());
+                    let points = ties
+                        .iter()
+                        .zip(xs)
+                        .map(|(tie, x)| {
+                            let part = self.point_part(s, tie, x)?;
+                            part.obs.add_to(&mut sum.entries, &mut sum.rhs);
+                            Some(part.point)
+                        })
+                        .collect::<Option<Vec<_>>>()?;
+                    Some((sum, points))
+                })
                 .collect();
             for part in parts {
-                let part = part?;
-                part.obs.add_to(&mut lin.entries, &mut lin.rhs);
-                lin.points.push(part.point);
+                let (sum, points) = part?;
+                sum.add_to(&mut lin.entries, &mut lin.rhs);
+                lin.points.extend(points);
             }
         }
         for row in self.prior_rows(s) {
@@ -175,9 +188,9 @@ fn summed_by_index(mut rows: Vec<(usize, Vec3)>) -> Vec<(usize, Vec3)> {
     rows
 }
 
-/// Tie points per parallel chunk of [`Problem::linear`]: a chunk's observation products are
-/// held until they are added (a few hundred bytes a point when only attitudes are solved
-/// for, up to 1.9 KB an observation when every camera parameter is).
+/// Points per chunk of [`Problem::linear`] and [`Linear::reduced`]: a chunk's parts
+/// ([`PART`]) are summed in parallel and held until they are added, each with a right-hand
+/// side over every parameter.
 const CHUNK: usize = 4096;
 
 /// A tie point's observations' frame-camera products over the local columns that hold a
@@ -250,8 +263,9 @@ impl Linear {
     }
 
     /// The damped reduced system (points eliminated), each point's damped H_pp^-1 (none where
-    /// it is singular), and its right-hand side. The points' Schur blocks are computed in
-    /// parallel, a chunk at a time, and added in point order: the same sums as one loop.
+    /// it is singular), and its right-hand side. The points' Schur blocks are taken [`PART`]
+    /// at a time in parallel, each part summed into its own matrix, and the parts are added
+    /// in point order: the same sums whatever the number of threads.
     pub fn reduced(&self, lambda: f64) -> Reduced {
         let mut entries = self.entries.clone();
         for i in 0..self.rhs.len() {
@@ -260,35 +274,62 @@ impl Linear {
         }
         let mut rhs = self.rhs.clone();
         let mut inverses = Vec::with_capacity(self.points.len());
-        let mut idx: Vec<Option<usize>> = Vec::new();
-        for points in self.points.chunks(SCHUR_CHUNK) {
-            let parts: Vec<Option<SchurPart>> = points
-                .par_iter()
-                .map_init(Vec::new, |t, p| schur_part(p, lambda, t))
+        for points in self.points.chunks(CHUNK) {
+            let parts: Vec<(Partial, Vec<Option<Matrix3<f64>>>)> = points
+                .par_chunks(PART)
+                .map(|points| {
+                    let mut sum = Partial::new(&entries, rhs.len());
+                    let (mut t, mut idx) = (Vec::new(), Vec::new());
+                    let inverses = points
+                        .iter()
+                        .map(|p| {
+                            let part = schur_part(p, lambda, &mut t)?;
+                            part.add_to(p, &mut sum, &mut idx);
+                            Some(part.inv)
+                        })
+                        .collect();
+                    (sum, inverses)
+                })
                 .collect();
-            for (p, part) in points.iter().zip(parts) {
-                let Some(part) = part else {
-                    inverses.push(None);
-                    continue;
-                };
-                let n = p.hpc.len();
-                let (outer, subtract) = part.outer_rhs.split_at(n * n);
-                for ((i, _), d) in p.hpc.iter().zip(subtract) {
-                    rhs[*i] -= d;
-                }
-                idx.clear();
-                idx.extend(p.hpc.iter().map(|(i, _)| Some(*i)));
-                entries.add_outer(&idx, |a, b| outer[a * n + b]);
-                inverses.push(Some(part.inv));
+            for (sum, part) in parts {
+                sum.add_to(&mut entries, &mut rhs);
+                inverses.extend(part);
             }
         }
         (entries, rhs, inverses)
     }
 }
 
-/// Points per parallel chunk of [`Linear::reduced`]: a chunk's Schur blocks are held until
-/// they are added (n x n values for a point seen through n reduced parameters).
-const SCHUR_CHUNK: usize = 1024;
+/// Tie points (or points) per parallel part of [`Problem::linear`] and [`Linear::reduced`]:
+/// a part's sums touch the few frames its points' pairs join. Fixed, so that the sums do not
+/// depend on the number of threads. Added on one thread, the points' products were half of a
+/// large flight's solve (1,000 fixed-wing frames: 26 of its 52 s on the calling thread, while
+/// the other thread waited).
+const PART: usize = 256;
+
+/// One part's sums: its matrix and right-hand side.
+struct Partial {
+    entries: SymBlocks,
+    rhs: Vec<f64>,
+}
+
+impl Partial {
+    /// Zero, over `like`'s blocks and `n` parameters.
+    fn new(like: &SymBlocks, n: usize) -> Self {
+        Self {
+            entries: like.empty_like(),
+            rhs: vec![0.0; n],
+        }
+    }
+
+    /// Adds the part's sums to the whole's.
+    fn add_to(&self, entries: &mut SymBlocks, rhs: &mut [f64]) {
+        entries.add_matrix(&self.entries);
+        for (r, v) in rhs.iter_mut().zip(&self.rhs) {
+            *r += v;
+        }
+    }
+}
 
 /// One point's elimination, for a point seen through n reduced parameters (its `hpc`):
 /// S -= H_cp H_pp^-1 H_pc, n x n values row-major over the point's reduced indices, then
@@ -296,6 +337,20 @@ const SCHUR_CHUNK: usize = 1024;
 struct SchurPart {
     inv: Matrix3<f64>,
     outer_rhs: Vec<f64>,
+}
+
+impl SchurPart {
+    /// Subtracts the point's elimination from a part's sums (`idx`: working space).
+    fn add_to(&self, p: &PointLin, sum: &mut Partial, idx: &mut Vec<Option<usize>>) {
+        let n = p.hpc.len();
+        let (outer, subtract) = self.outer_rhs.split_at(n * n);
+        for ((i, _), d) in p.hpc.iter().zip(subtract) {
+            sum.rhs[*i] -= d;
+        }
+        idx.clear();
+        idx.extend(p.hpc.iter().map(|(i, _)| Some(*i)));
+        sum.entries.add_outer(idx, |a, b| outer[a * n + b]);
+    }
 }
 
 /// Point `p`'s [`SchurPart`] at damping `lambda`; `None` where its damped H_pp is singular.
