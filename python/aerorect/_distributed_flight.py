@@ -81,9 +81,24 @@ def _flight_features(k, photos, opts_json):
     return _flight(photos, opts_json).frame_features(k)
 
 
-def _flight_feature_match(pair, first, second, photos, opts_json):
+def _flight_feature_steps(photos, opts_json):
+    """Which step matches each feature pair, 1 or 2 (a task)."""
+    return _flight(photos, opts_json).feature_steps()
+
+
+def _flight_feature_match(pair, first, second, photos, opts_json, guide=None):
     """One pair matched by its features (a task): its tie points, exact JSON."""
-    return _flight(photos, opts_json).feature_match(pair[0], pair[1], first, second)
+    return _flight(photos, opts_json).feature_match(pair[0], pair[1], first, second, guide)
+
+
+def _flight_step_guide(photos, opts_json, first):
+    """The first step's solve (a task on one worker): exact JSON, or None."""
+    return _flight(photos, opts_json).step_guide(list(first))
+
+
+def _flight_step_features(k, features, guide, photos, opts_json):
+    """Frame k's features on the ground by the first step's solve (a task): exact JSON."""
+    return _flight(photos, opts_json).step_features(k, features, guide)
 
 
 def _flight_first_round(matches):
@@ -137,8 +152,22 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
     if fpairs:
         feats = client.map(_flight_features, range(len(photos)), photos=key[0],
                            opts_json=key[1], pure=False)
+        # Two steps when the priors cannot guide a large flight (as adjust_flight): a net
+        # of pairs matched and solved first, the rest guided by that solve.
+        steps = client.submit(_flight_feature_steps, *key, pure=False).result()
+        first = [p for p, s in zip(fpairs, steps) if s == 1]
+        second = [p for p, s in zip(fpairs, steps) if s == 2]
         fmatches = [client.submit(_flight_feature_match, tuple(p), feats[p[0]], feats[p[1]],
-                                  *key, pure=False) for p in fpairs]
+                                  *key, pure=False) for p in first]
+        if second:
+            guide = client.submit(_flight_step_guide, *key, fmatches, pure=False).result()
+            if guide is not None:
+                feats = [client.submit(_flight_step_features, k, f, guide, *key, pure=False)
+                         for k, f in enumerate(feats)]
+            later = iter([client.submit(_flight_feature_match, tuple(p), feats[p[0]],
+                                        feats[p[1]], *key, guide, pure=False) for p in second])
+            earlier = iter(fmatches)
+            fmatches = [next(earlier) if s == 1 else next(later) for s in steps]
         pair_tasks += len(fmatches)
         features = client.submit(_flight_first_round, fmatches, pure=False).result()
         del feats, fmatches

@@ -210,8 +210,59 @@ impl FlightPlan {
         .map_err(py_err)
     }
 
-    /// Frames i and j matched by their features (`frame_features`' JSON): the tie points
-    /// (exact JSON).
+    /// Which step matches each of `feature_pairs` (1 or 2): the second step's pairs are
+    /// matched after `step_guide`, guided by it.
+    fn feature_steps(&self, py: Python<'_>) -> PyResult<Vec<u8>> {
+        py.detach(|| -> Result<_> {
+            let pairs = self.plan.feature_pairs()?;
+            Ok(self.plan.feature_steps(&pairs)?)
+        })
+        .map_err(py_err)
+    }
+
+    /// The first step's solve from its matches (`feature_match`'s JSON, the first step's
+    /// pairs in `feature_pairs`' order), as exact JSON; `None` when it guides nothing.
+    fn step_guide(&self, py: Python<'_>, first: Vec<String>) -> PyResult<Option<String>> {
+        py.detach(|| -> Result<_> {
+            let matched = first
+                .iter()
+                .map(|m| aerorect::flight::from_exact_json(m))
+                .collect::<Result<Vec<_>, _>>()?;
+            match self.plan.step_guide(&matched) {
+                Some(g) => Ok(Some(g.to_json()?)),
+                None => Ok(None),
+            }
+        })
+        .map_err(py_err)
+    }
+
+    /// Frame k's features (`frame_features`' JSON) with their ground positions by the first
+    /// step's solve (`step_guide`'s JSON) where it placed the frame: what the second step
+    /// matches.
+    fn step_features(
+        &self,
+        py: Python<'_>,
+        k: usize,
+        features: &str,
+        guide: &str,
+    ) -> PyResult<String> {
+        py.detach(|| -> Result<_> {
+            let mut f: aerorect::features::FrameFeatures =
+                aerorect::flight::from_exact_json(features)?;
+            let g = aerorect::flight::StepGuide::from_json(guide, self.plan.len())?;
+            if g.placed.get(k).copied().unwrap_or(false) {
+                f.ground = self
+                    .plan
+                    .step_ground(aerorect::flight::Basis::Stepped(&g), k, &f);
+            }
+            Ok(aerorect::flight::exact_json(&f)?)
+        })
+        .map_err(py_err)
+    }
+
+    /// Frames i and j matched by their features (`frame_features`' JSON, or
+    /// `step_features`' in the second step, with its `guide`): the tie points (exact JSON).
+    #[pyo3(signature = (i, j, first, second, guide=None))]
     fn feature_match(
         &self,
         py: Python<'_>,
@@ -219,11 +270,19 @@ impl FlightPlan {
         j: usize,
         first: &str,
         second: &str,
+        guide: Option<&str>,
     ) -> PyResult<String> {
         py.detach(|| -> Result<_> {
             let a = aerorect::flight::from_exact_json(first)?;
             let b = aerorect::flight::from_exact_json(second)?;
-            let m = self.plan.feature_match((i, &a), (j, &b))?;
+            let g = guide
+                .map(|g| aerorect::flight::StepGuide::from_json(g, self.plan.len()))
+                .transpose()?;
+            let basis = g.as_ref().map_or(
+                aerorect::flight::Basis::Recorded,
+                aerorect::flight::Basis::Stepped,
+            );
+            let m = self.plan.feature_match(basis, (i, &a), (j, &b))?;
             Ok(aerorect::flight::exact_json(&m)?)
         })
         .map_err(py_err)

@@ -14,7 +14,7 @@ import rasterio
 
 import aerorect
 from aerorect.distributed import output_paths, rectify_flight
-from conftest import crop_photo, flight_photos, jpeg_with_xmp, photo, run
+from conftest import crop_photo, flight_photos, jpeg_with_xmp, photo, run, xmp
 
 
 @pytest.fixture(scope="module")
@@ -206,6 +206,54 @@ def test_adjusted_flight_pair_by_pair_is_batch_adjust_to_the_bit(tmp_path, cli, 
     # round matched its three pairs in three tasks; every frame was written by its own task.
     assert len(feature_tasks) == 3 and len(feature_pair_tasks) == 3
     assert len(pair_tasks) == 3 * (passes - 1) and len(frame_tasks) == 3
+
+
+def box_photo(dir_: Path, name: str, col0: int, row0: int, side: int, **kw) -> Path:
+    """A side x side crop of data/aero1.jpg at (col0, row0), placed on the ground as far from
+    the first crop as its pixels are (0.16 m/px: 500 px focal length, 80 m up, north up)."""
+    from conftest import AERO1
+
+    with rasterio.open(AERO1) as src:
+        a = src.read()[:, row0:row0 + side, col0:col0 + side]
+    tmp = dir_ / (name + ".crop.jpg")
+    with rasterio.open(tmp, "w", driver="JPEG", width=side, height=side, count=3,
+                       dtype="uint8", QUALITY=95) as dst:
+        dst.write(a)
+    lat = 53.9 - row0 * 0.16 / 111320
+    lon = 27.55 + col0 * 0.16 / (111320 * np.cos(np.radians(53.9)))
+    out = jpeg_with_xmp(dir_ / name, xmp(lat=lat, lon=lon, **kw), source=tmp)
+    for side_file in dir_.glob(name + ".crop.jpg*"):
+        side_file.unlink()
+    return out
+
+
+def test_a_large_flight_matched_in_two_steps_is_batch_adjust_to_the_bit(tmp_path, cli, client):
+    # 54 overlapping crops of one photo under a 5 degree attitude prior: too wide to guide
+    # the feature matching, so a net of pairs is matched and solved first and the other
+    # pairs are guided by that solve (two steps, MIN_STEPPED_FRAMES = 50), each step its own
+    # tasks; the result is batch --adjust's to the bit.
+    distributed = pytest.importorskip("dask.distributed")
+    photos = [box_photo(tmp_path, f"f{r}{c}.jpg", 20 + 55 * c, 10 + 54 * r, 160,
+                        roll=0.3 * ((r + c) % 3 - 1), pitch=-90 + 0.2 * (c % 2))
+              for r in range(6) for c in range(9)]
+    ours, theirs = tmp_path / "py", tmp_path / "cli"
+    run(cli, "batch", *photos, "--out-dir", theirs, "--gsd-m", "0.2", "--adjust",
+        "--attitude-sigma-deg", "5")
+    with distributed.get_task_stream(client) as ts:
+        rectify_flight(photos, ours, gsd_m=0.2, adjust=True, client=client,
+                       attitude_sigma_deg=5.0)
+    prefixes = [t["key"][0] if isinstance(t["key"], tuple) else t["key"] for t in ts.data]
+    count = lambda name: sum(str(k).startswith(name + "-") for k in prefixes)  # noqa: E731
+    assert count("_flight_step_guide") == 1 and count("_flight_step_features") == 54
+    assert sorted(os.listdir(ours)) == sorted(os.listdir(theirs))
+    for name in os.listdir(theirs):
+        if name != "adjustment.json":
+            assert (ours / name).read_bytes() == (theirs / name).read_bytes(), name
+    mine = json.loads((ours / "adjustment.json").read_text())
+    assert without_seconds(mine) == without_seconds(
+        json.loads((theirs / "adjustment.json").read_text()))
+    # Both steps tied: every frame is connected, by more reliable pairs than a chain needs.
+    assert sum(p["reliable"] for p in mine["pairs"]) > 2 * 54 and not mine["unconnected"]
 
 
 def test_adjusted_flight_with_a_tie_surface_is_batch_adjust_to_the_bit(tmp_path, cli, client):

@@ -6,7 +6,8 @@
 
 use super::*;
 use crate::features::{
-    FrameFeatures, PairTies, TieOptions, match_frames, match_frames_within, raster_features,
+    FrameFeatures, PairTies, Prediction, TieOptions, match_frames, match_frames_within,
+    raster_features,
 };
 use aerorect_solve::pairs::candidate_pairs;
 use aerorect_solve::ransac::RansacOptions;
@@ -114,11 +115,13 @@ impl FlightPlan {
             .map_err(Error::context("candidate pairs"))
     }
 
-    /// Frames `i` and `j` matched by their features (guided where the recorded orientation
-    /// bounds the search, see `guide`): the pair's tie points, each with its first guess on
-    /// the ground where frame `i`'s recorded ray meets the ground.
+    /// Frames `i` and `j` matched by their features (guided where the orientation in `basis`
+    /// bounds the search, see `guide`; `a`'s ground positions must be by that orientation,
+    /// [`Self::step_ground`]): the pair's tie points, each with its first guess on the ground
+    /// where frame `i`'s recorded ray meets the ground.
     pub fn feature_match(
         &self,
+        basis: Basis<'_>,
         (i, a): (usize, &FrameFeatures),
         (j, b): (usize, &FrameFeatures),
     ) -> Result<PairMatch, Error> {
@@ -128,7 +131,7 @@ impl FlightPlan {
                 self.len()
             )));
         }
-        let (m, inliers) = self.verified_matches((i, a), (j, b))?;
+        let (m, inliers) = self.verified_matches(basis, (i, a), (j, b))?;
         // A relative weight: the adjustment's pixel sigma is a correlation tie's (0.5 px at
         // full resolution); a feature's is its reduced position's, scaled up.
         let factor = a.factor.max(b.factor) as f64;
@@ -166,24 +169,50 @@ impl FlightPlan {
     }
 
     /// Every frame's features and every candidate pair's matches (the first round's), in
-    /// [`Self::feature_pairs`]' order.
+    /// [`Self::feature_pairs`]' order, in the steps [`Self::feature_steps`] gives them.
     pub fn feature_matches(&self) -> Result<Vec<PairMatch>, Error> {
         let pairs = self.feature_pairs()?;
         if pairs.is_empty() {
             return Ok(vec![]);
         }
-        let features: Vec<FrameFeatures> = timing::time("features: frames (wall)", || {
+        let mut features: Vec<FrameFeatures> = timing::time("features: frames (wall)", || {
             (0..self.len())
                 .into_par_iter()
                 .map(|k| self.frame_features(k))
                 .collect::<Result<_, _>>()
         })?;
-        timing::time("features: pairs (wall)", || {
+        let steps = self.feature_steps(&pairs)?;
+        let in_step = |s: u8| -> Vec<(usize, usize)> {
             pairs
-                .par_iter()
-                .map(|&(i, j)| self.feature_match((i, &features[i]), (j, &features[j])))
+                .iter()
+                .zip(&steps)
+                .filter_map(|(&p, &t)| (t == s).then_some(p))
                 .collect()
-        })
+        };
+        let match_all = |pairs: &[(usize, usize)], basis: Basis<'_>, features: &[FrameFeatures]| {
+            timing::time("features: pairs (wall)", || {
+                pairs
+                    .par_iter()
+                    .map(|&(i, j)| self.feature_match(basis, (i, &features[i]), (j, &features[j])))
+                    .collect::<Result<Vec<_>, Error>>()
+            })
+        };
+        let first = match_all(&in_step(1), Basis::Recorded, &features)?;
+        let second_pairs = in_step(2);
+        if second_pairs.is_empty() {
+            return Ok(first);
+        }
+        let guide = self.step_guide(&first);
+        let basis = guide.as_ref().map_or(Basis::Recorded, Basis::Stepped);
+        if let Some(g) = &guide {
+            features.par_iter_mut().enumerate().for_each(|(k, f)| {
+                if g.placed[k] {
+                    f.ground = self.step_ground(basis, k, f);
+                }
+            });
+        }
+        let second = match_all(&second_pairs, basis, &features)?;
+        in_steps(&steps, first, second)
     }
 
     /// The first round's matches: [`Self::feature_matches`] unless the ties come from
@@ -209,6 +238,7 @@ impl FlightPlan {
     /// full when a guided pair predicted to overlap does not tie.
     fn verified_matches(
         &self,
+        basis: Basis<'_>,
         (i, a): (usize, &FrameFeatures),
         (j, b): (usize, &FrameFeatures),
     ) -> Result<(PairTies, Vec<usize>), Error> {
@@ -218,8 +248,12 @@ impl FlightPlan {
                 near_one_homography(m, a.size.width.max(a.size.height))
             })
         };
-        if let Some(g) = self.guide((i, a), (j, b)) {
-            let window = Some((&g.query_at[..], g.radius));
+        if let Some(g) = self.guide(basis, (i, a), (j, b)) {
+            let window = Some(Prediction {
+                query_at: &g.query_at,
+                radius: g.radius,
+                accept: g.accept,
+            });
             let m = match_frames_within(a, b, (i, j), &opts, window)?;
             let inliers = verify(&m);
             if inliers.len() >= MIN_FEATURE_INLIERS || g.inside < GUIDE_RETRY_OVERLAP {
@@ -231,6 +265,33 @@ impl FlightPlan {
         let inliers = verify(&m);
         Ok((m, inliers))
     }
+}
+
+/// The matches of both steps in the order of the pairs `steps` gives (1 or 2 per pair):
+/// `first`'s and `second`'s each in their own order. An error when their counts are not the
+/// steps'.
+pub fn in_steps(
+    steps: &[u8],
+    first: Vec<PairMatch>,
+    second: Vec<PairMatch>,
+) -> Result<Vec<PairMatch>, Error> {
+    let ones = steps.iter().filter(|&&s| s == 1).count();
+    if first.len() != ones || second.len() != steps.len() - ones {
+        return Err(Error::Invalid(format!(
+            "{} first-step and {} second-step matches for {ones} and {} pairs",
+            first.len(),
+            second.len(),
+            steps.len() - ones
+        )));
+    }
+    let (mut first, mut second) = (first.into_iter(), second.into_iter());
+    Ok(steps
+        .iter()
+        .filter_map(|&s| match s {
+            1 => first.next(),
+            _ => second.next(),
+        })
+        .collect())
 }
 
 /// The fundamental matrix's inliers that also lie within [`HOMOGRAPHY_SLACK`] of the long

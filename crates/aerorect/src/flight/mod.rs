@@ -36,6 +36,7 @@ mod render;
 mod roll;
 pub mod sift;
 mod solve;
+mod steps;
 mod surface;
 mod ties;
 pub(crate) mod timing;
@@ -49,12 +50,19 @@ pub use checks::{BlockReport, GpsCheck};
 pub use control::{ControlOptions, MARK_SIGMA_PX, Role, SURVEY_SIGMA_M};
 pub use decoded::DECODED_BUDGET_BYTES;
 pub use exchange::{exact_json, from_exact_json};
-pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource};
-pub use guide::{GUIDE_RETRY_OVERLAP, GUIDE_SIGMAS, GUIDE_SLACK_PX, Guide, MAX_GUIDE_FRACTION};
+pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource, in_steps};
+pub use guide::{
+    GUIDE_RETRY_OVERLAP, GUIDE_SIGMAS, GUIDE_SLACK_PX, Guide, MAX_GUIDE_FRACTION,
+    MIN_GUIDE_FRACTION,
+};
 pub use plan::{FlightPlan, FlightProgress, Orientation};
 pub use predict::{MarkPrediction, chip};
 pub use render::AdjustedFlight;
 pub use roll::{FLIP_MARGIN, RollChoice, RollTrial};
+pub use steps::{
+    Basis, FIRST_STEP_NEIGHBOURS, MIN_STEPPED_FRAMES, STEPPED_ATTITUDE_SIGMA_DEG,
+    STEPPED_POSITION_SIGMA_M, StepGuide,
+};
 pub use surface::{
     MIN_SURFACE_KEPT, MIN_SURFACE_POINTS, SURFACE_CELL_M, SURFACE_MAX_RESIDUAL_PX, SURFACE_NAME,
     SurfaceReport, TieSurface, tie_surface,

@@ -12,7 +12,7 @@ use aerorect_raster::features::{
     DESCRIPTOR_LEN, FeatureOptions, Features, full_from_reduced, gray_reduced, sift,
 };
 use aerorect_solve::fundamental::ransac_fundamental;
-use aerorect_solve::matching::{MatchOptions, Window, match_float, match_float_within};
+use aerorect_solve::matching::{Match, MatchOptions, Window, match_float, match_float_within};
 use aerorect_solve::pairs::{PairOptions, candidate_pairs};
 use aerorect_solve::ransac::{RansacOptions, ransac_homography};
 use rayon::prelude::*;
@@ -232,28 +232,45 @@ pub fn match_frames(
     match_frames_within(a, b, pair, opts, None)
 }
 
-/// [`match_frames`], each of `a`'s keypoints compared only with `b`'s within `window` of
-/// where it is predicted in `b` (reduced pixels of `b`: each keypoint's predicted position,
-/// and the radius) when given.
+/// Where each of `a`'s keypoints is predicted in `b` (reduced pixels of `b`), how far from
+/// there `b`'s keypoints are compared with it (`radius`: the ratio test's candidates), and
+/// how far from there its match may lie (`accept`, at most `radius`).
+#[derive(Debug, Clone, Copy)]
+pub struct Prediction<'a> {
+    pub query_at: &'a [Option<[f64; 2]>],
+    pub radius: f64,
+    pub accept: f64,
+}
+
+/// [`match_frames`], each of `a`'s keypoints compared only with `b`'s around where it is
+/// predicted in `b` when `window` is given.
 pub fn match_frames_within(
     a: &FrameFeatures,
     b: &FrameFeatures,
     (first, second): (usize, usize),
     opts: &TieOptions,
-    window: Option<(&[Option<[f64; 2]>], f64)>,
+    window: Option<Prediction<'_>>,
 ) -> Result<PairTies, Error> {
     let t = Instant::now();
     let (qa, tb) = (&a.features.descriptors, &b.features.descriptors);
     let m = match window {
         None => match_float(qa, tb, DESCRIPTOR_LEN, &opts.matching),
-        Some((query_at, radius)) => {
+        Some(p) => {
             let train_at = b.features.positions();
             let w = Window {
-                query_at,
+                query_at: p.query_at,
                 train_at: &train_at,
-                radius,
+                radius: p.radius,
             };
-            match_float_within(qa, tb, DESCRIPTOR_LEN, &w, &opts.matching)
+            match_float_within(qa, tb, DESCRIPTOR_LEN, &w, &opts.matching).map(|m| {
+                let near = |m: &Match| {
+                    p.query_at[m.query].is_some_and(|q| {
+                        let t = train_at[m.train];
+                        (t[0] - q[0]).hypot(t[1] - q[1]) <= p.accept
+                    })
+                };
+                m.into_iter().filter(near).collect()
+            })
         }
     }
     .map_err(Error::context(format!(
