@@ -230,9 +230,7 @@ impl FlightPlan {
             vec![]
         }
     }
-}
 
-impl FlightPlan {
     /// Frames `i` and `j`'s matches and the indices of those verified: guided by the recorded
     /// orientation where it is known well enough ([`FlightPlan::guide`]), and matched again in
     /// full when a guided pair predicted to overlap does not tie.

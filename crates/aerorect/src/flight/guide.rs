@@ -48,14 +48,14 @@ pub const GUIDE_RETRY_OVERLAP: f64 = 0.2;
 /// Where `a`'s keypoints should lie in `b` (reduced pixels of `b`), and how far from it their
 /// matches may be.
 #[derive(Debug, Clone)]
-pub struct Guide {
-    pub query_at: Vec<Option<[f64; 2]>>,
+pub(super) struct Guide {
+    pub(super) query_at: Vec<Option<[f64; 2]>>,
     /// The window's radius: at least [`MIN_GUIDE_FRACTION`] of `b`.
-    pub radius: f64,
+    pub(super) radius: f64,
     /// How far from its predicted position a match may lie: the priors' own radius.
-    pub accept: f64,
+    pub(super) accept: f64,
     /// The fraction of `a`'s keypoints predicted inside `b`.
-    pub inside: f64,
+    pub(super) inside: f64,
 }
 
 impl FlightPlan {

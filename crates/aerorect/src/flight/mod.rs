@@ -52,8 +52,7 @@ pub use decoded::DECODED_BUDGET_BYTES;
 pub use exchange::{exact_json, from_exact_json};
 pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource, in_steps};
 pub use guide::{
-    GUIDE_RETRY_OVERLAP, GUIDE_SIGMAS, GUIDE_SLACK_PX, Guide, MAX_GUIDE_FRACTION,
-    MIN_GUIDE_FRACTION,
+    GUIDE_RETRY_OVERLAP, GUIDE_SIGMAS, GUIDE_SLACK_PX, MAX_GUIDE_FRACTION, MIN_GUIDE_FRACTION,
 };
 pub use plan::{FlightPlan, FlightProgress, Orientation};
 pub use predict::{MarkPrediction, chip};
