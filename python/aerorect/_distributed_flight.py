@@ -112,9 +112,10 @@ def _flight_roll(photos, opts_json, matches):
     return _flight(photos, opts_json).choose_sensefly_roll(list(matches))
 
 
-def _flight_adjust(photos, opts_json, progress, matches, roll=None):
-    """A round's adjustment (a task on one worker): (progress, done, report, poses CSV)."""
-    return _flight(photos, opts_json, roll).adjust(progress, list(matches))
+def _flight_adjust(photos, opts_json, progress, matches, roll=None, guide=None):
+    """A round's adjustment (a task on one worker): (progress, done, report, poses CSV); the
+    first round starts from the first step's solve (`guide`) when there were two steps."""
+    return _flight(photos, opts_json, roll).adjust(progress, list(matches), guide)
 
 
 def _flight_write(k, out, photos, opts_json, progress, roll=None):
@@ -145,7 +146,7 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
     frame written to a staging folder; everything moved into `out_dir` when all succeeded.
     Returns the report, with `tasks`: the pair and frame tasks run."""
     key = (tuple(photos), json.dumps(opts, sort_keys=True))
-    progress, done, pair_tasks = None, False, 0
+    progress, done, pair_tasks, guide = None, False, 0, None
     # The first round: features per frame, matches per pair (no attitude needed).
     fpairs = client.submit(_flight_feature_pairs, *key, pure=False).result()
     features: List[str] = []
@@ -161,11 +162,13 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
                                   *key, pure=False) for p in first]
         if second:
             guide = client.submit(_flight_step_guide, *key, fmatches, pure=False).result()
+            # Scattered once (every second-step task takes it), not copied into each task.
+            shared = _shared(client, guide)
             if guide is not None:
-                feats = [client.submit(_flight_step_features, k, f, guide, *key, pure=False)
+                feats = [client.submit(_flight_step_features, k, f, shared, *key, pure=False)
                          for k, f in enumerate(feats)]
             later = iter([client.submit(_flight_feature_match, tuple(p), feats[p[0]],
-                                        feats[p[1]], *key, guide, pure=False) for p in second])
+                                        feats[p[1]], *key, shared, pure=False) for p in second])
             earlier = iter(fmatches)
             fmatches = [next(earlier) if s == 1 else next(later) for s in steps]
         pair_tasks += len(fmatches)
@@ -175,7 +178,8 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
     if features:
         # senseFly's roll sign, when the flight leaves it to its images (as adjust_flight).
         roll = client.submit(_flight_roll, *key, features, pure=False).result()
-        step = client.submit(_flight_adjust, *key, progress, features, roll=roll, pure=False)
+        step = client.submit(_flight_adjust, *key, progress, features, roll=roll, guide=guide,
+                             pure=False)
         progress, done, report_json, poses_csv = step.result()
     # Later rounds: correlation of the rendered frames, the feature ties kept beside it.
     while not done:

@@ -306,16 +306,24 @@ impl FlightPlan {
 
     /// One round's adjustment from every pair's matches (in `pairs`' order): (the new
     /// progress, whether the rounds are done, the report as `adjustment.json` holds it, the
-    /// adjusted poses as `adjusted_poses.csv`).
-    #[pyo3(signature = (progress, matches))]
+    /// adjusted poses as `adjusted_poses.csv`). The first round (no `progress`) starts from
+    /// the first step's solve when given (`step_guide`'s JSON), as `adjust_flight` does.
+    #[pyo3(signature = (progress, matches, guide=None))]
     fn adjust(
         &self,
         py: Python<'_>,
         progress: Option<&str>,
         matches: Vec<String>,
+        guide: Option<&str>,
     ) -> PyResult<(String, bool, String, String)> {
         py.detach(|| -> Result<_> {
-            let mut p = progress_from(progress)?;
+            let mut p = match (progress, guide) {
+                (None, Some(g)) => {
+                    let g = aerorect::flight::StepGuide::from_json(g, self.plan.len())?;
+                    self.plan.first_progress(Some(&g))
+                }
+                _ => progress_from(progress)?,
+            };
             let matched = matches
                 .iter()
                 .map(|m| aerorect::flight::from_exact_json(m))

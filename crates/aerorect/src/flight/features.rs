@@ -91,6 +91,15 @@ impl FlightPlan {
         Ok(features)
     }
 
+    /// Every frame's recorded position on the map (x, y).
+    pub(super) fn recorded_centres(&self) -> Vec<[f64; 2]> {
+        self.rec
+            .poses
+            .iter()
+            .map(|p| [p.centre[0], p.centre[1]])
+            .collect()
+    }
+
     /// The pairs to match by features: the nearest neighbours and Delaunay neighbours of the
     /// recorded positions, and every pair whose predicted footprints overlap.
     /// None when the ties come from correlation alone.
@@ -98,12 +107,7 @@ impl FlightPlan {
         if self.fo.ties == TieSource::Correlation {
             return Ok(vec![]);
         }
-        let centres: Vec<[f64; 2]> = self
-            .rec
-            .poses
-            .iter()
-            .map(|p| [p.centre[0], p.centre[1]])
-            .collect();
+        let centres = self.recorded_centres();
         let footprints: Vec<Vec<[f64; 2]>> = self
             .frames
             .iter()
@@ -169,11 +173,12 @@ impl FlightPlan {
     }
 
     /// Every frame's features and every candidate pair's matches (the first round's), in
-    /// [`Self::feature_pairs`]' order, in the steps [`Self::feature_steps`] gives them.
-    pub fn feature_matches(&self) -> Result<Vec<PairMatch>, Error> {
+    /// [`Self::feature_pairs`]' order, in the steps [`Self::feature_steps`] gives them, and
+    /// the first step's solve when there were two.
+    pub fn feature_matches(&self) -> Result<(Vec<PairMatch>, Option<StepGuide>), Error> {
         let pairs = self.feature_pairs()?;
         if pairs.is_empty() {
-            return Ok(vec![]);
+            return Ok((vec![], None));
         }
         let mut features: Vec<FrameFeatures> = timing::time("features: frames (wall)", || {
             (0..self.len())
@@ -200,7 +205,7 @@ impl FlightPlan {
         let first = match_all(&in_step(1), Basis::Recorded, &features)?;
         let second_pairs = in_step(2);
         if second_pairs.is_empty() {
-            return Ok(first);
+            return Ok((first, None));
         }
         let guide = self.step_guide(&first);
         let basis = guide.as_ref().map_or(Basis::Recorded, Basis::Stepped);
@@ -212,13 +217,15 @@ impl FlightPlan {
             });
         }
         let second = match_all(&second_pairs, basis, &features)?;
-        in_steps(&steps, first, second)
+        Ok((in_steps(&steps, first, second)?, guide))
     }
 
     /// The first round's matches: [`Self::feature_matches`] unless the ties come from
-    /// correlation alone; none when no pair's features agree (correlation then starts).
-    pub fn first_round_matches(&self) -> Result<Vec<PairMatch>, Error> {
-        Ok(Self::first_round_of(self.feature_matches()?))
+    /// correlation alone; none when no pair's features agree (correlation then starts). And
+    /// the first step's solve, when there were two steps.
+    pub fn first_round_matches(&self) -> Result<(Vec<PairMatch>, Option<StepGuide>), Error> {
+        let (matches, guide) = self.feature_matches()?;
+        Ok((Self::first_round_of(matches), guide))
     }
 
     /// The feature matches of every candidate pair as the first round takes them: all of

@@ -393,7 +393,7 @@ pub fn adjust_flight(
 ) -> Result<AdjustedFlight, Error> {
     fo.validate()?;
     let plan = timing::time("plan (wall)", || FlightPlan::new(inputs, opts, fo))?;
-    let features = timing::time("features round (wall)", || plan.first_round_matches())?;
+    let (features, guide) = timing::time("features round (wall)", || plan.first_round_matches())?;
     let plan = plan.with_sensefly_roll_chosen(&features)?;
     let render_all = |o: Option<&Orientation>| -> Result<Vec<Rendered>, Error> {
         timing::time("render (wall)", || {
@@ -403,7 +403,7 @@ pub fn adjust_flight(
                 .collect()
         })
     };
-    let mut progress = FlightProgress::default();
+    let mut progress = plan.first_progress(guide.as_ref());
     if !features.is_empty() {
         let round = plan.adjust_round(&mut progress, features.clone(), fo.final_all_ties)?;
         if progress.done {

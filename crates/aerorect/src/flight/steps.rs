@@ -34,6 +34,9 @@ pub const STEPPED_POSITION_SIGMA_M: f64 = 0.2;
 pub struct StepGuide {
     pub orientation: Orientation,
     pub placed: Vec<bool>,
+    /// The solve's corrections: where the first round's solve starts
+    /// ([`FlightPlan::first_progress`]).
+    pub start: Corrections,
 }
 
 /// The orientation a pair's window is predicted from.
@@ -53,12 +56,7 @@ impl FlightPlan {
         if self.len() < MIN_STEPPED_FRAMES {
             return Ok(vec![1; pairs.len()]);
         }
-        let centres: Vec<[f64; 2]> = self
-            .rec
-            .poses
-            .iter()
-            .map(|p| [p.centre[0], p.centre[1]])
-            .collect();
+        let centres = self.recorded_centres();
         let opts = PairOptions {
             neighbours: FIRST_STEP_NEIGHBOURS,
             delaunay: true,
@@ -104,7 +102,22 @@ impl FlightPlan {
         Some(StepGuide {
             orientation: Orientation { poses, cameras },
             placed,
+            start: round.adjusted.corrections,
         })
+    }
+
+    /// The progress before the first round: its solve starts from the first step's solution
+    /// (`guide`), near the first round's (on the 1,000-frame fixed wing, 0.05 degrees from the
+    /// truth where the recorded attitudes are 7.5); from the recorded orientation without
+    /// one, or when the flight left senseFly's roll to its images (the reading the first
+    /// step solved with may have changed since).
+    pub fn first_progress(&self, guide: Option<&StepGuide>) -> FlightProgress {
+        FlightProgress {
+            start: guide
+                .filter(|_| self.roll.is_none())
+                .map(|g| g.start.clone()),
+            ..FlightProgress::default()
+        }
     }
 
     /// Frame `k`'s keypoints (`f`) on the ground by its orientation in `basis`.
@@ -171,6 +184,7 @@ impl StepGuide {
     pub fn to_json(&self) -> Result<String, Error> {
         let progress = FlightProgress {
             orientation: Some(self.orientation.clone()),
+            start: Some(self.start.clone()),
             ..Default::default()
         };
         exact_json(&StepGuideFile {
@@ -182,9 +196,9 @@ impl StepGuide {
     /// The guide [`Self::to_json`] wrote for a flight of `frames` frames.
     pub fn from_json(text: &str, frames: usize) -> Result<Self, Error> {
         let f: StepGuideFile = from_exact_json(text)?;
-        let orientation = FlightProgress::from_json(&f.progress)?.orientation;
-        match orientation {
-            Some(o)
+        let p = FlightProgress::from_json(&f.progress)?;
+        match (p.orientation, p.start) {
+            (Some(o), Some(start))
                 if o.poses.len() == frames
                     && o.cameras.len() == frames
                     && f.placed.len() == frames =>
@@ -192,6 +206,7 @@ impl StepGuide {
                 Ok(Self {
                     orientation: o,
                     placed: f.placed,
+                    start,
                 })
             }
             _ => Err(Error::Invalid(format!(
@@ -254,11 +269,13 @@ mod tests {
                 cameras: vec![camera.clone(), camera],
             },
             placed: vec![true, false],
+            start: Corrections::from_values(2, 1, &[0.1 + 0.2; 2 * 6 + 8 + 7]).unwrap(),
         };
         let text = g.to_json().unwrap();
         let back = StepGuide::from_json(&text, 2).unwrap();
         assert_eq!(back.orientation, g.orientation);
         assert_eq!(back.placed, g.placed);
+        assert_eq!(back.start, g.start);
         let e = StepGuide::from_json(&text, 3).unwrap_err().to_string();
         assert!(e.contains("3 frames"), "{e}");
     }
