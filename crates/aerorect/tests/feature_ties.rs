@@ -2,7 +2,10 @@
 //! homography (the recovered homography must be the true one), and the real senseFly pairs
 //! (extended: skipped when ../shared/data is absent).
 
-use aerorect::features::{TieOptions, Verification, frame_features, match_frames, raster_features};
+use aerorect::features::{
+    Prediction, TieOptions, Verification, frame_features, match_frames, match_frames_within,
+    raster_features,
+};
 use aerorect_core::{Homography, ImageSize, Mat3};
 use aerorect_raster::{AnyRaster, WarpOptions, warp};
 use std::path::{Path, PathBuf};
@@ -139,4 +142,60 @@ fn real_sensefly_pairs_tie_across_strips_and_along_them() {
                 .all(|q| { q[0] > -1.0 && q[0] < 4608.0 && q[1] > -1.0 && q[1] < 3456.0 })
         );
     }
+}
+
+#[test]
+fn guided_matches_lie_within_their_acceptance_of_the_true_position() {
+    // A copy turned by 30 degrees, each keypoint predicted where the true homography puts it
+    // but shifted 12 px: every match kept lies within `accept` of its prediction, the
+    // matches a wide acceptance keeps beyond it are dropped and no others, and the true
+    // matches (within 2 px of the truth) all lie within 14 px of the shifted prediction, so
+    // an acceptance of 15 px keeps them.
+    let original = aero1();
+    let AnyRaster::U8(src) = &original else {
+        panic!("aero1 is 8-bit")
+    };
+    let opts = TieOptions::default();
+    let a = raster_features(Path::new("aero1"), &original, &opts).expect("features");
+    let out = ImageSize::new(800, 800);
+    let truth = similarity(30.0, 1.0, out);
+    let copy = warp(src, &truth.inverse(), out, &WarpOptions::default()).expect("warp");
+    let b = raster_features(Path::new("copy"), &AnyRaster::U8(copy), &opts).expect("features");
+    assert_eq!((a.factor, b.factor), (1, 1));
+    let predicted: Vec<Option<[f64; 2]>> = a
+        .features
+        .keypoints
+        .iter()
+        .map(|k| truth.map(k.x, k.y).map(|p| [p[0] + 12.0, p[1]]))
+        .collect();
+    let run = |accept: f64| {
+        let w = Prediction {
+            query_at: &predicted,
+            radius: 60.0,
+            accept,
+        };
+        match_frames_within(&a, &b, (0, 1), &opts, Some(w)).expect("match")
+    };
+    let (wide, narrow) = (run(60.0), run(15.0));
+    let pairs = |t: &aerorect::features::PairTies| -> Vec<([f64; 2], [f64; 2])> {
+        t.first_px
+            .iter()
+            .copied()
+            .zip(t.second_px.iter().copied())
+            .collect()
+    };
+    let off = |(p, q): &([f64; 2], [f64; 2]), dx: f64| {
+        let t = truth.map(p[0], p[1]).expect("truth");
+        (q[0] - t[0] - dx).hypot(q[1] - t[1])
+    };
+    let kept: Vec<_> = pairs(&wide)
+        .into_iter()
+        .filter(|m| off(m, 12.0) <= 15.0)
+        .collect();
+    assert_eq!(pairs(&narrow), kept);
+    let true_ones = pairs(&wide).iter().filter(|m| off(m, 0.0) <= 2.0).count();
+    let true_kept = pairs(&narrow).iter().filter(|m| off(m, 0.0) <= 2.0).count();
+    assert!(true_ones >= 200, "{true_ones} true matches");
+    assert_eq!(true_kept, true_ones);
+    assert!(pairs(&narrow).len() < pairs(&wide).len());
 }
