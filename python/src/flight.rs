@@ -250,11 +250,7 @@ impl FlightPlan {
             let mut f: aerorect::features::FrameFeatures =
                 aerorect::flight::from_exact_json(features)?;
             let g = aerorect::flight::StepGuide::from_json(guide, self.plan.len())?;
-            if g.placed.get(k).copied().unwrap_or(false) {
-                f.ground = self
-                    .plan
-                    .step_ground(aerorect::flight::Basis::Stepped(&g), k, &f);
-            }
+            self.plan.step_features(&g, k, &mut f);
             Ok(aerorect::flight::exact_json(&f)?)
         })
         .map_err(py_err)

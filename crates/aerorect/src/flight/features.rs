@@ -210,11 +210,10 @@ impl FlightPlan {
         let guide = self.step_guide(&first);
         let basis = guide.as_ref().map_or(Basis::Recorded, Basis::Stepped);
         if let Some(g) = &guide {
-            features.par_iter_mut().enumerate().for_each(|(k, f)| {
-                if g.placed[k] {
-                    f.ground = self.step_ground(basis, k, f);
-                }
-            });
+            features
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(k, f)| self.step_features(g, k, f));
         }
         let second = match_all(&second_pairs, basis, &features)?;
         Ok((in_steps(&steps, first, second)?, guide))

@@ -120,6 +120,15 @@ impl FlightPlan {
         }
     }
 
+    /// Frame `k`'s features (`f`) as the second step matches them: where the first step
+    /// placed the frame (`guide`), its keypoints on the ground by its solved pose; else as
+    /// they were (by the recorded pose).
+    pub fn step_features(&self, guide: &StepGuide, k: usize, f: &mut FrameFeatures) {
+        if guide.placed.get(k).copied().unwrap_or(false) {
+            f.ground = self.step_ground(Basis::Stepped(guide), k, f);
+        }
+    }
+
     /// Frame `k`'s keypoints (`f`) on the ground by its orientation in `basis`.
     pub fn step_ground(
         &self,
