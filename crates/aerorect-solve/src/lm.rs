@@ -32,6 +32,11 @@ pub(crate) trait Model {
     fn settled(&self, _before: &Self::State, _after: &Self::State) -> bool {
         false
     }
+    /// Whether the loop linearises at the state it stops at (the calibration's covariance
+    /// comes from those normal equations); a model that builds its own there says no.
+    fn linearise_at_end(&self) -> bool {
+        true
+    }
 }
 
 /// A damped step's result.
@@ -172,7 +177,6 @@ pub(crate) fn minimise_damped<M: Model>(
         s = step.state;
         cost = cost_new;
         lambda = (lambda / 3.0).max(1e-12);
-        let relinearised = m.linearise(&s);
         termination = if settled {
             Termination::Settled
         } else if rel < tol.function {
@@ -182,11 +186,20 @@ pub(crate) fn minimise_damped<M: Model>(
         } else {
             Termination::MaxIterations
         };
-        match relinearised {
-            Some(g) => gradient = g,
-            None => termination = Termination::Failed,
+        // A stopped loop is linearised again only for a model that asks (on a large flight a
+        // linearisation costs about as much as a step).
+        let stopped = termination != Termination::MaxIterations || iterations >= max_iterations;
+        if stopped && !m.linearise_at_end() {
+            break;
         }
-        if termination != Termination::MaxIterations {
+        match m.linearise(&s) {
+            Some(g) => gradient = g,
+            None => {
+                termination = Termination::Failed;
+                break;
+            }
+        }
+        if stopped {
             break;
         }
     }
@@ -234,6 +247,67 @@ mod tests {
                 step_norm: dx.norm(),
                 x_norm: x.norm(),
             })
+        }
+    }
+
+    /// Rosenbrock that counts its linearisations and remembers the last one's state.
+    struct Counted {
+        inner: Rosenbrock,
+        at_end: bool,
+        count: usize,
+        last: Vector2<f64>,
+    }
+
+    impl Model for Counted {
+        type State = Vector2<f64>;
+        fn cost(&self, x: &Vector2<f64>) -> Option<f64> {
+            self.inner.cost(x)
+        }
+        fn linearise(&mut self, x: &Vector2<f64>) -> Option<f64> {
+            self.count += 1;
+            self.last = *x;
+            self.inner.linearise(x)
+        }
+        fn step(&mut self, x: &Vector2<f64>, lambda: f64) -> Option<Step<Vector2<f64>>> {
+            self.inner.step(x, lambda)
+        }
+        fn linearise_at_end(&self) -> bool {
+            self.at_end
+        }
+    }
+
+    /// A model that builds its own normal equations at the end is not linearised there: the
+    /// same steps, the same result, one linearisation fewer; one that asks is linearised at
+    /// the state the loop stops at (by a tolerance and by the iteration limit alike).
+    #[test]
+    fn the_loop_linearises_where_it_stops_only_when_asked() {
+        for limit in [200, 5] {
+            let run = |at_end: bool| {
+                let mut m = Counted {
+                    inner: rosenbrock(),
+                    at_end,
+                    count: 0,
+                    last: Vector2::zeros(),
+                };
+                let tol = Tolerances {
+                    function: 1e-6,
+                    gradient: 0.0,
+                    parameter: 0.0,
+                };
+                let out = minimise(&mut m, Vector2::new(-1.2, 1.0), limit, tol);
+                (out, m.count, m.last)
+            };
+            let ((asked, n_asked, last), (not, n_not, _)) = (run(true), run(false));
+            assert_eq!(asked.state, not.state);
+            assert_eq!(asked.iterations, not.iterations);
+            assert_eq!(asked.termination, not.termination);
+            let stop = match limit {
+                5 => Termination::MaxIterations,
+                _ => Termination::FunctionTolerance,
+            };
+            assert_eq!(asked.termination, stop);
+            assert_eq!(n_asked, n_not + 1);
+            assert_eq!(last, asked.state);
         }
     }
 

@@ -59,6 +59,12 @@ pub(super) fn standard_deviations(p: &Problem<'_>, s: &State) -> Vec<(Param, f64
     free.into_iter().map(|(i, q)| (q, diag[i])).collect()
 }
 
+/// Every free parameter's standard deviation as unknown (NaN): a solve that does not report
+/// them ([`super::AdjustOptions::standard_deviations`]).
+pub(super) fn unknown_deviations(p: &Problem<'_>) -> Vec<(Param, f64)> {
+    p.layout.free().map(|(_, q)| (q, f64::NAN)).collect()
+}
+
 fn sigma_of(fit: &Fit, q: Param) -> f64 {
     fit.sigmas
         .iter()

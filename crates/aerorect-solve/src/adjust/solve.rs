@@ -100,6 +100,25 @@ impl Problem<'_> {
         })
     }
 
+    /// Each tie point's blocks alone (H_pp, -J_p^T W r less its prior's), the frames and
+    /// cameras held: what [`Self::linear`] gives each point, without the frames' products.
+    pub(super) fn point_blocks(&self, s: &State) -> Option<Vec<(Matrix3<f64>, Vec3)>> {
+        self.ties
+            .par_iter()
+            .zip(s.points.par_iter())
+            .map(|(tie, x)| {
+                let (mut hpp, mut bp) = (Matrix3::<f64>::zeros(), Vec3::zeros());
+                for o in &tie.observations {
+                    let l = self.observation_lin(s, o, x)?;
+                    hpp += l.w * l.point.transpose() * l.point;
+                    bp -= l.w * l.point.transpose() * l.r;
+                }
+                let (hp, b) = self.point_prior_blocks(tie, x);
+                Some((hpp + hp, bp - b))
+            })
+            .collect()
+    }
+
     /// A tie point's prior (its surveyed position, or the terrain under it): what it adds to
     /// H_pp and what it takes from b_p.
     pub(super) fn point_prior_blocks(&self, tie: &TiePoint, x: &Vec3) -> (Matrix3<f64>, Vec3) {
@@ -450,6 +469,11 @@ impl crate::lm::Model for Solver<'_, '_> {
         frames && cameras
     }
 
+    /// The report's standard deviations come from their own normal equations.
+    fn linearise_at_end(&self) -> bool {
+        false
+    }
+
     fn linearise(&mut self, s: &State) -> Option<f64> {
         self.linear = self.problem.linear(s);
         self.linear.as_ref().map(Linear::gradient_max_norm)
@@ -529,6 +553,89 @@ mod tests {
         assert_eq!(c.len(), f.len());
         for (x, y) in c.iter().zip(&f) {
             assert_eq!((x.0, x.1, x.2.to_bits()), (y.0, y.1, y.2.to_bits()));
+        }
+    }
+
+    /// The points' blocks alone (a warm start's point passes) are those of the full
+    /// linearisation, bit for bit, over a terrain prior and with one observation in Huber's
+    /// linear arm.
+    #[test]
+    fn point_blocks_are_the_full_linearisations_points() {
+        use super::super::blocks::{CameraBlock, DatumBlock, FrameBlock, Layout};
+        use super::super::{AdjustFrame, AdjustOptions};
+        use aerorect_core::{Camera, ImageSize, Intrinsics};
+        let frames: Vec<AdjustFrame> = [-20.0, 25.0]
+            .iter()
+            .map(|&x| AdjustFrame {
+                camera: 0,
+                centre: [x, 3.0, 120.0],
+                world_from_camera: nalgebra::Rotation3::new(Vec3::new(0.02, -0.01, 0.01))
+                    .into_inner(),
+                position_sigma_m: Some([2.0; 3]),
+                attitude_sigma_deg: None,
+            })
+            .collect();
+        let cameras = vec![Camera::new(
+            Intrinsics::new(900.0, 900.0, 500.0, 380.0).expect("valid"),
+            None,
+            ImageSize::new(1000, 760),
+        )];
+        let ties: Vec<TiePoint> = (0..40)
+            .map(|k| {
+                let g = [
+                    (k % 8) as f64 * 6.0 - 20.0,
+                    (k / 8) as f64 * 7.0 - 14.0,
+                    1.0,
+                ];
+                let at = |f: usize, dx: f64| Observation {
+                    frame: f,
+                    pixel: [500.0 + g[0] * 7.0 + dx, 380.0 - g[1] * 7.0],
+                    weight: 1.0,
+                };
+                TiePoint {
+                    ground: g,
+                    observations: vec![at(0, 140.0), at(1, -175.0 + f64::from(k == 7) * 40.0)],
+                    control: None,
+                }
+            })
+            .collect();
+        let terrain = |x: f64, y: f64| 0.02 * x - 0.01 * y;
+        let opts = AdjustOptions {
+            terrain: Some((&terrain, 1.0)),
+            ..AdjustOptions::default()
+        };
+        let p = Problem {
+            frames: &frames,
+            cameras: &cameras,
+            ties: &ties,
+            layout: Layout::new(2, 1, |_, _| true, |_, _| true, |_| false),
+            opts: &opts,
+            huber: opts.huber,
+            centroid: Vec3::zeros(),
+        };
+        let s = State {
+            frames: vec![
+                FrameBlock {
+                    rotation: Vec3::new(0.001, -0.002, 0.003),
+                    position: Vec3::new(0.2, -0.1, 0.3),
+                };
+                2
+            ],
+            cameras: vec![CameraBlock::default()],
+            datum: DatumBlock::default(),
+            points: ties.iter().map(|t| Vec3::from(t.ground)).collect(),
+        };
+        let lin = p.linear(&s).unwrap();
+        let blocks = p.point_blocks(&s).unwrap();
+        assert_eq!(blocks.len(), lin.points.len());
+        assert!(
+            lin.points.iter().any(|q| q.robust),
+            "no point in Huber's arm"
+        );
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for ((hpp, bp), q) in blocks.iter().zip(&lin.points) {
+            assert_eq!(bits(hpp.as_slice()), bits(q.hpp.as_slice()));
+            assert_eq!(bits(bp.as_slice()), bits(q.bp.as_slice()));
         }
     }
 
