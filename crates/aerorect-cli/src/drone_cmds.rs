@@ -182,7 +182,8 @@ pub struct FlightArgs {
     pub adjust_passes: usize,
     /// With --adjust: where tie points come from: `both` (SIFT features first, which need no
     /// attitude, then correlation of the rendered frames, whose ties replace a pair's features
-    /// where it ties the pair), `features` (one round) or `correlation` (the recorded
+    /// where it ties the pair; with --dem the last solve takes both, each weighed by how well
+    /// its ties agree), `features` (one round) or `correlation` (the recorded
     /// attitudes must be within a few degrees).
     #[arg(long, requires = "adjust", default_value = "both")]
     pub ties: String,

@@ -16,8 +16,9 @@ use aerorect_solve::ransac::RansacOptions;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub enum TieSource {
     /// Features first (no attitude needed), then correlation of the rendered frames refines
-    /// in later rounds: where it ties a pair its matches replace the pair's features, which
-    /// hold the pairs it cannot tie.
+    /// in later rounds: where it ties a pair its matches replace the pair's features in the
+    /// rounds' solves, which hold the pairs it cannot tie. Over a DEM the solve that ends the
+    /// rounds takes both, each weighed by its own agreement ([`super::SourceWeights`]).
     #[default]
     Both,
     /// Features only: one round (they do not depend on the orientation).
@@ -159,7 +160,11 @@ impl FlightPlan {
             &spread(&at_a, FEATURE_SPREAD_CELLS, |_| 0.0),
         );
         let ties: Vec<PairTie> = kept.into_iter().filter_map(tie).collect();
-        let spare: Vec<PairTie> = rest.into_iter().filter_map(tie).collect();
+        let at_rest: Vec<[f64; 2]> = rest.iter().map(|&k| m.first_px[k]).collect();
+        let spare: Vec<PairTie> = spread(&at_rest, FEATURE_SPARE_CELLS, |_| 0.0)
+            .into_iter()
+            .filter_map(|i| tie(rest[i]))
+            .collect();
         let enough = inliers.len() >= MIN_FEATURE_INLIERS;
         Ok(PairMatch {
             a: i,

@@ -36,6 +36,7 @@ mod render;
 mod roll;
 pub mod sift;
 mod solve;
+mod sources;
 mod steps;
 mod surface;
 mod ties;
@@ -58,6 +59,7 @@ pub use plan::{FlightPlan, FlightProgress, Orientation};
 pub use predict::{MarkPrediction, chip};
 pub use render::AdjustedFlight;
 pub use roll::{FLIP_MARGIN, RollChoice, RollTrial};
+pub use sources::SourceWeights;
 pub use steps::{
     Basis, FIRST_STEP_NEIGHBOURS, MIN_STEPPED_FRAMES, STEPPED_ATTITUDE_SIGMA_DEG,
     STEPPED_POSITION_SIGMA_M, StepGuide,
@@ -66,7 +68,7 @@ pub use surface::{
     MIN_SURFACE_KEPT, MIN_SURFACE_POINTS, SURFACE_CELL_M, SURFACE_MAX_RESIDUAL_PX, SURFACE_NAME,
     SurfaceReport, TieSurface, tie_surface,
 };
-pub use ties::{PairMatch, PairTie, TieVector};
+pub use ties::{FEATURE_SPARE_CELLS, PairMatch, PairTie, TieVector};
 
 use checks::*;
 use correlate::*;
@@ -138,8 +140,10 @@ pub struct FlightOptions {
     /// Once the rounds are done (settled, at [`FlightOptions::passes`], or features alone),
     /// solve once more, from the last round's solution and on the last round's matches, with
     /// every reliable tie of each pair ([`PairMatch::spare`] too: correlation's beyond its 64
-    /// spread ties, the untied pairs' feature inliers beyond their 36) instead of the capped
-    /// ones; its orientation is the flight's. Rounds that stop without settling (oscillating,
+    /// spread ties, the untied pairs' feature inliers beyond their 36, thinned by
+    /// [`FEATURE_SPARE_CELLS`]) instead of the capped ones, and over a DEM the features
+    /// of the pairs correlation tied too, each source weighed by its own agreement
+    /// ([`SourceWeights`]); its orientation is the flight's. Rounds that stop without settling (oscillating,
     /// or at the cap) end the same way: the last round's matches are solved again. The rounds'
     /// own solves stay capped for speed, and whether they settled is judged on them (the
     /// final solve's own turn is in [`RoundSummary::final_solve`]).
@@ -326,6 +330,10 @@ pub struct RoundSummary {
     /// [`FlightOptions::final_all_ties`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub final_solve: Option<FinalSolve>,
+    /// Over a DEM, in a round with correlation ties: how well each source's ties agree and
+    /// the features' weight beside correlation's in the solve that ends the rounds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sources: Option<SourceWeights>,
 }
 
 /// The solve that ends the rounds with every reliable tie

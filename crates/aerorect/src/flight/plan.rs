@@ -241,6 +241,25 @@ impl FlightPlan {
         Ok(self.report(progress, round).0)
     }
 
+    /// Each match with its frames' names.
+    fn named<'m>(
+        &self,
+        matches: impl Iterator<Item = &'m PairMatch>,
+    ) -> Result<Vec<(&'m PairMatch, String, String)>, Error> {
+        let name = |k: usize| self.frames.get(k).map(|f| f.input.display().to_string());
+        matches
+            .map(|m| match (name(m.a), name(m.b)) {
+                (Some(a), Some(b)) => Ok((m, a, b)),
+                _ => Err(Error::Invalid(format!(
+                    "pair ({}, {}) of a flight of {} frames",
+                    m.a,
+                    m.b,
+                    self.len()
+                ))),
+            })
+            .collect()
+    }
+
     /// One round (see [`Self::adjust`]); when it ends the rounds and `all_at_end`, the round's
     /// orientation is that of the solve with every tie (see
     /// [`FlightOptions::final_all_ties`]).
@@ -252,7 +271,6 @@ impl FlightPlan {
     ) -> Result<Round, Error> {
         let posed = self.opts.poses.is_some();
         let mode = (self.opts.dem.is_some(), posed);
-        let name = |k: usize| self.frames.get(k).map(|f| f.input.display().to_string());
         // Where correlation ties a pair, its matches (sub-pixel, on frames that now
         // coincide) replace the pair's features; elsewhere the features hold it.
         let key = |m: &PairMatch| (m.a.min(m.b), m.a.max(m.b));
@@ -261,24 +279,17 @@ impl FlightPlan {
             .filter(|m| !m.features && m.reliable())
             .map(key)
             .collect();
-        let mut pairs = Vec::with_capacity(matched.len());
-        for m in matched
-            .iter()
-            .filter(|m| !(m.features && correlated.contains(&key(m))))
-        {
-            let (Some(a), Some(b)) = (name(m.a), name(m.b)) else {
-                return Err(Error::Invalid(format!(
-                    "pair ({}, {}) of a flight of {} frames",
-                    m.a,
-                    m.b,
-                    self.len()
-                )));
-            };
-            pairs.push((m, a, b));
-        }
+        let pairs = self.named(
+            matched
+                .iter()
+                .filter(|m| !(m.features && correlated.contains(&key(m)))),
+        )?;
         let start = progress.start.as_ref();
+        // The report's standard deviations are the last solve's: a round that a solve with
+        // every tie would follow, should it end the rounds, does without them.
+        let last_follows = all_at_end && pairs.iter().any(|(m, _, _)| !m.spare.is_empty());
         let round = timing::time("solve round (wall)", || {
-            match_and_adjust((&pairs, false), self, mode, start)
+            match_and_adjust((&pairs, false), self, mode, start, !last_follows)
         })?;
         let (poses, cameras) = round.orientation(&self.rec);
         let before = progress
@@ -288,19 +299,38 @@ impl FlightPlan {
         let typical = median_turn_deg(before, &poses);
         let since = progress.since.unwrap_or(self.started);
         let mut summary = round.summary((before, &poses), since);
+        // Over a DEM, the solve that ends the rounds takes both sources where correlation
+        // tied pairs, each weighed by the round's orientation (see `sources`).
+        let cams: Vec<&Camera> = cameras.iter().collect();
+        summary.sources = match correlated.is_empty() || self.opts.dem.is_none() {
+            true => None,
+            false => SourceWeights::weigh(&matched, (&poses, &cams), self.ground.as_ref()),
+        };
+        let features_hold = all_at_end && summary.sources.is_some_and(|w| w.features_hold());
         progress.done = progress.rounds.len() + 1 >= self.fo.passes.min(MAX_PASSES)
             || (!progress.rounds.is_empty() && typical < self.settled_deg())
-            || self.fo.ties == TieSource::Features;
-        let all = progress.done && all_at_end && pairs.iter().any(|(m, _, _)| !m.spare.is_empty());
+            || self.fo.ties == TieSource::Features
+            || features_hold;
+        let both = match progress.done && all_at_end {
+            true => summary.sources.and_then(|w| w.factor(&matched)),
+            false => None,
+        }
+        .map(|f| sources::both_sources(&matched, f));
+        let all = progress.done && (last_follows || both.is_some());
         let (round, poses, cameras) = match all {
             true => {
                 let t = std::time::Instant::now();
+                let last_pairs = match &both {
+                    Some(b) => self.named(b.iter())?,
+                    None => pairs,
+                };
                 let last = timing::time("final solve, all ties (wall)", || {
                     match_and_adjust(
-                        (&pairs, true),
+                        (&last_pairs, true),
                         self,
                         mode,
                         Some(&round.adjusted.corrections),
+                        true,
                     )
                 })?;
                 let (p, c) = last.orientation(&self.rec);

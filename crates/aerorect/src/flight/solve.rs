@@ -30,6 +30,7 @@ impl Round {
             rms_after_px: self.adjusted.report.rms_after_px,
             seconds: since.elapsed().as_secs_f64(),
             final_solve: None,
+            sources: None,
         }
     }
 
@@ -53,12 +54,14 @@ impl Round {
 /// Adjusts the recorded orientation to the tie points of the matched pairs (each with its
 /// frames' names; `all`: their spare ties too, see [`PairMatch::solve_ties`]; `dem`: the
 /// ground is a DEM; `posed`: the frames come from a pose table), the solve starting from
-/// `start` (the last solve's corrections) when given.
+/// `start` (the last solve's corrections) when given; `sigmas`: whether its report gives the
+/// standard deviations.
 pub(super) fn match_and_adjust(
     (matched, all): (&[(&PairMatch, String, String)], bool),
     plan: &FlightPlan,
     (dem, posed): (bool, bool),
     start: Option<&Corrections>,
+    sigmas: bool,
 ) -> Result<Round, Error> {
     let (rec, fo, frames) = (&plan.rec, &plan.fo, &plan.frames);
     let ground = plan.ground.as_ref();
@@ -123,6 +126,7 @@ pub(super) fn match_and_adjust(
         max_iterations: 100,
         start,
         settled: Some(SOLVE_SETTLED_DEG),
+        standard_deviations: sigmas,
         ..AdjustOptions::default()
     };
     let aopts = robust_gps(

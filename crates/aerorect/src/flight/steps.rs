@@ -95,7 +95,7 @@ impl FlightPlan {
             first.iter().map(|m| (m, name(m.a), name(m.b))).collect();
         let mode = (self.opts.dem.is_some(), self.opts.poses.is_some());
         let round = timing::time("features: first step's solve (wall)", || {
-            match_and_adjust((&pairs, false), self, mode, None)
+            match_and_adjust((&pairs, false), self, mode, None, false)
         })
         .ok()?;
         let (poses, cameras) = round.orientation(&self.rec);
