@@ -114,7 +114,10 @@ pub struct FlightOptions {
     /// frames' remaining relative rotation and scale fades), and the adjustment is solved
     /// again; rounds stop when the median frame's attitude moves by less than `settled_deg`
     /// (one weakly held frame at the edge of a block can wander by a hundredth of a degree
-    /// from round to round without the others moving). At most [`MAX_PASSES`].
+    /// from round to round without the others moving), when the features hold the solve
+    /// that ends them ([`SourceWeights::features_hold`]), or when from the third round on a
+    /// round's turn is not below half the smallest before it (they oscillate: reported so).
+    /// At most [`MAX_PASSES`].
     pub passes: usize,
     /// `None` (the default): the turn that moves the median frame's ground by
     /// [`SETTLED_GRID_PX`] of the matching grid (see [`FlightPlan::settled_deg`]).
@@ -334,6 +337,10 @@ pub struct RoundSummary {
     /// the features' weight beside correlation's in the solve that ends the rounds.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sources: Option<SourceWeights>,
+    /// Whether this round ended the rounds because the features agree at least as well as
+    /// correlation ([`SourceWeights::features_hold`]): settled for the solve that ends them.
+    #[serde(default)]
+    pub held_by_features: bool,
 }
 
 /// The solve that ends the rounds with every reliable tie

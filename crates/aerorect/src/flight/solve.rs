@@ -31,6 +31,7 @@ impl Round {
             seconds: since.elapsed().as_secs_f64(),
             final_solve: None,
             sources: None,
+            held_by_features: false,
         }
     }
 
@@ -264,21 +265,32 @@ pub(super) fn solve_warnings(
     Ok(out)
 }
 
-/// Whether the rounds settled (the last median turn below `settled_deg`) and, if not,
-/// whether they oscillate (the last median turn above half the smallest before it).
+/// Whether the rounds settled (the last median turn below `settled_deg`, or the features
+/// held the solve that ended them: [`RoundSummary::held_by_features`]) and, if not, whether
+/// they oscillate ([`oscillates`]).
 pub(super) fn settling(rounds: &[RoundSummary], settled_deg: f64) -> (bool, bool) {
-    let Some(last) = rounds.last() else {
+    let Some((last, earlier)) = rounds.split_last() else {
         return (true, false);
     };
-    if rounds.len() < 2 || last.median_turn_deg < settled_deg {
+    if earlier.is_empty() || last.median_turn_deg < settled_deg || last.held_by_features {
         return (true, false);
     }
-    let smallest = rounds[..rounds.len() - 1]
+    (false, oscillates(earlier, last.median_turn_deg))
+}
+
+/// Whether a round's median turn `turn` after the `earlier` rounds says the rounds oscillate:
+/// it is above half the smallest before it (the turns no longer shrink).
+pub(super) fn oscillates(earlier: &[RoundSummary], turn: f64) -> bool {
+    let smallest = earlier
         .iter()
         .map(|r| r.median_turn_deg)
         .fold(f64::INFINITY, f64::min);
-    (false, last.median_turn_deg > 0.5 * smallest)
+    turn > 0.5 * smallest
 }
+
+/// Rounds before one that can end the rounds by oscillating ([`oscillates`]): the features'
+/// round and one correlation round, so that two correlation rounds' turns compare.
+pub(super) const OSCILLATION_EARLIER_ROUNDS: usize = 2;
 
 pub(super) fn rounds_warning(
     rounds: &[RoundSummary],

@@ -215,4 +215,32 @@ mod tests {
         // One source alone: nothing to weigh.
         assert!(SourceWeights::weigh(&matched[1..], (&poses, &cams), &level).is_none());
     }
+
+    fn round(turn: f64, held_by_features: bool) -> RoundSummary {
+        RoundSummary {
+            tie_points: 1,
+            reliable_pairs: 1,
+            rms_after_px: 0.1,
+            largest_turn_deg: turn,
+            median_turn_deg: turn,
+            seconds: 0.0,
+            final_solve: None,
+            sources: None,
+            held_by_features,
+        }
+    }
+
+    /// Rounds the features held end settled whatever their last turn; others settle below
+    /// the stop, and oscillate when the last turn is above half the smallest before it.
+    #[test]
+    fn rounds_held_by_features_are_settled() {
+        let held = [round(7.5, false), round(0.023, true)];
+        assert_eq!(settling(&held, 0.0128), (true, false));
+        let open = [round(7.5, false), round(0.023, false)];
+        assert_eq!(settling(&open, 0.0128), (false, false));
+        let turns = [round(6.6, false), round(0.62, false), round(0.17, false)];
+        assert!(!oscillates(&turns[..2], 0.17));
+        assert!(oscillates(&turns, 0.357));
+        assert!(!oscillates(&turns, 0.08));
+    }
 }
