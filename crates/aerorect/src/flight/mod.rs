@@ -6,13 +6,15 @@
 //! correlation of patches (the ortho removes most of the perspective between look
 //! directions); RANSAC keeps the matches one homography explains, each becomes a tie point
 //! (its frame pixels through each frame's own ortho map), and where correlation ties a pair
-//! its ties replace the pair's features.
+//! its ties replace the pair's features in the rounds; over a DEM the solve that ends them
+//! takes both, each weighed by its own agreement.
 //!
 //! One file per stage: `frames` (the photos and their first orientation), `features` (the
 //! first round's tie points from SIFT features, which need no attitude; `guide` narrows each
 //! pair's search where the recorded orientation bounds it), `correlate` (the
 //! later rounds' tie points, by correlation of the frames rendered on one grid), `ties` (a
-//! pair's tie points as the adjustment takes them), `solve` (a round's adjustment), `checks`
+//! pair's tie points as the adjustment takes them), `sources` (the two sources' weights in
+//! the solve that ends the rounds), `solve` (a round's adjustment), `checks`
 //! (the GPS fixes and recorded attitudes against the images after it), `plan`
 //! (the steps as pure functions, for Dask), `exchange` (what travels between processes),
 //! `roll` (senseFly's roll sign, by the first round's ties), `render` (the adjusted frames
