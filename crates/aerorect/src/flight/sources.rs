@@ -6,7 +6,8 @@
 //! measurements of the same overlap, at the photos' resolution. How much each source is worth
 //! is not known in advance: on rendered flights SIFT's ties agree better than the correlator's
 //! (which sees frames resampled onto the coarse grid), on NGI's scanned aerial frames, reduced
-//! to find their features, much worse. So each source's weight is estimated from its own ties
+//! to find their features, worse (their ties 3.2-4.2 m apart on the ground, correlation's
+//! 1.4-1.9 m). So each source's weight is estimated from its own ties
 //! (a variance component per source, as in a photogrammetric block adjustment): with the last
 //! round's orientation, the median ground gap between where each tie's two frames put it is
 //! taken per source, and a feature tie's weight becomes `(gap_correlation / gap_features)^2`
