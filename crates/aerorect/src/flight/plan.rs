@@ -260,6 +260,36 @@ impl FlightPlan {
             .collect()
     }
 
+    /// The solve that ends the rounds: every tie of `pairs` (spare ones too), from `round`'s
+    /// solution (whose poses are `poses`), and what it did.
+    fn last_solve(
+        &self,
+        pairs: &[(&PairMatch, String, String)],
+        mode: (bool, bool),
+        round: &Round,
+        poses: &[Pose],
+    ) -> Result<(Round, FinalSolve), Error> {
+        let t = std::time::Instant::now();
+        let last = timing::time("final solve, all ties (wall)", || {
+            match_and_adjust(
+                (pairs, true),
+                self,
+                mode,
+                Some(&round.adjusted.corrections),
+                true,
+            )
+        })?;
+        let (p, _) = last.orientation(&self.rec);
+        let solved = FinalSolve {
+            tie_points: last.adjusted.report.tie_points,
+            rms_after_px: last.adjusted.report.rms_after_px,
+            largest_turn_deg: largest_turn_deg(poses, &p),
+            median_turn_deg: median_turn_deg(poses, &p),
+            seconds: t.elapsed().as_secs_f64(),
+        };
+        Ok((last, solved))
+    }
+
     /// One round (see [`Self::adjust`]); when it ends the rounds and `all_at_end`, the round's
     /// orientation is that of the solve with every tie (see
     /// [`FlightOptions::final_all_ties`]).
@@ -326,28 +356,13 @@ impl FlightPlan {
         let all = progress.done && (last_follows || both.is_some());
         let (round, poses, cameras) = match all {
             true => {
-                let t = std::time::Instant::now();
                 let last_pairs = match &both {
                     Some(b) => self.named(b.iter())?,
                     None => pairs,
                 };
-                let last = timing::time("final solve, all ties (wall)", || {
-                    match_and_adjust(
-                        (&last_pairs, true),
-                        self,
-                        mode,
-                        Some(&round.adjusted.corrections),
-                        true,
-                    )
-                })?;
+                let (last, solved) = self.last_solve(&last_pairs, mode, &round, &poses)?;
+                summary.final_solve = Some(solved);
                 let (p, c) = last.orientation(&self.rec);
-                summary.final_solve = Some(FinalSolve {
-                    tie_points: last.adjusted.report.tie_points,
-                    rms_after_px: last.adjusted.report.rms_after_px,
-                    largest_turn_deg: largest_turn_deg(&poses, &p),
-                    median_turn_deg: median_turn_deg(&poses, &p),
-                    seconds: t.elapsed().as_secs_f64(),
-                });
                 (last, p, c)
             }
             false => (round, poses, cameras),
