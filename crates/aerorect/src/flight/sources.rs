@@ -25,28 +25,28 @@ const GAP_SAMPLE: usize = 20_000;
 const MAX_SOURCE_RATIO: f64 = 100.0;
 
 /// The median ground gap (m) of the reliable pairs' ties of one source (`features`), with
-/// the orientation `(poses, cameras)`, over at most [`GAP_SAMPLE`] of them evenly taken.
+/// the orientation `(poses, cameras)`, over at most [`GAP_SAMPLE`] of them evenly taken
+/// ([`misalignment`] of the sample).
 fn median_gap(
     matched: &[PairMatch],
     features: bool,
     (poses, cameras): (&[Pose], &[&Camera]),
     ground: GroundFn<'_>,
 ) -> Option<f64> {
-    let ties: Vec<(usize, usize, &PairTie)> = matched
-        .iter()
-        .filter(|m| m.features == features && m.reliable())
+    let source = || {
+        matched
+            .iter()
+            .filter(move |m| m.features == features && m.reliable())
+    };
+    let count: usize = source().map(|m| m.solve_ties(true).count()).sum();
+    let step = count.div_ceil(GAP_SAMPLE).max(1);
+    let sample: Vec<TiePoint> = source()
         .flat_map(|m| m.solve_ties(true).map(move |t| (m.a, m.b, t)))
-        .collect();
-    let step = ties.len().div_ceil(GAP_SAMPLE).max(1);
-    let mut gaps: Vec<f64> = ties
-        .iter()
         .step_by(step)
-        .filter_map(|&(a, b, t)| tie_gap(&t.tie_point(a, b), poses, cameras, ground))
-        .map(|g| g[0].hypot(g[1]))
-        .filter(|g| g.is_finite())
+        .map(|(a, b, t)| t.tie_point(a, b))
         .collect();
-    gaps.sort_by(f64::total_cmp);
-    gaps.get(gaps.len() / 2).copied()
+    let gap = misalignment(&sample, poses, cameras, ground);
+    gap.is_finite().then_some(gap)
 }
 
 /// How well each source's ties agree, by a round's orientation, and the weight that gives a
