@@ -34,13 +34,26 @@ pub struct Flight {
 }
 
 /// `nx` x `ny` frames 50 m / 40 m apart at 100 m over terrain `h`, each recorded with a
-/// rotation error of `sigma_deg` per axis.
+/// rotation error of `sigma_deg` per axis, and 40 tie points drawn per frame.
 pub fn flight(
     nx: usize,
     ny: usize,
     sigma_deg: f64,
     h: &dyn Fn(f64, f64) -> f64,
     seed: u64,
+) -> Flight {
+    dense_flight(nx, ny, sigma_deg, h, seed, 40)
+}
+
+/// [`flight`] with `per_frame` tie points drawn per frame (those seen in fewer than two
+/// frames are dropped).
+pub fn dense_flight(
+    nx: usize,
+    ny: usize,
+    sigma_deg: f64,
+    h: &dyn Fn(f64, f64) -> f64,
+    seed: u64,
+    per_frame: usize,
 ) -> Flight {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let noise = Normal::new(0.0, sigma_deg.to_radians()).expect("valid");
@@ -76,7 +89,7 @@ pub fn flight(
     }
     let (w, hgt) = ((nx - 1) as f64 * 50.0, (ny - 1) as f64 * 40.0);
     let mut ties = Vec::new();
-    for _ in 0..(40 * nx * ny) {
+    for _ in 0..(per_frame * nx * ny) {
         let (x, y) = (
             rng.random_range(-50.0..w + 50.0),
             rng.random_range(-40.0..hgt + 40.0),

@@ -7,9 +7,10 @@
 //! entries searched per entry spent most of a large flight's solve there; here a block pair is
 //! found once per observation and its entries are plain array slots.
 //!
-//! It is bit for bit the matrix a map of entries gives: every entry receives the same additions
-//! in the same order, and only entries that were written become the sparse matrix (a block's
-//! slots that no observation reached stay out of it, as a map would never have held them).
+//! Every entry receives the additions a map of entries would, in the same order, so it holds
+//! the same values bit for bit. A block pair is stored whole from its first use: the entries of
+//! it that nothing reached are zeros that a map would not have held (the factorisation
+//! carries them as explicit zeros; a frame's block is dense in practice anyway).
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -59,21 +60,18 @@ pub(super) struct SymBlocks {
     /// Each block pair's first slot (row-major, rows of the first block).
     base: BlockPairs,
     values: Vec<f64>,
-    written: Vec<bool>,
-    /// [`SymBlocks::add_outer`]'s working space, kept between calls (it allocated four
-    /// vectors per call: a fifth of a large flight's solve went to the allocator).
-    scratch: OuterScratch,
+    /// [`SymBlocks::add_dense`]'s runs, kept between calls.
+    runs: Vec<Run>,
 }
 
-/// Per call of [`SymBlocks::add_outer`]: the call's distinct blocks, each position's place
-/// among them and in its block, the blocks' lengths and the block pairs' first slots.
-#[derive(Debug, Clone, Default)]
-struct OuterScratch {
-    here: Vec<u32>,
-    /// (position in `idx`, place among `here`, place in the block).
-    located: Vec<(usize, usize, usize)>,
-    lens: Vec<usize>,
-    bases: Vec<usize>,
+/// Positions of a dense matrix whose indices are consecutive in one block: the first
+/// position, how many, the block and the first index's place in it.
+#[derive(Debug, Clone, Copy)]
+struct Run {
+    at: usize,
+    len: usize,
+    block: u32,
+    offset: usize,
 }
 
 impl SymBlocks {
@@ -82,8 +80,7 @@ impl SymBlocks {
             blocks,
             base: BlockPairs::default(),
             values: Vec::new(),
-            written: Vec::new(),
-            scratch: OuterScratch::default(),
+            runs: Vec::new(),
         }
     }
 
@@ -100,7 +97,6 @@ impl SymBlocks {
         let s = self.values.len();
         let n = self.blocks.len(a) * self.blocks.len(b);
         self.values.resize(s + n, 0.0);
-        self.written.resize(s + n, false);
         self.base.insert((a, b), s);
         s
     }
@@ -111,73 +107,67 @@ impl SymBlocks {
         self.base(a, b) + oi * self.blocks.len(b) + oj
     }
 
-    /// Entry (i, j), written (zero until something is added).
+    /// Entry (i, j) (zero until something is added).
     pub fn entry(&mut self, i: usize, j: usize) -> &mut f64 {
         let s = self.slot(i, j);
-        self.written[s] = true;
         &mut self.values[s]
     }
 
-    /// Adds `value(a, b)` to entry (idx[a], idx[b]) for every pair of positions that hold an
-    /// index, rows outer, columns inner (the order a loop over entries would add them in).
-    /// The first slots of the call's block pairs are looked up once, before the loop.
-    pub fn add_outer(&mut self, idx: &[Option<usize>], mut value: impl FnMut(usize, usize) -> f64) {
-        let mut sc = std::mem::take(&mut self.scratch);
-        // Each position that holds an index: the position, its block as its place among
-        // the call's distinct blocks, and its place in the block. Positions without one
-        // are dropped here (an observation holds 3 of its 14 when only attitudes are
-        // solved for, and the double loop below ran over all 14 x 14).
-        sc.here.clear();
-        sc.located.clear();
-        for (a, i) in idx.iter().enumerate() {
-            let Some(i) = *i else { continue };
-            let (b, o) = self.blocks.locate(i);
-            let u = sc.here.iter().position(|&x| x == b).unwrap_or_else(|| {
-                sc.here.push(b);
-                sc.here.len() - 1
-            });
-            sc.located.push((a, u, o));
-        }
-        let n = sc.here.len();
-        sc.lens.clear();
-        sc.lens.extend(sc.here.iter().map(|&b| self.blocks.len(b)));
-        sc.bases.clear();
-        for &ba in &sc.here {
-            for &bb in &sc.here {
-                sc.bases.push(self.base(ba, bb));
+    /// Adds the dense n x n matrix `m` (row-major) at rows and columns `idx` (n indices,
+    /// each at most once): entry (idx[a], idx[b]) gets m[a n + b]. The indices are taken in
+    /// runs that are consecutive in one block (a frame's parameters, in order), so each run
+    /// pair's block is looked up once and its rows are added as slices.
+    pub fn add_dense(&mut self, idx: &[usize], m: &[f64]) {
+        let n = idx.len();
+        debug_assert_eq!(m.len(), n * n);
+        let mut runs = std::mem::take(&mut self.runs);
+        runs.clear();
+        for (at, &i) in idx.iter().enumerate() {
+            let (block, offset) = self.blocks.locate(i);
+            match runs.last_mut() {
+                Some(r) if r.block == block && r.offset + r.len == offset => r.len += 1,
+                _ => runs.push(Run {
+                    at,
+                    len: 1,
+                    block,
+                    offset,
+                }),
             }
         }
-        for &(a, ua, oa) in &sc.located {
-            let row = &sc.bases[ua * n..ua * n + n];
-            for &(b, ub, ob) in &sc.located {
-                let s = row[ub] + oa * sc.lens[ub] + ob;
-                self.values[s] += value(a, b);
-                self.written[s] = true;
+        for ra in &runs {
+            for rb in &runs {
+                let base = self.base(ra.block, rb.block);
+                let stride = self.blocks.len(rb.block);
+                for r in 0..ra.len {
+                    let to = base + (ra.offset + r) * stride + rb.offset;
+                    let from = (ra.at + r) * n + rb.at;
+                    let row = &mut self.values[to..to + rb.len];
+                    for (d, v) in row.iter_mut().zip(&m[from..from + rb.len]) {
+                        *d += v;
+                    }
+                }
             }
         }
-        self.scratch = sc;
+        self.runs = runs;
     }
 
-    /// Adds every written entry of `other` (a matrix over the same blocks) to this one's,
-    /// and marks it written: a partial sum of [`Self::add_outer`] calls merged into the whole.
+    /// Adds every entry of `other` (a matrix over the same blocks) to this one's: a partial
+    /// sum of [`Self::add_dense`] calls merged into the whole.
     pub fn add_matrix(&mut self, other: &SymBlocks) {
         for (&(a, b), &from) in &other.base {
             let n = self.blocks.len(a) * self.blocks.len(b);
             let to = self.base(a, b);
-            let (values, written) = (
-                &other.values[from..from + n],
-                &other.written[from..from + n],
-            );
-            for (k, (&v, &w)) in values.iter().zip(written).enumerate() {
-                if w {
-                    self.values[to + k] += v;
-                    self.written[to + k] = true;
-                }
+            for (d, v) in self.values[to..to + n]
+                .iter_mut()
+                .zip(&other.values[from..from + n])
+            {
+                *d += v;
             }
         }
     }
 
-    /// The written entries of the lower triangle (i >= j), ordered by (i, j).
+    /// The entries of the lower triangle (i >= j) of every stored block pair, ordered by
+    /// (i, j).
     pub fn lower_triplets(&self) -> Vec<(usize, usize, f64)> {
         let mut out = Vec::new();
         for (&(a, b), &base) in &self.base {
@@ -188,10 +178,9 @@ impl SymBlocks {
             let cols = self.blocks.len(b);
             for oi in 0..self.blocks.len(a) {
                 for oj in 0..cols {
-                    let s = base + oi * cols + oj;
                     let (i, j) = (sa + oi, sb + oj);
-                    if self.written[s] && i >= j {
-                        out.push((i, j, self.values[s]));
+                    if i >= j {
+                        out.push((i, j, self.values[base + oi * cols + oj]));
                     }
                 }
             }
@@ -200,7 +189,6 @@ impl SymBlocks {
         out
     }
 }
-
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -208,41 +196,54 @@ mod tests {
     use std::collections::BTreeMap;
 
     /// The same additions into block storage and into a map of entries give the same
-    /// entries, bit for bit, and the same set of written ones.
+    /// entries, bit for bit; the stored entries the map lacks are zeros; a matrix of partial
+    /// sums merged by `add_matrix` holds the same entries to rounding.
     #[test]
     fn blocks_hold_what_a_map_of_entries_holds() {
         let blocks = Arc::new(Blocks::new([3, 0, 2, 4, 1]));
-        let mut sym = SymBlocks::new(blocks);
+        let mut sym = SymBlocks::new(blocks.clone());
+        let (mut first, mut second) = (SymBlocks::new(blocks.clone()), SymBlocks::new(blocks));
         let mut map: BTreeMap<(usize, usize), f64> = BTreeMap::new();
-        let groups: [&[Option<usize>]; 4] = [
-            &[Some(0), None, Some(2), Some(5), Some(6)],
-            &[Some(3), Some(4), Some(9)],
-            &[Some(1), Some(7), None, Some(8)],
-            &[Some(0), Some(2), Some(5)],
-        ];
+        // Runs within a block, across blocks, out of order, and one index alone.
+        let groups: [&[usize]; 5] = [&[0, 2, 5, 6], &[3, 4, 9], &[1, 7, 8], &[8, 7, 1, 0], &[6]];
         for (g, idx) in groups.iter().enumerate() {
-            let value = |a: usize, b: usize| 0.1 * (g + 1) as f64 / (1 + a + 3 * b) as f64;
-            sym.add_outer(idx, value);
+            let n = idx.len();
+            let m: Vec<f64> = (0..n * n)
+                .map(|k| 0.1 * (g + 1) as f64 / (1 + k / n + 3 * (k % n)) as f64)
+                .collect();
+            sym.add_dense(idx, &m);
+            match g % 2 {
+                0 => first.add_dense(idx, &m),
+                _ => second.add_dense(idx, &m),
+            }
             for (a, i) in idx.iter().enumerate() {
                 for (b, j) in idx.iter().enumerate() {
-                    if let (Some(i), Some(j)) = (i, j) {
-                        *map.entry((*i, *j)).or_insert(0.0) += value(a, b);
-                    }
+                    *map.entry((*i, *j)).or_insert(0.0) += m[a * n + b];
                 }
             }
         }
         *sym.entry(9, 0) -= 0.25;
+        *first.entry(9, 0) -= 0.25;
         *map.entry((9, 0)).or_insert(0.0) -= 0.25;
-        let want: Vec<(usize, usize, f64)> = map
-            .iter()
-            .filter(|((i, j), _)| i >= j)
-            .map(|(&(i, j), &v)| (i, j, v))
-            .collect();
+        first.add_matrix(&second);
         let got = sym.lower_triplets();
-        assert_eq!(got.len(), want.len());
-        for (g, w) in got.iter().zip(&want) {
-            assert_eq!((g.0, g.1), (w.0, w.1));
-            assert_eq!(g.2.to_bits(), w.2.to_bits());
+        let merged = first.lower_triplets();
+        assert_eq!(got.len(), merged.len());
+        let mut found = 0;
+        for (g, m) in got.iter().zip(&merged) {
+            assert_eq!((g.0, g.1), (m.0, m.1));
+            assert!(
+                (g.2 - m.2).abs() <= 1e-15 * g.2.abs().max(1.0),
+                "{g:?} {m:?}"
+            );
+            match map.get(&(g.0, g.1)) {
+                Some(v) => {
+                    assert_eq!(g.2.to_bits(), v.to_bits(), "{g:?}");
+                    found += 1;
+                }
+                None => assert_eq!(g.2, 0.0, "{g:?}"),
+            }
         }
+        assert_eq!(found, map.keys().filter(|(i, j)| i >= j).count());
     }
 }

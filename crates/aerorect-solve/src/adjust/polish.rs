@@ -24,7 +24,7 @@
 
 use super::TiePoint;
 use super::blocks::State;
-use super::jacobian::pixel_jacobian;
+use super::jacobian::Posed;
 use super::residuals::Problem;
 use super::solve::Linear;
 use aerorect_core::Vec3;
@@ -48,12 +48,7 @@ struct PointNewton {
 }
 
 impl Problem<'_> {
-    /// Tie point `x`'s cost with the frames and cameras of `s`.
-    pub fn point_cost(&self, s: &State, tie: &TiePoint, x: &Vec3) -> Option<f64> {
-        Some(self.tie_costs(s, tie, x)?.into_iter().sum())
-    }
-
-    fn point_newton(&self, s: &State, tie: &TiePoint, x: &Vec3) -> Option<PointNewton> {
+    fn point_newton(&self, posed: &[Posed<'_>], tie: &TiePoint, x: &Vec3) -> Option<PointNewton> {
         let (k, sig) = (self.huber, self.opts.pixel_sigma);
         let (hp, bp) = self.point_prior_blocks(tie, x);
         let mut out = PointNewton {
@@ -62,9 +57,7 @@ impl Problem<'_> {
             irls: hp,
         };
         for o in &tie.observations {
-            let fr = &self.frames[o.frame];
-            let (fb, cb) = (&s.frames[o.frame], &s.cameras[fr.camera]);
-            let pj = pixel_jacobian(fr, &self.cameras[fr.camera], fb, cb, x)?;
+            let pj = posed[o.frame].pixel_jacobian(x)?;
             let r =
                 SVector::<f64, 2>::new(pj.pixel[0] - o.pixel[0], pj.pixel[1] - o.pixel[1]) / sig;
             let jt = (pj.point / sig).transpose();
@@ -88,13 +81,13 @@ impl Problem<'_> {
     /// Tie point `x` moved to the minimum of its own cost (the frames of `s` held): Newton
     /// steps with the exact curvature, the loop's (IRLS) one where that fails to lower the
     /// cost, each halved until the cost falls.
-    pub fn polished(&self, s: &State, tie: &TiePoint, x: Vec3) -> Vec3 {
+    pub fn polished(&self, posed: &[Posed<'_>], tie: &TiePoint, x: Vec3) -> Vec3 {
         let mut x = x;
-        let Some(mut cost) = self.point_cost(s, tie, &x) else {
+        let Some(mut cost) = self.tie_cost(posed, tie, &x) else {
             return x;
         };
         for _ in 0..ITERATIONS {
-            let Some(nw) = self.point_newton(s, tie, &x) else {
+            let Some(nw) = self.point_newton(posed, tie, &x) else {
                 break;
             };
             let steps = [nw.exact, nw.irls]
@@ -102,7 +95,7 @@ impl Problem<'_> {
                 .filter_map(|h| h.cholesky().map(|c| -c.solve(&nw.gradient)));
             let Some((y, c, dx)) = steps
                 .filter_map(|dx| {
-                    self.descent(s, tie, (&x, cost), &dx)
+                    self.descent(posed, tie, (&x, cost), &dx)
                         .map(|(y, c)| (y, c, dx))
                 })
                 .next()
@@ -122,7 +115,7 @@ impl Problem<'_> {
     /// that cost.
     fn descent(
         &self,
-        s: &State,
+        posed: &[Posed<'_>],
         tie: &TiePoint,
         (x, cost): (&Vec3, f64),
         dx: &Vec3,
@@ -130,7 +123,7 @@ impl Problem<'_> {
         let mut a = 1.0;
         for _ in 0..HALVINGS {
             let y = x + dx * a;
-            match self.point_cost(s, tie, &y) {
+            match self.tie_cost(posed, tie, &y) {
                 Some(c) if c < cost => return Some((y, c)),
                 _ => a *= 0.5,
             }
@@ -145,12 +138,13 @@ impl Problem<'_> {
     /// alone, so the result does not depend on the threads); returns the sum of the squared
     /// moves.
     pub(super) fn polish(&self, lin: &Linear, s: &mut State) -> f64 {
+        let posed = self.posed(s);
         let moved: Vec<(usize, Vec3)> = lin
             .points
             .par_iter()
             .enumerate()
             .filter(|(_, p)| p.robust)
-            .map(|(i, _)| (i, self.polished(s, &self.ties[i], s.points[i])))
+            .map(|(i, _)| (i, self.polished(&posed, &self.ties[i], s.points[i])))
             .collect();
         moved.into_iter().fold(0.0, |sum, (i, x)| {
             let d = (x - s.points[i]).norm_squared();

@@ -4,6 +4,7 @@
 use super::blocks::{
     CameraBlock, CameraParam, DatumBlock, DatumParam, FrameBlock, FrameParam, Layout, Param, State,
 };
+use super::jacobian::Posed;
 use super::{AdjustFrame, AdjustOptions, Observation, TiePoint};
 use aerorect_core::{Camera, Mat3, Vec3};
 use nalgebra::{Rotation3, SVector};
@@ -36,13 +37,7 @@ pub(super) fn project(
     cb: &CameraBlock,
     x: &Vec3,
 ) -> Option<[f64; 2]> {
-    let r = world_from_camera(frame, fb, cb);
-    let d = r.transpose() * (x - Vec3::from(frame.centre) - fb.position);
-    if d.z >= 0.0 {
-        return None;
-    }
-    let q = distorted(camera, cb, [d.x / -d.z, d.y / d.z])?;
-    Some(pixel_of(camera, cb, q))
+    Posed::new(frame, camera, fb, cb).project(x)
 }
 
 /// The pixel of the observed normalised point `q`.
@@ -111,16 +106,26 @@ pub(super) fn datum_offset(datum: &DatumBlock, d: &Vec3) -> Vec3 {
 }
 
 impl Problem<'_> {
-    /// An observation's residual (pixels over sigma).
-    pub fn residual(&self, s: &State, o: &Observation, x: &Vec3) -> Option<SVector<f64, 2>> {
-        let fr = &self.frames[o.frame];
-        let p = project(
-            fr,
-            &self.cameras[fr.camera],
-            &s.frames[o.frame],
-            &s.cameras[fr.camera],
-            x,
-        )?;
+    /// Every frame's pose at `s` (index by frame).
+    pub fn posed(&self, s: &State) -> Vec<Posed<'_>> {
+        self.frames
+            .iter()
+            .zip(&s.frames)
+            .map(|(fr, fb)| {
+                let c = fr.camera;
+                Posed::new(fr, &self.cameras[c], fb, &s.cameras[c])
+            })
+            .collect()
+    }
+
+    /// An observation's residual (pixels over sigma), the frames posed by [`Self::posed`].
+    pub fn residual(
+        &self,
+        posed: &[Posed<'_>],
+        o: &Observation,
+        x: &Vec3,
+    ) -> Option<SVector<f64, 2>> {
+        let p = posed[o.frame].project(x)?;
         Some(SVector::<f64, 2>::new(p[0] - o.pixel[0], p[1] - o.pixel[1]) / self.opts.pixel_sigma)
     }
 
@@ -132,34 +137,35 @@ impl Problem<'_> {
     }
 
     /// Robust cost of the whole problem (priors included); `None` if a point leaves a view.
-    /// The tie points' terms are computed in parallel, a chunk at a time, and summed in tie
-    /// order: the same sum as one loop.
+    /// Each tie point's terms are summed in its own order, in parallel, and the points' sums
+    /// are added in tie order: the same sum whatever the number of threads.
     pub fn cost(&self, s: &State) -> Option<f64> {
+        let posed = self.posed(s);
         let mut c: f64 = self.prior_rows(s).iter().map(|row| row.cost).sum();
         let chunk = 4096;
         for (ties, xs) in self.ties.chunks(chunk).zip(s.points.chunks(chunk)) {
-            let terms: Vec<Option<Vec<f64>>> = ties
+            let terms: Vec<Option<f64>> = ties
                 .par_iter()
                 .zip(xs)
-                .map(|(tie, x)| self.tie_costs(s, tie, x))
+                .map(|(tie, x)| self.tie_cost(&posed, tie, x))
                 .collect();
             for t in terms {
-                c = t?.into_iter().fold(c, |c, v| c + v);
+                c += t?;
             }
         }
         Some(c)
     }
 
-    /// A tie point's terms of the cost: each observation's, then its prior's.
-    pub(super) fn tie_costs(&self, s: &State, tie: &TiePoint, x: &Vec3) -> Option<Vec<f64>> {
-        let mut out = Vec::with_capacity(tie.observations.len() + 1);
+    /// A tie point's share of the cost: each observation's term, then its prior's, summed
+    /// in that order.
+    pub(super) fn tie_cost(&self, posed: &[Posed<'_>], tie: &TiePoint, x: &Vec3) -> Option<f64> {
+        let mut sum = 0.0;
         for o in &tie.observations {
-            let r = self.residual(s, o, x)?;
+            let r = self.residual(posed, o, x)?;
             let (n, k) = (r.norm(), self.huber);
-            out.push(o.weight * if n <= k { n * n } else { 2.0 * k * n - k * k });
+            sum += o.weight * if n <= k { n * n } else { 2.0 * k * n - k * k };
         }
-        out.push(self.point_prior(tie, x).norm_squared());
-        Some(out)
+        Some(sum + self.point_prior(tie, x).norm_squared())
     }
 
     /// A tie point's whitened ground residual: against its surveyed position for ground
@@ -294,10 +300,11 @@ impl Problem<'_> {
     /// Root mean square of the observations' pixel residuals per frame (with the count and
     /// the outliers), and overall.
     pub fn rms(&self, s: &State) -> (Vec<(f64, usize, usize)>, f64) {
+        let posed = self.posed(s);
         let mut per = vec![(0.0, 0usize, 0usize); self.frames.len()];
         for (tie, x) in self.ties.iter().zip(&s.points) {
             for o in &tie.observations {
-                if let Some(r) = self.residual(s, o, x) {
+                if let Some(r) = self.residual(&posed, o, x) {
                     let e = (r * self.opts.pixel_sigma).norm_squared();
                     per[o.frame].0 += e;
                     per[o.frame].1 += 1;

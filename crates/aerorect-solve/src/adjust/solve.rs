@@ -4,7 +4,7 @@
 //! is solved with faer's sparse Cholesky.
 
 use super::blocks::{LOCAL, State};
-use super::jacobian::pixel_jacobian;
+use super::jacobian::Posed;
 use super::normal::SymBlocks;
 use super::residuals::Problem;
 use super::{Observation, TiePoint};
@@ -13,6 +13,7 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMat, Triplet};
 use nalgebra::{Matrix3, SMatrix, SVector};
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::Arc;
 
 /// The damped reduced system, its right-hand side, and each point's damped H_pp^-1 (none
@@ -24,8 +25,9 @@ pub(super) struct PointLin {
     pub hpp: Matrix3<f64>,
     /// -J_p^T W r.
     pub bp: Vec3,
-    /// H_cp by reduced index.
-    pub hpc: Vec<(usize, Vec3)>,
+    /// Its rows of H_cp, by reduced index in index order: a range of [`Linear::hpc`] (a
+    /// vector per point cost an allocation per point and linearisation).
+    hpc: Range<usize>,
     /// Whether an observation is in Huber's linear arm (the point is polished after a step).
     pub robust: bool,
 }
@@ -36,6 +38,8 @@ pub(super) struct Linear {
     pub entries: SymBlocks,
     pub rhs: Vec<f64>,
     pub points: Vec<PointLin>,
+    /// Every point's rows of H_cp, (reduced index, row), one point after another.
+    hpc: Vec<(usize, Vec3)>,
 }
 
 /// One observation's residual, weight and Jacobians (local columns and point).
@@ -47,11 +51,62 @@ struct Lin {
     idx: [Option<usize>; LOCAL],
 }
 
+/// One part's sums: its matrix and right-hand side.
+struct Partial {
+    entries: SymBlocks,
+    rhs: Vec<f64>,
+}
+
+impl Partial {
+    /// Zero, over `like`'s blocks and `n` parameters.
+    fn new(like: &SymBlocks, n: usize) -> Self {
+        Self {
+            entries: like.empty_like(),
+            rhs: vec![0.0; n],
+        }
+    }
+
+    /// Adds the part's sums to the whole's.
+    fn add_to(&self, entries: &mut SymBlocks, rhs: &mut [f64]) {
+        entries.add_matrix(&self.entries);
+        for (r, v) in rhs.iter_mut().zip(&self.rhs) {
+            *r += v;
+        }
+    }
+
+    /// Adds an observation's frame-camera products over the local columns that hold a
+    /// reduced index (6 of 14 when attitudes and positions are solved for): H_cc = w J_c^T J_c
+    /// and -J_c^T W r, formed for those columns alone. Returns each such column's row of H_cp
+    /// (w J_c^T J_p) in `hpc`.
+    fn add_observation(&mut self, l: &Lin, hpc: &mut Vec<(usize, Vec3)>) {
+        let (mut cols, mut idx) = ([0usize; LOCAL], [0usize; LOCAL]);
+        let mut n = 0;
+        for (a, i) in l.idx.iter().enumerate() {
+            if let Some(i) = *i {
+                (cols[n], idx[n]) = (a, i);
+                n += 1;
+            }
+        }
+        let mut m = [0.0; LOCAL * LOCAL];
+        for (ra, &a) in cols[..n].iter().enumerate() {
+            let (j0, j1) = (l.w * l.local[(0, a)], l.w * l.local[(1, a)]);
+            for (rb, &b) in cols[..=ra].iter().enumerate() {
+                let v = j0 * l.local[(0, b)] + j1 * l.local[(1, b)];
+                m[ra * n + rb] = v;
+                m[rb * n + ra] = v;
+            }
+            self.rhs[idx[ra]] -= j0 * l.r[0] + j1 * l.r[1];
+            let row = l.point.row(0).transpose() * j0 + l.point.row(1).transpose() * j1;
+            hpc.push((idx[ra], row));
+        }
+        self.entries.add_dense(&idx[..n], &m[..n * n]);
+    }
+}
+
 impl Problem<'_> {
-    fn observation_lin(&self, s: &State, o: &Observation, x: &Vec3) -> Option<Lin> {
-        let fr = &self.frames[o.frame];
-        let c = fr.camera;
-        let pj = pixel_jacobian(fr, &self.cameras[c], &s.frames[o.frame], &s.cameras[c], x)?;
+    fn observation_lin(&self, posed: &[Posed<'_>], o: &Observation, x: &Vec3) -> Option<Lin> {
+        let c = self.frames[o.frame].camera;
+        let pj = posed[o.frame].pixel_jacobian(x)?;
         let sig = self.opts.pixel_sigma;
         let r = SVector::<f64, 2>::new(pj.pixel[0] - o.pixel[0], pj.pixel[1] - o.pixel[1]) / sig;
         Some(Lin {
@@ -63,55 +118,51 @@ impl Problem<'_> {
         })
     }
 
-    /// One tie point's blocks, and each observation's frame-camera products (to be added
-    /// to the reduced system in observation order).
-    fn point_part(&self, s: &State, tie: &TiePoint, x: &Vec3) -> Option<PointPart> {
+    /// One tie point's blocks: its observations' frame-camera products go into `sum`, its
+    /// rows of H_cp onto the end of `hpc`.
+    fn point_part(
+        &self,
+        posed: &[Posed<'_>],
+        (tie, x): (&TiePoint, &Vec3),
+        sum: &mut Partial,
+        hpc: &mut Vec<(usize, Vec3)>,
+    ) -> Option<PointLin> {
         let mut hpp = Matrix3::<f64>::zeros();
         let mut bp = Vec3::zeros();
-        // (reduced index, H_cp row) per observation and local column, summed by index below.
-        let mut hpc: Vec<(usize, Vec3)> = Vec::with_capacity(LOCAL * tie.observations.len());
-        let mut obs = ObservationParts::default();
         let mut robust = false;
+        let first = hpc.len();
         for o in &tie.observations {
-            let l = self.observation_lin(s, o, x)?;
+            let l = self.observation_lin(posed, o, x)?;
             robust |= l.w < o.weight;
-            hpp += l.w * l.point.transpose() * l.point;
-            bp -= l.w * l.point.transpose() * l.r;
-            let cross = l.w * l.local.transpose() * l.point;
-            for (a, i) in l.idx.iter().enumerate() {
-                let Some(i) = *i else { continue };
-                hpc.push((i, cross.row(a).transpose()));
-            }
-            obs.push(
-                &l.idx,
-                &(l.w * l.local.transpose() * l.local),
-                &(-l.w * l.local.transpose() * l.r),
-            );
+            let wp = l.point.transpose() * l.w;
+            hpp += wp * l.point;
+            bp -= wp * l.r;
+            sum.add_observation(&l, hpc);
         }
+        summed_by_index(hpc, first);
         let (hp, b) = self.point_prior_blocks(tie, x);
-        Some(PointPart {
-            point: PointLin {
-                hpp: hpp + hp,
-                bp: bp - b,
-                hpc: summed_by_index(hpc),
-                robust,
-            },
-            obs,
+        Some(PointLin {
+            hpp: hpp + hp,
+            bp: bp - b,
+            hpc: first..hpc.len(),
+            robust,
         })
     }
 
     /// Each tie point's blocks alone (H_pp, -J_p^T W r less its prior's), the frames and
     /// cameras held: what [`Self::linear`] gives each point, without the frames' products.
     pub(super) fn point_blocks(&self, s: &State) -> Option<Vec<(Matrix3<f64>, Vec3)>> {
+        let posed = self.posed(s);
         self.ties
             .par_iter()
             .zip(s.points.par_iter())
             .map(|(tie, x)| {
                 let (mut hpp, mut bp) = (Matrix3::<f64>::zeros(), Vec3::zeros());
                 for o in &tie.observations {
-                    let l = self.observation_lin(s, o, x)?;
-                    hpp += l.w * l.point.transpose() * l.point;
-                    bp -= l.w * l.point.transpose() * l.r;
+                    let l = self.observation_lin(&posed, o, x)?;
+                    let wp = l.point.transpose() * l.w;
+                    hpp += wp * l.point;
+                    bp -= wp * l.r;
                 }
                 let (hp, b) = self.point_prior_blocks(tie, x);
                 Some((hpp + hp, bp - b))
@@ -143,33 +194,38 @@ impl Problem<'_> {
     /// parallel, each part summing its points' products into its own matrix, and the parts
     /// are added in tie order: the same sums whatever the number of threads.
     pub fn linear(&self, s: &State) -> Option<Linear> {
+        let posed = self.posed(s);
         let mut lin = Linear {
             entries: SymBlocks::new(Arc::new(self.layout.blocks())),
             rhs: vec![0.0; self.layout.len()],
             points: Vec::with_capacity(self.ties.len()),
+            hpc: Vec::new(),
         };
         for (ties, xs) in self.ties.chunks(CHUNK).zip(s.points.chunks(CHUNK)) {
-            let parts: Vec<Option<(Partial, Vec<PointLin>)>> = ties
+            type Part = (Partial, Vec<PointLin>, Vec<(usize, Vec3)>);
+            let parts: Vec<Option<Part>> = ties
                 .par_chunks(PART)
                 .zip(xs.par_chunks(PART))
                 .map(|(ties, xs)| {
                     let mut sum = Partial::new(&lin.entries, lin.rhs.len());
+                    let mut hpc = Vec::new();
                     let points = ties
                         .iter()
                         .zip(xs)
-                        .map(|(tie, x)| {
-                            let part = self.point_part(s, tie, x)?;
-                            part.obs.add_to(&mut sum.entries, &mut sum.rhs);
-                            Some(part.point)
-                        })
+                        .map(|t| self.point_part(&posed, t, &mut sum, &mut hpc))
                         .collect::<Option<Vec<_>>>()?;
-                    Some((sum, points))
+                    Some((sum, points, hpc))
                 })
                 .collect();
             for part in parts {
-                let (sum, points) = part?;
+                let (sum, points, hpc) = part?;
                 sum.add_to(&mut lin.entries, &mut lin.rhs);
-                lin.points.extend(points);
+                let at = lin.hpc.len();
+                lin.points.extend(points.into_iter().map(|p| PointLin {
+                    hpc: p.hpc.start + at..p.hpc.end + at,
+                    ..p
+                }));
+                lin.hpc.extend(hpc);
             }
         }
         for row in self.prior_rows(s) {
@@ -185,15 +241,15 @@ impl Problem<'_> {
     }
 }
 
-/// The rows of `rows` summed per index, in index order: each sum starts at zero and adds its
-/// rows in their order in `rows` (what a map of sums filled in that order holds; a map of
-/// nodes cost an allocation per index).
-fn summed_by_index(mut rows: Vec<(usize, Vec3)>) -> Vec<(usize, Vec3)> {
-    rows.sort_by_key(|&(i, _)| i);
-    let mut kept = 0;
-    for r in 0..rows.len() {
+/// The rows of `rows` from `first` on summed per index, in index order, in place: each sum
+/// starts at zero and adds its rows in their order (what a map of sums filled in that order
+/// holds).
+fn summed_by_index(rows: &mut Vec<(usize, Vec3)>, first: usize) {
+    rows[first..].sort_by_key(|&(i, _)| i);
+    let mut kept = first;
+    for r in first..rows.len() {
         let (i, v) = rows[r];
-        if kept > 0 && rows[kept - 1].0 == i {
+        if kept > first && rows[kept - 1].0 == i {
             rows[kept - 1].1 += v;
         } else {
             rows[kept] = (i, Vec3::zeros() + v);
@@ -201,10 +257,6 @@ fn summed_by_index(mut rows: Vec<(usize, Vec3)>) -> Vec<(usize, Vec3)> {
         }
     }
     rows.truncate(kept);
-    // Kept with the point for the whole solve: held at its full length (an entry per
-    // observation and local column) it cost 300 MB on the 1,000-frame simulation.
-    rows.shrink_to_fit();
-    rows
 }
 
 /// Points per chunk of [`Problem::linear`] and [`Linear::reduced`]: a chunk's parts
@@ -212,69 +264,12 @@ fn summed_by_index(mut rows: Vec<(usize, Vec3)>) -> Vec<(usize, Vec3)> {
 /// side over every parameter.
 const CHUNK: usize = 4096;
 
-/// A tie point's observations' frame-camera products over the local columns that hold a
-/// reduced index (3 of 14 when only attitudes are solved for), one observation after another:
-/// its count n (`len`), its n indices (`idx`, in column order), then H_cc over them (n x n,
-/// row-major) and -J_c^T W r (n) in `values`. Three small vectors per point: an observation's
-/// full 14 x 14 block, 1.9 KB, went through the allocator's slow path for every point and
-/// step (a sixth of a large flight's solve).
-#[derive(Default)]
-struct ObservationParts {
-    len: Vec<usize>,
-    idx: Vec<Option<usize>>,
-    values: Vec<f64>,
-}
-
-impl ObservationParts {
-    fn push(
-        &mut self,
-        idx: &[Option<usize>; LOCAL],
-        hcc: &SMatrix<f64, LOCAL, LOCAL>,
-        bc: &SVector<f64, LOCAL>,
-    ) {
-        let mut held = [0usize; LOCAL];
-        let mut n = 0;
-        for (a, i) in idx.iter().enumerate() {
-            if i.is_some() {
-                held[n] = a;
-                n += 1;
-            }
-        }
-        let held = &held[..n];
-        self.len.push(n);
-        self.idx.extend(held.iter().map(|&a| idx[a]));
-        for &a in held {
-            self.values.extend(held.iter().map(|&b| hcc[(a, b)]));
-        }
-        self.values.extend(held.iter().map(|&a| bc[a]));
-    }
-
-    /// Adds every observation's products to the reduced system, in observation order, each
-    /// the right-hand side's entries first, then H_cc (what adding the full blocks added).
-    fn add_to(&self, entries: &mut SymBlocks, rhs: &mut [f64]) {
-        let (mut at_idx, mut at_value) = (0, 0);
-        for &n in &self.len {
-            let idx = &self.idx[at_idx..at_idx + n];
-            let (hcc, bc) = self.values[at_value..at_value + n * n + n].split_at(n * n);
-            for (i, b) in idx.iter().zip(bc) {
-                if let Some(i) = *i {
-                    rhs[i] += b;
-                }
-            }
-            entries.add_outer(idx, |a, b| hcc[a * n + b]);
-            at_idx += n;
-            at_value += n * n + n;
-        }
-    }
-}
-
-/// One tie point's blocks and its observations' products.
-struct PointPart {
-    point: PointLin,
-    obs: ObservationParts,
-}
-
 impl Linear {
+    /// Point `p`'s rows of H_cp.
+    pub fn hpc(&self, p: &PointLin) -> &[(usize, Vec3)] {
+        &self.hpc[p.hpc.clone()]
+    }
+
     /// The gradient's largest entry (frames, cameras and points).
     pub fn gradient_max_norm(&self) -> f64 {
         let c = self.rhs.iter().fold(0.0, |a: f64, v| a.max(v.abs()));
@@ -298,14 +293,10 @@ impl Linear {
                 .par_chunks(PART)
                 .map(|points| {
                     let mut sum = Partial::new(&entries, rhs.len());
-                    let (mut t, mut idx) = (Vec::new(), Vec::new());
+                    let mut work = SchurWork::default();
                     let inverses = points
                         .iter()
-                        .map(|p| {
-                            let part = schur_part(p, lambda, &mut t)?;
-                            part.add_to(p, &mut sum, &mut idx);
-                            Some(part.inv)
-                        })
+                        .map(|p| work.eliminate(p, self.hpc(p), lambda, &mut sum))
                         .collect();
                     (sum, inverses)
                 })
@@ -326,70 +317,50 @@ impl Linear {
 /// the other thread waited).
 const PART: usize = 256;
 
-/// One part's sums: its matrix and right-hand side.
-struct Partial {
-    entries: SymBlocks,
-    rhs: Vec<f64>,
+/// A part's working space for eliminating its points, kept from point to point.
+#[derive(Default)]
+struct SchurWork {
+    /// H_pp^-1 H_pc, by column.
+    t: Vec<Vec3>,
+    idx: Vec<usize>,
+    outer: Vec<f64>,
 }
 
-impl Partial {
-    /// Zero, over `like`'s blocks and `n` parameters.
-    fn new(like: &SymBlocks, n: usize) -> Self {
-        Self {
-            entries: like.empty_like(),
-            rhs: vec![0.0; n],
+impl SchurWork {
+    /// Eliminates point `p` (its rows of H_cp `hpc`) at damping `lambda` from a part's sums:
+    /// S -= H_cp H_pp^-1 H_pc over the point's reduced indices, rhs -= H_cp H_pp^-1 b_p.
+    /// Returns its damped H_pp^-1, `None` (and nothing subtracted) where that is singular.
+    fn eliminate(
+        &mut self,
+        p: &PointLin,
+        hpc: &[(usize, Vec3)],
+        lambda: f64,
+        sum: &mut Partial,
+    ) -> Option<Matrix3<f64>> {
+        let mut hpp = p.hpp;
+        for k in 0..3 {
+            hpp[(k, k)] += lambda * p.hpp[(k, k)].max(1e-9);
         }
-    }
-
-    /// Adds the part's sums to the whole's.
-    fn add_to(&self, entries: &mut SymBlocks, rhs: &mut [f64]) {
-        entries.add_matrix(&self.entries);
-        for (r, v) in rhs.iter_mut().zip(&self.rhs) {
-            *r += v;
+        let inv = hpp.try_inverse()?;
+        self.t.clear();
+        self.t.extend(hpc.iter().map(|(_, v)| inv * v));
+        let ib = inv * p.bp;
+        let n = hpc.len();
+        self.outer.clear();
+        self.outer.resize(n * n, 0.0);
+        for (a, (i, va)) in hpc.iter().enumerate() {
+            for (b, tb) in self.t[..=a].iter().enumerate() {
+                let v = -va.dot(tb);
+                self.outer[a * n + b] = v;
+                self.outer[b * n + a] = v;
+            }
+            sum.rhs[*i] -= va.dot(&ib);
         }
+        self.idx.clear();
+        self.idx.extend(hpc.iter().map(|(i, _)| *i));
+        sum.entries.add_dense(&self.idx, &self.outer);
+        Some(inv)
     }
-}
-
-/// One point's elimination, for a point seen through n reduced parameters (its `hpc`):
-/// S -= H_cp H_pp^-1 H_pc, n x n values row-major over the point's reduced indices, then
-/// rhs -= H_cp H_pp^-1 b_p, n values (what is subtracted), in one vector.
-struct SchurPart {
-    inv: Matrix3<f64>,
-    outer_rhs: Vec<f64>,
-}
-
-impl SchurPart {
-    /// Subtracts the point's elimination from a part's sums (`idx`: working space).
-    fn add_to(&self, p: &PointLin, sum: &mut Partial, idx: &mut Vec<Option<usize>>) {
-        let n = p.hpc.len();
-        let (outer, subtract) = self.outer_rhs.split_at(n * n);
-        for ((i, _), d) in p.hpc.iter().zip(subtract) {
-            sum.rhs[*i] -= d;
-        }
-        idx.clear();
-        idx.extend(p.hpc.iter().map(|(i, _)| Some(*i)));
-        sum.entries.add_outer(idx, |a, b| outer[a * n + b]);
-    }
-}
-
-/// Point `p`'s [`SchurPart`] at damping `lambda`; `None` where its damped H_pp is singular.
-/// `t` is working space (H_pp^-1 H_pc by column).
-fn schur_part(p: &PointLin, lambda: f64, t: &mut Vec<Vec3>) -> Option<SchurPart> {
-    let mut hpp = p.hpp;
-    for k in 0..3 {
-        hpp[(k, k)] += lambda * p.hpp[(k, k)].max(1e-9);
-    }
-    let inv = hpp.try_inverse()?;
-    t.clear();
-    t.extend(p.hpc.iter().map(|(_, v)| inv * v));
-    let ib = inv * p.bp;
-    let n = p.hpc.len();
-    let mut outer_rhs = Vec::with_capacity(n * n + n);
-    for (_, va) in &p.hpc {
-        outer_rhs.extend(t.iter().map(|tb| -va.dot(tb)));
-    }
-    outer_rhs.extend(p.hpc.iter().map(|(_, vi)| vi.dot(&ib)));
-    Some(SchurPart { inv, outer_rhs })
 }
 
 /// Factorises a symmetric system given by its entries (both triangles).
@@ -488,7 +459,10 @@ impl crate::lm::Model for Solver<'_, '_> {
         let mut step2: f64 = dc.iter().map(|d| d * d).sum();
         for ((x, p), inv) in next.points.iter_mut().zip(&lin.points).zip(&inverses) {
             if let Some(inv) = inv {
-                let hd = p.hpc.iter().fold(Vec3::zeros(), |a, (i, v)| a + v * dc[*i]);
+                let hd = lin
+                    .hpc(p)
+                    .iter()
+                    .fold(Vec3::zeros(), |a, (i, v)| a + v * dc[*i]);
                 let dx = inv * (p.bp - hd);
                 step2 += dx.norm_squared();
                 *x += dx;
@@ -519,48 +493,9 @@ mod tests {
     use super::*;
     use std::collections::BTreeMap;
 
-    /// An observation's products added from the compact form give the reduced system and
-    /// right-hand side that adding its full 14 x 14 block gave, bit for bit.
-    #[test]
-    fn compact_observations_add_what_full_blocks_added() {
-        use super::super::normal::Blocks;
-        let blocks = Arc::new(Blocks::new([3, 3, 8]));
-        let (mut compact, mut full) = (SymBlocks::new(blocks.clone()), SymBlocks::new(blocks));
-        let (mut rhs_c, mut rhs_f) = (vec![0.0; 14], vec![0.0; 14]);
-        let mut parts = ObservationParts::default();
-        let held: [&[usize]; 3] = [&[0, 1, 2], &[3, 4, 5, 9, 13], &[]];
-        for (k, held) in held.iter().enumerate() {
-            let mut idx = [None; LOCAL];
-            for (n, &a) in held.iter().enumerate() {
-                idx[a] = Some((3 * k + 2 * n) % 14);
-            }
-            let hcc = SMatrix::<f64, LOCAL, LOCAL>::from_fn(|a, b| {
-                ((a * 31 + b * 17 + k) as f64).sin() / 3.0
-            });
-            let bc = SVector::<f64, LOCAL>::from_fn(|a, _| -(((a + k) as f64) * 0.7).cos());
-            parts.push(&idx, &hcc, &bc);
-            for (a, i) in idx.iter().enumerate() {
-                if let Some(i) = *i {
-                    rhs_f[i] += bc[a];
-                }
-            }
-            full.add_outer(&idx, |a, b| hcc[(a, b)]);
-        }
-        parts.add_to(&mut compact, &mut rhs_c);
-        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&rhs_c), bits(&rhs_f));
-        let (c, f) = (compact.lower_triplets(), full.lower_triplets());
-        assert_eq!(c.len(), f.len());
-        for (x, y) in c.iter().zip(&f) {
-            assert_eq!((x.0, x.1, x.2.to_bits()), (y.0, y.1, y.2.to_bits()));
-        }
-    }
-
-    /// The points' blocks alone (a warm start's point passes) are those of the full
-    /// linearisation, bit for bit, over a terrain prior and with one observation in Huber's
-    /// linear arm.
-    #[test]
-    fn point_blocks_are_the_full_linearisations_points() {
+    /// A problem of two frames and 40 tie points over a sloping terrain, one observation in
+    /// Huber's linear arm, attitudes and positions free, and a state near its minimum.
+    fn with_fixture(run: impl FnOnce(&Problem<'_>, &State)) {
         use super::super::blocks::{CameraBlock, DatumBlock, FrameBlock, Layout};
         use super::super::{AdjustFrame, AdjustOptions};
         use aerorect_core::{Camera, ImageSize, Intrinsics};
@@ -625,18 +560,107 @@ mod tests {
             datum: DatumBlock::default(),
             points: ties.iter().map(|t| Vec3::from(t.ground)).collect(),
         };
-        let lin = p.linear(&s).unwrap();
-        let blocks = p.point_blocks(&s).unwrap();
-        assert_eq!(blocks.len(), lin.points.len());
-        assert!(
-            lin.points.iter().any(|q| q.robust),
-            "no point in Huber's arm"
-        );
-        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        for ((hpp, bp), q) in blocks.iter().zip(&lin.points) {
-            assert_eq!(bits(hpp.as_slice()), bits(q.hpp.as_slice()));
-            assert_eq!(bits(bp.as_slice()), bits(q.bp.as_slice()));
-        }
+        run(&p, &s);
+    }
+
+    /// The reduced system and right-hand side at two dampings equal a dense oracle: every
+    /// observation's full Jacobian (all 14 local columns and the point's 3) assembled into
+    /// one dense normal matrix with the priors, damped, and its points eliminated by a dense
+    /// Schur complement.
+    #[test]
+    fn the_reduced_system_is_the_dense_schur_complement() {
+        use super::super::jacobian::pixel_jacobian;
+        use nalgebra::{DMatrix, DVector};
+        with_fixture(|p, s| {
+            let lin = p.linear(s).unwrap();
+            let (nc, np) = (p.layout.len(), 3 * p.ties.len());
+            let mut n = DMatrix::<f64>::zeros(nc + np, nc + np);
+            let mut b = DVector::<f64>::zeros(nc + np);
+            let sig = p.opts.pixel_sigma;
+            for (t, (tie, x)) in p.ties.iter().zip(&s.points).enumerate() {
+                for o in &tie.observations {
+                    let fr = &p.frames[o.frame];
+                    let (fb, cb) = (&s.frames[o.frame], &s.cameras[fr.camera]);
+                    let pj = pixel_jacobian(fr, &p.cameras[fr.camera], fb, cb, x).unwrap();
+                    let r =
+                        nalgebra::Vector2::new(pj.pixel[0] - o.pixel[0], pj.pixel[1] - o.pixel[1])
+                            / sig;
+                    let w = p.weight(&r, o);
+                    let mut j = DMatrix::<f64>::zeros(2, nc + np);
+                    for (a, i) in p.layout.local(o.frame, fr.camera).iter().enumerate() {
+                        if let Some(i) = i {
+                            j.set_column(*i, &(pj.local.column(a) / sig));
+                        }
+                    }
+                    for k in 0..3 {
+                        j.set_column(nc + 3 * t + k, &(pj.point.column(k) / sig));
+                    }
+                    n += j.transpose() * &j * w;
+                    b -= j.transpose() * DVector::from_column_slice(r.as_slice()) * w;
+                }
+                let (hp, bp) = p.point_prior_blocks(tie, x);
+                let at = nc + 3 * t;
+                let mut block = n.view_mut((at, at), (3, 3));
+                block += hp;
+                let mut rows = b.rows_mut(at, 3);
+                rows -= bp;
+            }
+            for row in p.prior_rows(s) {
+                let w = row.weight / (row.sigma * row.sigma);
+                for &(i, a) in &row.terms {
+                    b[i] -= w * a * row.value;
+                    for &(j, c) in &row.terms {
+                        n[(i, j)] += w * a * c;
+                    }
+                }
+            }
+            for lambda in [0.0, 1e-3] {
+                let mut d = n.clone();
+                for i in 0..nc + np {
+                    d[(i, i)] += lambda * n[(i, i)].max(1e-9);
+                }
+                let ipp = d
+                    .view((nc, nc), (np, np))
+                    .clone_owned()
+                    .try_inverse()
+                    .unwrap();
+                let ncp = d.view((0, nc), (nc, np)).clone_owned();
+                let want = d.view((0, 0), (nc, nc)) - &ncp * &ipp * ncp.transpose();
+                let want_rhs = b.rows(0, nc) - &ncp * &ipp * b.rows(nc, np);
+                let (entries, rhs, inverses) = lin.reduced(lambda);
+                assert!(inverses.iter().all(Option::is_some));
+                let scale = want.amax();
+                let mut got = DMatrix::<f64>::zeros(nc, nc);
+                for (i, j, v) in entries.lower_triplets() {
+                    got[(i, j)] = v;
+                    got[(j, i)] = v;
+                }
+                assert!((&got - &want).amax() <= 1e-9 * scale, "{got}\n{want}");
+                let rhs = DVector::from_vec(rhs);
+                assert!((&rhs - &want_rhs).amax() <= 1e-9 * want_rhs.amax().max(1.0));
+            }
+        });
+    }
+
+    /// The points' blocks alone (a warm start's point passes) are those of the full
+    /// linearisation, bit for bit, over a terrain prior and with one observation in Huber's
+    /// linear arm.
+    #[test]
+    fn point_blocks_are_the_full_linearisations_points() {
+        with_fixture(|p, s| {
+            let lin = p.linear(s).unwrap();
+            let blocks = p.point_blocks(s).unwrap();
+            assert_eq!(blocks.len(), lin.points.len());
+            assert!(
+                lin.points.iter().any(|q| q.robust),
+                "no point in Huber's arm"
+            );
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            for ((hpp, bp), q) in blocks.iter().zip(&lin.points) {
+                assert_eq!(bits(hpp.as_slice()), bits(q.hpp.as_slice()));
+                assert_eq!(bits(bp.as_slice()), bits(q.bp.as_slice()));
+            }
+        });
     }
 
     /// The same sums, bit for bit and in index order, as a map of sums filled in order
@@ -654,7 +678,16 @@ mod tests {
         for (i, v) in &rows {
             *map.entry(*i).or_insert_with(Vec3::zeros) += v;
         }
-        let got = summed_by_index(rows);
+        // Behind two rows of an earlier point, which stay as they are.
+        let earlier = [
+            (5, Vec3::new(1.0, 2.0, 3.0)),
+            (1, Vec3::new(-4.0, 0.5, 0.0)),
+        ];
+        let mut got = earlier.to_vec();
+        got.extend(rows);
+        summed_by_index(&mut got, earlier.len());
+        assert_eq!(got[..2], earlier);
+        let got = &got[2..];
         assert_eq!(got.len(), map.len());
         for ((gi, gv), (mi, mv)) in got.iter().zip(&map) {
             assert_eq!(gi, mi);
