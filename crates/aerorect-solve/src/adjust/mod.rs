@@ -355,6 +355,7 @@ pub fn adjust(
             problem: &p,
             start: start.clone(),
             linear: None,
+            inverses: Vec::new(),
             // A later stage starts at the last one's minimum, near its own.
             settled: opts.settled.filter(|_| warm || stage > 0),
         };

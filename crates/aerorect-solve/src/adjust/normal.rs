@@ -62,7 +62,13 @@ pub(super) struct SymBlocks {
     values: Vec<f64>,
     /// [`SymBlocks::add_dense`]'s runs, kept between calls.
     runs: Vec<Run>,
+    /// The last block pairs looked up, by a hash of the pair: consecutive tie points join
+    /// the same frames, and the map's lookups were a tenth of the points' elimination.
+    recent: [(u32, u32, usize); RECENT],
 }
+
+/// Entries of [`SymBlocks::recent`].
+const RECENT: usize = 8;
 
 /// Positions of a dense matrix whose indices are consecutive in one block: the first
 /// position, how many, the block and the first index's place in it.
@@ -81,6 +87,7 @@ impl SymBlocks {
             base: BlockPairs::default(),
             values: Vec::new(),
             runs: Vec::new(),
+            recent: [(u32::MAX, u32::MAX, 0); RECENT],
         }
     }
 
@@ -91,13 +98,20 @@ impl SymBlocks {
 
     /// The first slot of block pair (a, b), allocated at its first use.
     fn base(&mut self, a: u32, b: u32) -> usize {
+        let k = (a as usize * 3 + b as usize) % RECENT;
+        let (x, y, s) = self.recent[k];
+        if (x, y) == (a, b) {
+            return s;
+        }
         if let Some(&s) = self.base.get(&(a, b)) {
+            self.recent[k] = (a, b, s);
             return s;
         }
         let s = self.values.len();
         let n = self.blocks.len(a) * self.blocks.len(b);
         self.values.resize(s + n, 0.0);
         self.base.insert((a, b), s);
+        self.recent[k] = (a, b, s);
         s
     }
 

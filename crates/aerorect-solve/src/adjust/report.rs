@@ -32,10 +32,10 @@ pub(super) struct Fit {
 pub(super) fn standard_deviations(p: &Problem<'_>, s: &State) -> Vec<(Param, f64)> {
     let free: Vec<(usize, Param)> = p.layout.free().collect();
     let nan = || free.iter().map(|&(_, q)| (q, f64::NAN)).collect();
-    let Some(lin) = p.linear(s) else {
+    let Some(lin) = p.linear(s, None) else {
         return nan();
     };
-    let (entries, _, _) = lin.reduced(0.0);
+    let (entries, _) = lin.reduced(0.0, &mut Vec::new());
     let n = p.layout.len();
     let Some(llt) = factor(n, &entries) else {
         return nan();

@@ -16,9 +16,8 @@ use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::Arc;
 
-/// The damped reduced system, its right-hand side, and each point's damped H_pp^-1 (none
-/// where it is singular).
-type Reduced = (SymBlocks, Vec<f64>, Vec<Option<Matrix3<f64>>>);
+/// The damped reduced system and its right-hand side.
+type Reduced = (SymBlocks, Vec<f64>);
 
 /// One tie point's blocks of the (undamped) normal equations.
 pub(super) struct PointLin {
@@ -192,14 +191,22 @@ impl Problem<'_> {
 
     /// The undamped normal equations at `s`. The tie points are taken [`PART`] at a time in
     /// parallel, each part summing its points' products into its own matrix, and the parts
-    /// are added in tie order: the same sums whatever the number of threads.
-    pub fn linear(&self, s: &State) -> Option<Linear> {
+    /// are added in tie order: the same sums whatever the number of threads. `reuse`: an
+    /// earlier linearisation whose storage is taken over (fresh, its gigabyte of points' blocks
+    /// on a large flight went to the kernel's page clearing at every step).
+    pub fn linear(&self, s: &State, reuse: Option<Linear>) -> Option<Linear> {
         let posed = self.posed(s);
+        let (mut points, mut hpc) = reuse.map_or_else(
+            || (Vec::with_capacity(self.ties.len()), Vec::new()),
+            |l| (l.points, l.hpc),
+        );
+        points.clear();
+        hpc.clear();
         let mut lin = Linear {
             entries: SymBlocks::new(Arc::new(self.layout.blocks())),
             rhs: vec![0.0; self.layout.len()],
-            points: Vec::with_capacity(self.ties.len()),
-            hpc: Vec::new(),
+            points,
+            hpc,
         };
         for (ties, xs) in self.ties.chunks(CHUNK).zip(s.points.chunks(CHUNK)) {
             type Part = (Partial, Vec<PointLin>, Vec<(usize, Vec3)>);
@@ -276,18 +283,19 @@ impl Linear {
         self.points.iter().fold(c, |a, p| a.max(p.bp.amax()))
     }
 
-    /// The damped reduced system (points eliminated), each point's damped H_pp^-1 (none where
-    /// it is singular), and its right-hand side. The points' Schur blocks are taken [`PART`]
-    /// at a time in parallel, each part summed into its own matrix, and the parts are added
-    /// in point order: the same sums whatever the number of threads.
-    pub fn reduced(&self, lambda: f64) -> Reduced {
+    /// The damped reduced system (points eliminated) and its right-hand side; each point's
+    /// damped H_pp^-1 (none where it is singular) in `inverses`, which is cleared first. The
+    /// points' Schur blocks are taken [`PART`] at a time in parallel, each part summed into its
+    /// own matrix, and the parts are added in point order: the same sums whatever the number
+    /// of threads.
+    pub fn reduced(&self, lambda: f64, inverses: &mut Vec<Option<Matrix3<f64>>>) -> Reduced {
         let mut entries = self.entries.clone();
         for i in 0..self.rhs.len() {
             let d = entries.entry(i, i);
             *d += lambda * d.max(1e-9);
         }
         let mut rhs = self.rhs.clone();
-        let mut inverses = Vec::with_capacity(self.points.len());
+        inverses.clear();
         for points in self.points.chunks(CHUNK) {
             let parts: Vec<(Partial, Vec<Option<Matrix3<f64>>>)> = points
                 .par_chunks(PART)
@@ -306,7 +314,7 @@ impl Linear {
                 inverses.extend(part);
             }
         }
-        (entries, rhs, inverses)
+        (entries, rhs)
     }
 }
 
@@ -393,6 +401,8 @@ pub(super) struct Solver<'p, 'a> {
     pub problem: &'p Problem<'a>,
     pub start: Vec<Vec3>,
     pub linear: Option<Linear>,
+    /// Each point's damped H_pp^-1 at the last step (kept for its storage).
+    pub inverses: Vec<Option<Matrix3<f64>>>,
     /// The stop rule of [`super::AdjustOptions::settled`] (degrees), for a solve that starts
     /// near its minimum (a warm start), where the steps are Gauss-Newton's: from far, the
     /// damped steps can be short while the solve still has far to go.
@@ -446,13 +456,14 @@ impl crate::lm::Model for Solver<'_, '_> {
     }
 
     fn linearise(&mut self, s: &State) -> Option<f64> {
-        self.linear = self.problem.linear(s);
+        self.linear = self.problem.linear(s, self.linear.take());
         self.linear.as_ref().map(Linear::gradient_max_norm)
     }
 
     fn step(&mut self, s: &State, lambda: f64) -> Option<crate::lm::Step<State>> {
         let lin = self.linear.as_ref()?;
-        let (entries, rhs, inverses) = lin.reduced(lambda);
+        let mut inverses = std::mem::take(&mut self.inverses);
+        let (entries, rhs) = lin.reduced(lambda, &mut inverses);
         let llt = factor(rhs.len(), &entries)?;
         let dc = solve_with(&llt, &rhs);
         let mut next = self.problem.layout.moved(s, &dc);
@@ -468,6 +479,7 @@ impl crate::lm::Model for Solver<'_, '_> {
                 *x += dx;
             }
         }
+        self.inverses = inverses;
         if !step2.is_finite() {
             return None;
         }
@@ -572,7 +584,7 @@ mod tests {
         use super::super::jacobian::pixel_jacobian;
         use nalgebra::{DMatrix, DVector};
         with_fixture(|p, s| {
-            let lin = p.linear(s).unwrap();
+            let lin = p.linear(s, None).unwrap();
             let (nc, np) = (p.layout.len(), 3 * p.ties.len());
             let mut n = DMatrix::<f64>::zeros(nc + np, nc + np);
             let mut b = DVector::<f64>::zeros(nc + np);
@@ -627,7 +639,8 @@ mod tests {
                 let ncp = d.view((0, nc), (nc, np)).clone_owned();
                 let want = d.view((0, 0), (nc, nc)) - &ncp * &ipp * ncp.transpose();
                 let want_rhs = b.rows(0, nc) - &ncp * &ipp * b.rows(nc, np);
-                let (entries, rhs, inverses) = lin.reduced(lambda);
+                let mut inverses = Vec::new();
+                let (entries, rhs) = lin.reduced(lambda, &mut inverses);
                 assert!(inverses.iter().all(Option::is_some));
                 let scale = want.amax();
                 let mut got = DMatrix::<f64>::zeros(nc, nc);
@@ -648,7 +661,7 @@ mod tests {
     #[test]
     fn point_blocks_are_the_full_linearisations_points() {
         with_fixture(|p, s| {
-            let lin = p.linear(s).unwrap();
+            let lin = p.linear(s, None).unwrap();
             let blocks = p.point_blocks(s).unwrap();
             assert_eq!(blocks.len(), lin.points.len());
             assert!(
