@@ -183,7 +183,8 @@ pub struct FlightArgs {
     /// With --adjust: where tie points come from: `both` (SIFT features first, which need no
     /// attitude, then correlation of the rendered frames, whose ties replace a pair's features
     /// where it ties the pair; with --dem the last solve takes both, each weighed by how well
-    /// its ties agree), `features` (one round) or `correlation` (the recorded
+    /// its ties agree, and no correlation round is run where a correlated sample of the
+    /// pairs agrees worse than the features), `features` (one round) or `correlation` (the recorded
     /// attitudes must be within a few degrees).
     #[arg(long, requires = "adjust", default_value = "both")]
     pub ties: String,

@@ -121,6 +121,21 @@ fn perturbed_ngi_poses_are_recovered_and_the_frames_agree() {
         &std::fs::read_to_string(tmp.path().join("out/adjustment.json")).unwrap(),
     )
     .unwrap();
+    // The features round weighed the sources on a correlated sample of its pairs: NGI's
+    // reduced scans' features agree worse than correlation, so a correlation round followed,
+    // its weights from every reliable pair.
+    let rounds = json["rounds"].as_array().unwrap();
+    let first = &rounds[0]["sources"];
+    eprintln!("features round: {first}");
+    assert!(first["sampled_pairs"].as_u64().unwrap() >= 1, "{first}");
+    assert!(first["feature_weight"].as_f64().unwrap() < 1.0, "{first}");
+    assert_eq!(rounds[0]["held_by_features"], false);
+    assert!(rounds.len() >= 2, "{rounds:?}");
+    let last = &rounds[rounds.len() - 1]["sources"];
+    assert!(
+        last["sampled_pairs"].is_null() && last["feature_weight"].is_f64(),
+        "{last}"
+    );
     let focal = json["poses"][0]["focal_px"].as_f64().unwrap();
     assert!(
         (focal / (120.0 / 0.144) - 1.0).abs() < 1e-3,

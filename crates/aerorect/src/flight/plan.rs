@@ -330,11 +330,24 @@ impl FlightPlan {
         let since = progress.since.unwrap_or(self.started);
         let mut summary = round.summary((before, &poses), since);
         // Over a DEM, the solve that ends the rounds takes both sources where correlation
-        // tied pairs, each weighed by the round's orientation (see `sources`).
+        // tied pairs, each weighed by the round's orientation; the features round weighs them
+        // on a correlated sample of its pairs (see `sources`).
         let cams: Vec<&Camera> = cameras.iter().collect();
-        summary.sources = match correlated.is_empty() || self.opts.dem.is_none() {
-            true => None,
-            false => SourceWeights::weigh(&matched, (&poses, &cams), self.ground.as_ref()),
+        let features_round = correlated.is_empty()
+            && all_at_end
+            && self.fo.ties == TieSource::Both
+            && matched.iter().any(|m| m.features);
+        summary.sources = match (self.opts.dem.is_some(), correlated.is_empty()) {
+            (false, _) => None,
+            (true, false) => SourceWeights::weigh(&matched, (&poses, &cams), self.ground.as_ref()),
+            (true, true) if features_round => {
+                let orientation = Orientation {
+                    poses: poses.clone(),
+                    cameras: cameras.clone(),
+                };
+                self.sampled_sources(&matched, &orientation)?
+            }
+            (true, true) => None,
         };
         summary.held_by_features = all_at_end && summary.sources.is_some_and(|w| w.features_hold());
         // Rounds whose turns stopped shrinking end too (another round would turn the frames
@@ -348,7 +361,8 @@ impl FlightPlan {
             || self.fo.ties == TieSource::Features
             || summary.held_by_features
             || oscillating;
-        let both = match progress.done && all_at_end {
+        // Only correlation's ties need the features weighed against them.
+        let both = match progress.done && all_at_end && !correlated.is_empty() {
             true => summary.sources.and_then(|w| w.factor(&matched)),
             false => None,
         }
