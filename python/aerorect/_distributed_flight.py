@@ -86,9 +86,11 @@ def _flight_feature_steps(photos, opts_json):
     return _flight(photos, opts_json).feature_steps()
 
 
-def _flight_feature_match(pair, first, second, photos, opts_json, guide=None):
+def _flight_feature_match(pair, first, second, photos, opts_json, guide=None,
+                          first_step=False):
     """One pair matched by its features (a task): its tie points, exact JSON."""
-    return _flight(photos, opts_json).feature_match(pair[0], pair[1], first, second, guide)
+    return _flight(photos, opts_json).feature_match(pair[0], pair[1], first, second, guide,
+                                                    first_step)
 
 
 def _flight_step_guide(photos, opts_json, first):
@@ -159,7 +161,7 @@ def _adjusted_on(client, photos: List[str], outs: List[str], out_dir: str, opts:
         first = [p for p, s in zip(fpairs, steps) if s == 1]
         second = [p for p, s in zip(fpairs, steps) if s == 2]
         fmatches = [client.submit(_flight_feature_match, tuple(p), feats[p[0]], feats[p[1]],
-                                  *key, pure=False) for p in first]
+                                  *key, None, bool(second), pure=False) for p in first]
         if second:
             guide = client.submit(_flight_step_guide, *key, fmatches, pure=False).result()
             # Scattered once (every second-step task takes it), not copied into each task.

@@ -258,7 +258,10 @@ impl FlightPlan {
 
     /// Frames i and j matched by their features (`frame_features`' JSON, or
     /// `step_features`' in the second step, with its `guide`): the tie points (exact JSON).
-    #[pyo3(signature = (i, j, first, second, guide=None))]
+    /// `first_step`: the pair is in the first of two steps (`feature_steps` gives some 2),
+    /// where a pair the priors cannot guide is matched on the strongest keypoints.
+    #[pyo3(signature = (i, j, first, second, guide=None, first_step=false))]
+    #[allow(clippy::too_many_arguments)]
     fn feature_match(
         &self,
         py: Python<'_>,
@@ -267,6 +270,7 @@ impl FlightPlan {
         first: &str,
         second: &str,
         guide: Option<&str>,
+        first_step: bool,
     ) -> PyResult<String> {
         py.detach(|| -> Result<_> {
             let a = aerorect::flight::from_exact_json(first)?;
@@ -274,10 +278,11 @@ impl FlightPlan {
             let g = guide
                 .map(|g| aerorect::flight::StepGuide::from_json(g, self.plan.len()))
                 .transpose()?;
-            let basis = g.as_ref().map_or(
-                aerorect::flight::Basis::Recorded,
-                aerorect::flight::Basis::Stepped,
-            );
+            let basis = match (&g, first_step) {
+                (Some(g), _) => aerorect::flight::Basis::Stepped(g),
+                (None, true) => aerorect::flight::Basis::FirstStep,
+                (None, false) => aerorect::flight::Basis::Recorded,
+            };
             let m = self.plan.feature_match(basis, (i, &a), (j, &b))?;
             Ok(aerorect::flight::exact_json(&m)?)
         })

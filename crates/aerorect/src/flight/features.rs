@@ -207,11 +207,12 @@ impl FlightPlan {
                     .collect::<Result<Vec<_>, Error>>()
             })
         };
-        let first = match_all(&in_step(1), Basis::Recorded, &features)?;
         let second_pairs = in_step(2);
         if second_pairs.is_empty() {
+            let first = match_all(&in_step(1), Basis::Recorded, &features)?;
             return Ok((first, None));
         }
+        let first = match_all(&in_step(1), Basis::FirstStep, &features)?;
         let guide = self.step_guide(&first);
         let basis = guide.as_ref().map_or(Basis::Recorded, Basis::Stepped);
         if let Some(g) = &guide {
@@ -270,10 +271,45 @@ impl FlightPlan {
             }
             timing::add("features: guided, matched again", 0.0);
         }
-        let m = match_frames(a, b, (i, j), &opts)?;
+        let m = match basis {
+            Basis::FirstStep => {
+                let k = FIRST_STEP_KEYPOINTS;
+                match_frames(&strongest(a, k), &strongest(b, k), (i, j), &opts)?
+            }
+            _ => match_frames(a, b, (i, j), &opts)?,
+        };
         let inliers = verify(&m);
         Ok((m, inliers))
     }
+}
+
+/// `f` with only its `k` strongest keypoints (by response, the earlier first among equals),
+/// in their order in `f`; `f` itself when it has no more.
+fn strongest(f: &FrameFeatures, k: usize) -> std::borrow::Cow<'_, FrameFeatures> {
+    let kps = &f.features.keypoints;
+    if kps.len() <= k {
+        return std::borrow::Cow::Borrowed(f);
+    }
+    let mut order: Vec<usize> = (0..kps.len()).collect();
+    order.sort_by(|&x, &y| kps[y].response.total_cmp(&kps[x].response).then(x.cmp(&y)));
+    order.truncate(k);
+    order.sort_unstable();
+    let d = f.features.descriptors.len() / kps.len();
+    let pick = |q: &usize| &f.features.descriptors[q * d..(q + 1) * d];
+    std::borrow::Cow::Owned(FrameFeatures {
+        features: aerorect_raster::features::Features {
+            keypoints: order.iter().map(|&q| kps[q]).collect(),
+            descriptors: order.iter().flat_map(pick).copied().collect(),
+        },
+        ground: match f.ground.len() == kps.len() {
+            true => order.iter().map(|&q| f.ground[q]).collect(),
+            false => f.ground.clone(),
+        },
+        path: f.path.clone(),
+        size: f.size,
+        factor: f.factor,
+        seconds: f.seconds,
+    })
 }
 
 /// The matches of both steps in the order of the pairs `steps` gives (1 or 2 per pair):

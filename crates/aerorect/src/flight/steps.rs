@@ -44,9 +44,22 @@ pub struct StepGuide {
 pub enum Basis<'a> {
     /// The recorded orientation and its priors.
     Recorded,
+    /// The recorded orientation and its priors, in the first step of a flight matched in two
+    /// steps: a pair the priors cannot guide is matched on each frame's
+    /// [`FIRST_STEP_KEYPOINTS`] strongest keypoints.
+    FirstStep,
     /// The first step's solve.
     Stepped(&'a StepGuide),
 }
+
+/// Keypoints per frame (the strongest by response) a first-step pair the priors cannot guide
+/// is matched on ([`Basis::FirstStep`]). Brute-force matching is quadratic in them: on the
+/// 1,000-frame fixed wing (1,051 keypoints a frame) its 3,002 first-step pairs took 17.8 s of
+/// CPU with every keypoint, 10.6 s with 800 and 6.1 s with 600; the flight took 62.3, 59.3
+/// and 57.6 s, and ended 0.0163 / 0.0614, 0.0167 / 0.0612 and 0.0170 / 0.0589 deg from the
+/// truth (median / max). Matching those pairs again in the second step, guided by the first
+/// step's solve, cost more than it saved (60.7 s) and ended no closer (0.0168 / 0.0625).
+pub const FIRST_STEP_KEYPOINTS: usize = 600;
 
 impl FlightPlan {
     /// Which step matches each of `pairs` ([`Self::feature_pairs`]): 1, or 2 for a pair the
