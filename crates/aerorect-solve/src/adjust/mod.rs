@@ -17,7 +17,7 @@
 //! Camera frame as in `aerorect_core::camera` (x right, y up, z back).
 //!
 //! Files: `blocks` (the named parameter blocks and their indices), `residuals` (the model and
-//! the cost), `jacobian` (analytic derivatives; `oracle` checks them against central
+//! the cost), `jacobian` (each frame posed once per state, `Posed`, and the analytic derivatives; `oracle` checks them against central
 //! differences), `points` (ground points through the adjusted frames), `solve` (normal equations, Schur complement, the loop's steps), `normal` (the reduced system's
 //! matrix, accumulated in dense blocks per pair of parameter blocks), `gauge`
 //! (freedoms the ties cannot see), `report` (statistics and the adjusted frames),

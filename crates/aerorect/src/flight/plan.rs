@@ -333,10 +333,10 @@ impl FlightPlan {
         // tied pairs, each weighed by the round's orientation; the features round weighs them
         // on a correlated sample of its pairs (see `sources`).
         let cams: Vec<&Camera> = cameras.iter().collect();
-        let features_round = correlated.is_empty()
-            && all_at_end
+        let features_round = all_at_end
             && self.fo.ties == TieSource::Both
-            && matched.iter().any(|m| m.features);
+            && !matched.is_empty()
+            && matched.iter().all(|m| m.features);
         summary.sources = match (self.opts.dem.is_some(), correlated.is_empty()) {
             (false, _) => None,
             (true, false) => SourceWeights::weigh(&matched, (&poses, &cams), self.ground.as_ref()),
