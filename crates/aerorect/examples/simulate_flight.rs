@@ -329,6 +329,11 @@ fn main() {
         Some("fixed-wing") => true,
         Some(other) => panic!("mode '{other}': expected fixed-wing"),
     };
+    simulate(nx, ny, &out, sigma, fixed_wing);
+}
+
+/// The flight of the module's description into `out` (tests include this file as a module).
+pub fn simulate(nx: usize, ny: usize, out: &Path, sigma: f64, fixed_wing: bool) {
     std::fs::create_dir_all(out.join("frames")).unwrap();
     let camera = Camera::new(
         Intrinsics::new(420.0, 420.0, 239.5, 179.5).unwrap(),
@@ -374,7 +379,7 @@ fn main() {
     )
     .unwrap();
     write_dem(&out.join("dem.tif"), nx, ny, layout);
-    write_gcps(&out, &camera, &poses, (nx, ny, layout), &mut rng);
+    write_gcps(out, &camera, &poses, (nx, ny, layout), &mut rng);
     if fixed_wing {
         std::fs::write(
             out.join("fixed_wing.txt"),
