@@ -174,11 +174,15 @@ impl AdjustedFlight {
 
     /// A gray overview of the flight on the matching grid, each cell the mean of the frames
     /// that see it (as rendered for the last matching round), stretched to 8 bits between its
-    /// 1st and 99th percentiles; cells no frame sees are black.
+    /// 1st and 99th percentiles; cells no frame sees are black. An error for a flight adjusted
+    /// without it ([`super::adjust_flight_for`]).
     pub fn overview(&self) -> Result<Raster<u8>, Error> {
         let grids: Vec<_> = self.rendered.iter().map(|f| f.coarse_plan.grid).collect();
         let Some(g0) = grids.first() else {
-            return Err(Error::Invalid("a flight of no frames".into()));
+            return Err(Error::Invalid(
+                "the flight's overview: the flight was adjusted without rendering its frames for it"
+                    .into(),
+            ));
         };
         let gsd = g0.gsd;
         let left = grids

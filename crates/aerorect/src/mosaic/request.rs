@@ -4,7 +4,7 @@
 use super::{Blend, MosaicOptions, MosaicReport, frames_from_photos, mosaic, mosaic_cog};
 use crate::Error;
 use crate::drone::DroneOptions;
-use crate::flight::{AdjustedFlight, FlightOptions, adjust_flight};
+use crate::flight::{AdjustedFlight, FlightOptions, adjust_flight_for};
 use crate::options::OptionError;
 use std::path::{Path, PathBuf};
 
@@ -50,7 +50,7 @@ pub fn run_mosaic(
         let (frames, crs) = frames_from_photos(inputs, &frame_options(opts))?;
         return write(frames, crs, out, mopts, cog);
     };
-    let f = adjust_flight(inputs, &frame_options(opts), fo)?;
+    let f = adjust_flight_for(inputs, &frame_options(opts), fo, false)?;
     adjusted(&f);
     mosaic_adjusted(&f, out, (opts, mopts, cog))
 }

@@ -4,7 +4,7 @@
 
 use crate::Error;
 use crate::drone::{DroneOptions, PhotoResult, rectify_photo};
-use crate::flight::{AdjustedFlight, FlightOptions, adjust_flight};
+use crate::flight::{AdjustedFlight, FlightOptions, adjust_flight_for};
 use crate::options::Spelling;
 use crate::report_html::{FlightSection, render};
 use aerorect_io::StagedOutputs;
@@ -248,7 +248,7 @@ pub fn run_adjusted_batch(
     each: impl FnMut(usize, &Result<PhotoResult, Error>),
 ) -> Result<AdjustedFlight, Error> {
     create_dir(out_dir)?;
-    let flight = adjust_flight(inputs, opts, flight_opts)?;
+    let flight = adjust_flight_for(inputs, opts, flight_opts, report_html.is_some())?;
     adjusted(&flight);
     let mut staged = StagedOutputs::new();
     let done = flight.stage_batch(outputs, out_dir, opts, &mut staged, each)?;
