@@ -30,7 +30,9 @@ pub fn adjust_flight(
     let (flight, warnings) = py
         .detach(|| -> Result<_> {
             let (o, warnings) = args.flight_frames(&paths)?;
-            let flight = aerorect::flight::adjust_flight(&paths, &o, &args.flight_options()?)?;
+            // The Python flight has no overview: its frames are not rendered again for one.
+            let fo = args.flight_options()?;
+            let flight = aerorect::flight::adjust_flight_for(&paths, &o, &fo, false)?;
             Ok((AdjustedFlight { flight, opts: o }, warnings))
         })
         .map_err(py_err)?;

@@ -74,9 +74,9 @@ pub struct SourceWeights {
     /// A feature tie's weight relative to a correlation tie's in the solve that ends the
     /// rounds: `(correlation_gap_m / feature_gap_m)^2`, within [`MAX_SOURCE_RATIO`] either way.
     pub feature_weight: f64,
-    /// The pairs both gaps were taken on, when they were a sample of the features round's
-    /// reliable pairs correlated for it ([`SOURCE_SAMPLE_PAIRS`]); `None`: every reliable pair
-    /// of a correlation round.
+    /// How many of the features round's reliable pairs were sampled and correlated for the
+    /// gaps ([`SOURCE_SAMPLE_PAIRS`]; each gap is of the reliable ties of its source there);
+    /// `None`: the gaps are of every reliable pair of a correlation round.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sampled_pairs: Option<usize>,
 }
