@@ -10,6 +10,8 @@
 //! the frame) and `tan(theta)` = the cell's horizontal distance from the camera's nadir point
 //! over the camera's height above the ground (the lean of anything standing on the ground grows
 //! with it). For a nadir frame over level ground this is the slant range over the focal length.
+//! The score is evaluated exactly every 8 cells of each frame's grid and blended bilinearly
+//! between, except along the frame's edges and hidden ground (`score`'s module doc).
 //!
 //! Labels change along seamlines. `Blend::None` takes the label's pixel; `Blend::Feather` gives
 //! frame k the weight `clamp(0.5 + s_k / N, 0, 1) * min(1, c_k / N)`, where s_k is the signed
@@ -285,6 +287,7 @@ mod request;
 mod run;
 
 pub use request::{check_mosaic_name, frame_options, mosaic_adjusted, mosaic_options, run_mosaic};
+pub use score::{LATTICE_MARGIN_PX, SCORE_LATTICE};
 
 pub use run::{
     COG_MAX_PX, FrameUse, MosaicReport, MosaicRun, frames_from_photos, mosaic, mosaic_cog,

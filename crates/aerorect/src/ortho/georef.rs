@@ -100,6 +100,21 @@ impl OrthoPlan {
         }
     }
 
+    /// Whether the map leaves out ground hidden from the camera (nearer terrain in the way)
+    /// anywhere in the output pixels `cols` x `rows` (inclusive ranges, clamped to the grid).
+    pub fn hides_any(&self, cols: [usize; 2], rows: [usize; 2]) -> bool {
+        let OrthoMap::Visible(v) = &self.map else {
+            return false;
+        };
+        let s = self.grid.size;
+        if s.width == 0 || s.height == 0 || cols[0] > cols[1] || rows[0] > rows[1] {
+            return false;
+        }
+        let (c0, c1) = (cols[0].min(s.width - 1), cols[1].min(s.width - 1));
+        (rows[0].min(s.height - 1)..=rows[1].min(s.height - 1))
+            .any(|r| v.hidden[r * s.width + c0..=r * s.width + c1].contains(&true))
+    }
+
     /// The frame pixel of an output pixel, hidden ground included.
     pub fn frame_pixel_of_unmasked(&self, col: f64, row: f64) -> Option<[f64; 2]> {
         use aerorect_raster::PixelMap;
