@@ -291,4 +291,5 @@ pub use score::{LATTICE_MARGIN_PX, SCORE_LATTICE};
 
 pub use run::{
     COG_MAX_PX, FrameUse, MosaicReport, MosaicRun, frames_from_photos, mosaic, mosaic_cog,
+    mosaic_cog_with, mosaic_with,
 };

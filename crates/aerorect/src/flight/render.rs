@@ -113,6 +113,15 @@ impl AdjustedFlight {
         self.oriented(k).plan(opts)
     }
 
+    /// The photo at `path`: kept from the matching rounds when it fit their memory budget,
+    /// else decoded (the same raster either way).
+    pub fn photo(&self, path: &Path) -> Result<std::sync::Arc<AnyRaster>, Error> {
+        match self.frames.iter().position(|f| f.input == path) {
+            Some(k) => self.decoded.get(k, path),
+            None => Ok(std::sync::Arc::new(aerorect_io::read_image(path)?)),
+        }
+    }
+
     /// The output CRS of every frame.
     pub fn crs(&self) -> &Crs {
         &self.crs

@@ -49,7 +49,11 @@ pub(super) struct FrameCache<'a, L> {
     loads: Vec<AtomicUsize>,
 }
 
-impl<'a, L: Fn(&MosaicFrame) -> Result<AnyRaster, Error> + Sync> FrameCache<'a, L> {
+impl<'a, L, R> FrameCache<'a, L>
+where
+    L: Fn(&MosaicFrame) -> Result<R, Error> + Sync,
+    R: Into<Arc<AnyRaster>>,
+{
     pub fn new(frames: &'a [MosaicFrame], load: L, capacity: usize) -> Self {
         Self {
             frames,
@@ -115,15 +119,16 @@ impl<'a, L: Fn(&MosaicFrame) -> Result<AnyRaster, Error> + Sync> FrameCache<'a, 
         if let Some(img) = held.as_ref() {
             return Ok(Arc::clone(img));
         }
-        let img = Arc::new(self.decode(k)?);
+        let img = self.decode(k)?;
         *held = Some(Arc::clone(&img));
         Ok(img)
     }
 
-    /// Frame `k` decoded, refused when its image is not its camera's size.
-    fn decode(&self, k: usize) -> Result<AnyRaster, Error> {
+    /// Frame `k` decoded (or handed over by the loader), refused when its image is not its
+    /// camera's size.
+    fn decode(&self, k: usize) -> Result<Arc<AnyRaster>, Error> {
         let f = &self.frames[k];
-        let img = (self.load)(f)?;
+        let img: Arc<AnyRaster> = (self.load)(f)?.into();
         self.loads[k].fetch_add(1, Ordering::Relaxed);
         let (got, want) = (img.size(), f.plan.camera.size);
         if got != want {

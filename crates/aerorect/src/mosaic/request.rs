@@ -1,7 +1,8 @@
 //! `mosaic` as a front end asks for it: the options by name, checked, and the whole run (the
 //! frames planned, or adjusted first, then composited into one GeoTIFF or COG).
 
-use super::{Blend, MosaicOptions, MosaicReport, frames_from_photos, mosaic, mosaic_cog};
+use super::{Blend, MosaicFrame, MosaicOptions, MosaicReport, frames_from_photos};
+use super::{mosaic, mosaic_cog, mosaic_cog_with, mosaic_with};
 use crate::Error;
 use crate::drone::DroneOptions;
 use crate::flight::{AdjustedFlight, FlightOptions, adjust_flight_for};
@@ -62,7 +63,15 @@ pub fn mosaic_adjusted(
     (opts, mopts, cog): (&DroneOptions, &MosaicOptions, bool),
 ) -> Result<MosaicReport, Error> {
     let frames = flight.mosaic_frames(&frame_options(opts))?;
-    write(frames, flight.crs().clone(), out, mopts, cog)
+    let crs = flight.crs().clone();
+    // The photos the rounds kept are handed over, not decoded again.
+    let load = |f: &MosaicFrame| flight.photo(&f.path);
+    if cog {
+        let c = aerorect_io::CogOptions::masked_by_alpha(mopts.alpha);
+        mosaic_cog_with(frames, crs, out, (mopts, &c), load)
+    } else {
+        mosaic_with(frames, crs, out, mopts, load)
+    }
 }
 
 /// The options a mosaic plans its frames with: `opts` without nodata, alpha or COG (the

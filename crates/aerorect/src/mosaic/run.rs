@@ -51,7 +51,11 @@ pub struct MosaicRun<'a, L> {
     cells: Vec<AtomicUsize>,
 }
 
-impl<'a, L: Fn(&MosaicFrame) -> Result<AnyRaster, Error> + Sync> MosaicRun<'a, L> {
+impl<'a, L, R> MosaicRun<'a, L>
+where
+    L: Fn(&MosaicFrame) -> Result<R, Error> + Sync,
+    R: Into<std::sync::Arc<AnyRaster>>,
+{
     /// `load` decodes a frame (its image must have its camera's size).
     pub fn new(plan: &'a MosaicPlan, load: L) -> Self {
         Self {
@@ -216,12 +220,16 @@ fn prepare(
     Ok((plan, geo))
 }
 
-fn report<L: Fn(&MosaicFrame) -> Result<AnyRaster, Error> + Sync>(
+fn report<L, R>(
     plan: &MosaicPlan,
     run: &MosaicRun<'_, L>,
     out: &Path,
     t0: std::time::Instant,
-) -> MosaicReport {
+) -> MosaicReport
+where
+    L: Fn(&MosaicFrame) -> Result<R, Error> + Sync,
+    R: Into<std::sync::Arc<AnyRaster>>,
+{
     let (cells, loads) = (run.cells(), run.loads());
     let frames = plan
         .frames
@@ -260,9 +268,25 @@ pub fn mosaic(
     out: &Path,
     opts: &MosaicOptions,
 ) -> Result<MosaicReport, Error> {
+    mosaic_with(frames, crs, out, opts, read_frame)
+}
+
+/// [`mosaic`] with the frames' images from `load` (an adjusted flight hands over the photos
+/// its rounds decoded).
+pub fn mosaic_with<L, R>(
+    frames: Vec<MosaicFrame>,
+    crs: Crs,
+    out: &Path,
+    opts: &MosaicOptions,
+    load: L,
+) -> Result<MosaicReport, Error>
+where
+    L: Fn(&MosaicFrame) -> Result<R, Error> + Sync,
+    R: Into<std::sync::Arc<AnyRaster>>,
+{
     let t0 = std::time::Instant::now();
     let (plan, geo) = prepare(frames, crs, out, opts)?;
-    let run = MosaicRun::new(&plan, read_frame);
+    let run = MosaicRun::new(&plan, load);
     aerorect_io::write_tiled_tiff_parallel::<Error>(
         out,
         plan.grid.size,
@@ -293,6 +317,21 @@ pub fn mosaic_cog(
     opts: &MosaicOptions,
     cog: &aerorect_io::CogOptions,
 ) -> Result<MosaicReport, Error> {
+    mosaic_cog_with(frames, crs, out, (opts, cog), read_frame)
+}
+
+/// [`mosaic_cog`] with the frames' images from `load`.
+pub fn mosaic_cog_with<L, R>(
+    frames: Vec<MosaicFrame>,
+    crs: Crs,
+    out: &Path,
+    (opts, cog): (&MosaicOptions, &aerorect_io::CogOptions),
+    load: L,
+) -> Result<MosaicReport, Error>
+where
+    L: Fn(&MosaicFrame) -> Result<R, Error> + Sync,
+    R: Into<std::sync::Arc<AnyRaster>>,
+{
     let t0 = std::time::Instant::now();
     let (plan, geo) = prepare(frames, crs, out, opts)?;
     let size = plan.grid.size;
@@ -305,7 +344,7 @@ pub fn mosaic_cog(
             COG_MAX_PX / 1_000_000
         )));
     }
-    let run = MosaicRun::new(&plan, read_frame);
+    let run = MosaicRun::new(&plan, load);
     let mut whole: Option<AnyRaster> = None;
     let windows: Vec<Window> = plan.tile_windows().collect();
     for batch in windows.chunks(aerorect_io::tiles_per_batch()) {
