@@ -1,10 +1,10 @@
 //! A tiled (Geo)TIFF written one tile at a time, so an image larger than memory (a flight's
 //! mosaic) never has to be held whole: each tile is asked for in row-major order, compressed
-//! (Deflate: integer samples through the horizontal predictor and `fdeflate`, f32 by zlib level
-//! 1) and appended to the file; the
-//! directory with the tile offsets and the GeoTIFF tags follows the last tile. BigTIFF when the
-//! uncompressed image would not fit a classic TIFF's 4 GiB. Written to a temporary file and
-//! renamed, so a failure (of the writer or of the tile source) leaves nothing behind.
+//! (Deflate: integer samples through the horizontal predictor and `fdeflate`, f32 samples by
+//! zlib level one) and appended to the file; the directory with the tile offsets and the
+//! GeoTIFF tags follows the last tile. BigTIFF when the uncompressed image would not fit a
+//! classic TIFF's 4 GiB. Written to a temporary file and renamed, so a failure (of the writer
+//! or of the tile source) leaves nothing behind.
 
 use crate::error::{CodecError, IoError};
 use crate::geotiff::GeoReference;
