@@ -161,34 +161,77 @@ fn weights(
             .map(|(c, r)| f32::from(u8::from(mine[at(c, r)])))
             .collect(),
         Blend::Feather => {
+            let zeros = || vec![0.0; tile.size.pixels()];
             if !mine.iter().any(|&m| m) {
-                return vec![0.0; tile.size.pixels()];
+                return zeros();
             }
-            let n = opts.feather_px as f32;
-            let not_mine: Vec<bool> = mine.iter().map(|m| !m).collect();
-            let uncovered: Vec<bool> = scores.iter().map(|s| !s.is_finite()).collect();
-            // Distances beyond the feather's width do not change the weight (both terms are
-            // 0 or 1 there): left infinite.
+            // The weights read distances at cells k covers, to features within the feather's
+            // width: the transforms run over the box of k's covered cells grown by one more
+            // (k covers nothing outside it), which gives the whole window's distances there.
             let cap = opts.feather_px;
-            let d_in = distance_within(&not_mine, ww, cap);
-            let d_out = distance_within(&mine, ww, cap);
-            let d_cov = distance_within(&uncovered, ww, cap);
+            let Some(b) = covered_box(scores, ww, cap + 1) else {
+                return zeros();
+            };
+            let pick = |f: &dyn Fn(usize) -> bool| -> Vec<bool> {
+                (b.r0..b.r1)
+                    .flat_map(|r| (b.c0..b.c1).map(move |c| r * ww + c))
+                    .map(f)
+                    .collect()
+            };
+            let bw = b.c1 - b.c0;
+            let uncovered = |i: usize| !scores[i].is_finite();
+            let d_in = distance_within(&pick(&|i| !mine[i]), bw, cap);
+            let d_out = distance_within(&pick(&|i| mine[i]), bw, cap);
+            let d_cov = distance_within(&pick(&uncovered), bw, cap);
+            let n = opts.feather_px as f32;
             cells
                 .map(|(c, r)| {
                     let i = at(c, r);
-                    if uncovered[i] {
+                    if uncovered(i) {
                         return 0.0;
                     }
+                    // Covered, so inside the box.
+                    let j = (i / ww - b.r0) * bw + i % ww - b.c0;
                     let s = if mine[i] {
-                        d_in[i] - 0.5
+                        d_in[j] - 0.5
                     } else {
-                        0.5 - d_out[i]
+                        0.5 - d_out[j]
                     };
-                    (0.5 + s / n).clamp(0.0, 1.0) * (d_cov[i] / n).min(1.0)
+                    (0.5 + s / n).clamp(0.0, 1.0) * (d_cov[j] / n).min(1.0)
                 })
                 .collect()
         }
     }
+}
+
+/// A box of window cells: columns [c0, c1), rows [r0, r1).
+struct CellBox {
+    c0: usize,
+    c1: usize,
+    r0: usize,
+    r1: usize,
+}
+
+/// The bounding box of the finite `scores` of a window `ww` cells wide, grown by `by` cells
+/// (within the window); `None` when no score is finite.
+fn covered_box(scores: &[f64], ww: usize, by: usize) -> Option<CellBox> {
+    let wh = scores.len() / ww;
+    let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
+    for (r, row) in scores.chunks_exact(ww).enumerate() {
+        let (Some(first), Some(last)) = (
+            row.iter().position(|s| s.is_finite()),
+            row.iter().rposition(|s| s.is_finite()),
+        ) else {
+            continue;
+        };
+        (c0, c1, r0, r1) = (c0.min(first), c1.max(last + 1), r0.min(r), r + 1);
+    }
+    (c0 < c1).then(|| CellBox {
+        c0: c0.saturating_sub(by),
+        c1: (c1 + by).min(ww),
+        r0: r0.saturating_sub(by),
+        r1: (r1 + by).min(wh),
+    })
 }
 
 /// The plan of a mosaic written to `out` and its georeference, after refusing an `out` that
