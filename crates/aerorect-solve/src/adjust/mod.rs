@@ -31,6 +31,7 @@ mod blocks;
 mod corrections;
 mod gauge;
 mod jacobian;
+mod linear;
 mod normal;
 #[cfg(test)]
 mod oracle;
@@ -38,6 +39,7 @@ mod points;
 mod polish;
 mod report;
 mod residuals;
+mod schur;
 mod solve;
 
 pub use crate::lm::{Termination, Tolerances};

@@ -25,8 +25,8 @@
 use super::TiePoint;
 use super::blocks::State;
 use super::jacobian::Posed;
+use super::linear::Linear;
 use super::residuals::Problem;
-use super::solve::Linear;
 use aerorect_core::Vec3;
 use nalgebra::{Matrix3, SVector};
 use rayon::prelude::*;

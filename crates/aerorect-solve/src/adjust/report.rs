@@ -2,7 +2,7 @@
 
 use super::blocks::{CameraParam, DatumParam, FrameParam, Param, State};
 use super::residuals::{Problem, world_from_camera};
-use super::solve::factor;
+use super::schur::factor;
 use super::{
     AdjustFrame, AdjustReport, Adjusted, CameraAdjustment, Datum, DatumAdjustment, FrameAdjustment,
     GaugeHold, Termination,
