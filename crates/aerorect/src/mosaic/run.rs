@@ -153,55 +153,63 @@ fn weights(
     scores: &[f64],
 ) -> Vec<f32> {
     let ww = win.size.width;
-    let at = |c: usize, r: usize| (r + tile.row0 - win.row0) * ww + c + tile.col0 - win.col0;
-    let cells = (0..tile.size.height).flat_map(|r| (0..tile.size.width).map(move |c| (c, r)));
-    let mine: Vec<bool> = labels.iter().map(|l| *l == Some(k)).collect();
-    match opts.blend {
-        Blend::None => cells
-            .map(|(c, r)| f32::from(u8::from(mine[at(c, r)])))
-            .collect(),
-        Blend::Feather => {
-            let zeros = || vec![0.0; tile.size.pixels()];
-            if !mine.iter().any(|&m| m) {
-                return zeros();
+    let mut out = vec![0.0; tile.size.pixels()];
+    let cap = opts.feather_px;
+    // Beyond the box of k's covered cells k's weight is 0. Feathered, the weights read
+    // distances at covered cells to features within the feather's width, so the transforms
+    // run over that box grown by one more: the whole window's distances there.
+    let grow = match opts.blend {
+        Blend::Feather => cap + 1,
+        Blend::None => 0,
+    };
+    let Some(b) = covered_box(scores, ww, grow) else {
+        return out;
+    };
+    let bw = b.c1 - b.c0;
+    let (mut mine, mut uncovered) = (Vec::new(), Vec::new());
+    for r in b.r0..b.r1 {
+        let cells = r * ww + b.c0..r * ww + b.c1;
+        mine.extend(labels[cells.clone()].iter().map(|l| *l == Some(k)));
+        uncovered.extend(scores[cells].iter().map(|s| !s.is_finite()));
+    }
+    if !mine.contains(&true) {
+        return out;
+    }
+    let feathered = (opts.blend == Blend::Feather).then(|| {
+        let not_mine: Vec<bool> = mine.iter().map(|m| !m).collect();
+        [
+            distance_within(&not_mine, bw, cap),
+            distance_within(&mine, bw, cap),
+            distance_within(&uncovered, bw, cap),
+        ]
+    });
+    let n = cap as f32;
+    for (r, row) in out.chunks_exact_mut(tile.size.width).enumerate() {
+        let wr = r + tile.row0 - win.row0;
+        if wr < b.r0 || wr >= b.r1 {
+            continue;
+        }
+        for (c, o) in row.iter_mut().enumerate() {
+            let wc = c + tile.col0 - win.col0;
+            if wc < b.c0 || wc >= b.c1 {
+                continue;
             }
-            // The weights read distances at cells k covers, to features within the feather's
-            // width: the transforms run over the box of k's covered cells grown by one more
-            // (k covers nothing outside it), which gives the whole window's distances there.
-            let cap = opts.feather_px;
-            let Some(b) = covered_box(scores, ww, cap + 1) else {
-                return zeros();
-            };
-            let pick = |f: &dyn Fn(usize) -> bool| -> Vec<bool> {
-                (b.r0..b.r1)
-                    .flat_map(|r| (b.c0..b.c1).map(move |c| r * ww + c))
-                    .map(f)
-                    .collect()
-            };
-            let bw = b.c1 - b.c0;
-            let uncovered = |i: usize| !scores[i].is_finite();
-            let d_in = distance_within(&pick(&|i| !mine[i]), bw, cap);
-            let d_out = distance_within(&pick(&|i| mine[i]), bw, cap);
-            let d_cov = distance_within(&pick(&uncovered), bw, cap);
-            let n = opts.feather_px as f32;
-            cells
-                .map(|(c, r)| {
-                    let i = at(c, r);
-                    if uncovered(i) {
-                        return 0.0;
-                    }
-                    // Covered, so inside the box.
-                    let j = (i / ww - b.r0) * bw + i % ww - b.c0;
-                    let s = if mine[i] {
+            let j = (wr - b.r0) * bw + wc - b.c0;
+            *o = match &feathered {
+                None => f32::from(u8::from(mine[j])),
+                Some(_) if uncovered[j] => 0.0,
+                Some([d_in, d_out, d_cov]) => {
+                    let s = if mine[j] {
                         d_in[j] - 0.5
                     } else {
                         0.5 - d_out[j]
                     };
                     (0.5 + s / n).clamp(0.0, 1.0) * (d_cov[j] / n).min(1.0)
-                })
-                .collect()
+                }
+            };
         }
     }
+    out
 }
 
 /// A box of window cells: columns [c0, c1), rows [r0, r1).
