@@ -70,9 +70,14 @@ impl GroundMap {
     ) {
         let k = &self.camera.intrinsics;
         let [x0, y] = self.grid.centre_of(col0 as f64, row as f64);
+        // The row's heights first, in `xs`.
+        for (i, x) in xs.iter_mut().enumerate() {
+            *x = x0 + i as f64 * self.grid.gsd;
+        }
+        self.terrain.heights_along(y, xs);
         for (i, (x_out, y_out)) in xs.iter_mut().zip(ys.iter_mut()).enumerate() {
             let x = x0 + i as f64 * self.grid.gsd;
-            let z = self.terrain.height_at(x, y);
+            let z = *x_out;
             let d = self.pose.camera_from_world([x, y, z]);
             let p = if d.z < 0.0 {
                 let n = [d.x / -d.z, d.y / d.z];

@@ -200,6 +200,34 @@ impl HeightGrid {
         let row = ((self.origin[1] - y) / self.spacing).clamp(0.0, (self.height - 1) as f64);
         bilinear(&self.values, self.width, self.height, col, row).unwrap_or(f64::NAN)
     }
+
+    /// Each x of `xs` replaced by [`Self::height_at`] (x, `y`), bit for bit: the row's part
+    /// of the lookup (a division, the clamp, the two rows of nodes) taken once for the row.
+    pub fn heights_along(&self, y: f64, xs: &mut [f64]) {
+        let (w, h) = (self.width, self.height);
+        let row = ((self.origin[1] - y) / self.spacing).clamp(0.0, (h - 1) as f64);
+        if !(row >= 0.0 && row <= (h - 1) as f64) {
+            return xs.fill(f64::NAN);
+        }
+        let r0 = (row.floor() as usize).min(h.saturating_sub(2));
+        let r1 = (r0 + 1).min(h - 1);
+        let fy = row - r0 as f64;
+        let (top, bottom) = (&self.values[r0 * w..][..w], &self.values[r1 * w..][..w]);
+        for x in xs {
+            let col = ((*x - self.origin[0]) / self.spacing).clamp(0.0, (w - 1) as f64);
+            if !(col >= 0.0 && col <= (w - 1) as f64) {
+                *x = f64::NAN;
+                continue;
+            }
+            let c0 = (col.floor() as usize).min(w.saturating_sub(2));
+            let c1 = (c0 + 1).min(w - 1);
+            let fx = col - c0 as f64;
+            let t = top[c0] as f64 * (1.0 - fx) + top[c1] as f64 * fx;
+            let b = bottom[c0] as f64 * (1.0 - fx) + bottom[c1] as f64 * fx;
+            let v = t * (1.0 - fy) + b * fy;
+            *x = if v.is_finite() { v } else { f64::NAN };
+        }
+    }
 }
 
 /// The ground under the frame.
@@ -217,5 +245,58 @@ impl Terrain {
             Terrain::Flat(z) => *z,
             Terrain::Grid(g) => g.height_at(x, y),
         }
+    }
+
+    /// Each x of `xs` replaced by [`Self::height_at`] (x, `y`).
+    pub fn heights_along(&self, y: f64, xs: &mut [f64]) {
+        match self {
+            Terrain::Flat(z) => xs.fill(*z),
+            Terrain::Grid(g) => g.heights_along(y, xs),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row's heights are `height_at`'s bit for bit: inside, on and beyond the edges (the
+    /// nearest edge), across a node with no height (NaN), and for a grid one node wide.
+    #[test]
+    fn heights_along_a_row_are_height_at_bit_for_bit() {
+        let (width, height) = (7, 5);
+        let mut values: Vec<f32> = (0..width * height)
+            .map(|i| 100.0 + ((i * 37) % 23) as f32 * 0.73)
+            .collect();
+        values[2 * width + 3] = f32::NAN;
+        let grids = [
+            HeightGrid {
+                origin: [500.0, 2000.0],
+                spacing: 2.5,
+                width,
+                height,
+                values,
+            },
+            HeightGrid {
+                origin: [500.0, 2000.0],
+                spacing: 2.5,
+                width: 1,
+                height: 2,
+                values: vec![10.0, 20.0],
+            },
+        ];
+        let xs0: Vec<f64> = (0..40).map(|i| 493.0 + i as f64 * 0.61).collect();
+        let mut checked = 0;
+        for g in &grids {
+            for y in [2003.0, 2000.0, 1996.3, 1994.9, 1990.0, 1980.0, f64::NAN] {
+                let mut xs = xs0.clone();
+                g.heights_along(y, &mut xs);
+                for (x, got) in xs0.iter().zip(&xs) {
+                    assert_eq!(got.to_bits(), g.height_at(*x, y).to_bits(), "({x}, {y})");
+                    checked += got.is_finite() as usize;
+                }
+            }
+        }
+        assert!(checked > 150, "{checked}");
     }
 }

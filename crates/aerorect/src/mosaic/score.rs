@@ -240,20 +240,40 @@ impl MosaicPlan {
                 self.block(k, [ncols[c], ncols[c + 1]], band.node_rows, q)
             })
             .collect();
+        // A blended block's blend along its top and bottom node rows, per column: each cell
+        // then blends the two by its row (the operations of `blend`, in its order).
+        let edges: Vec<[f64; 2]> = (cols.0..cols.1)
+            .map(|pc| {
+                let c = (pc / SCORE_LATTICE).saturating_sub(cols.0 / SCORE_LATTICE);
+                match &quads[c] {
+                    Block::Blend(v) => {
+                        let tx = frac(pc, ncols[c], ncols[c + 1]);
+                        [v[0] * (1.0 - tx) + v[1] * tx, v[2] * (1.0 - tx) + v[3] * tx]
+                    }
+                    _ => [f64::NAN; 2],
+                }
+            })
+            .collect();
         let [n0, n1] = band.node_rows;
         for (j, row) in rows.enumerate() {
             let pr = band.r_start + j;
             let ty = frac(pr, n0, n1);
             for (pair, quad) in ncols.windows(2).zip(&quads) {
                 let (c_start, c_end) = (pair[0].max(cols.0), (pair[0] + SCORE_LATTICE).min(cols.1));
-                for pc in c_start..c_end {
-                    let v = match quad {
-                        Block::Blend(v) => Some(blend(*v, frac(pc, pair[0], pair[1]), ty)),
-                        Block::Outside => None,
-                        Block::Cells => self.exact(k, pc, pr).score,
-                    };
-                    if let Some(v) = v {
-                        row[c_out + pc - cols.0] = v;
+                let out = &mut row[c_out + c_start - cols.0..c_out + c_end - cols.0];
+                match quad {
+                    Block::Blend(_) => {
+                        for (o, e) in out.iter_mut().zip(&edges[c_start - cols.0..]) {
+                            *o = e[0] * (1.0 - ty) + e[1] * ty;
+                        }
+                    }
+                    Block::Outside => {}
+                    Block::Cells => {
+                        for (o, pc) in out.iter_mut().zip(c_start..c_end) {
+                            if let Some(v) = self.exact(k, pc, pr).score {
+                                *o = v;
+                            }
+                        }
                     }
                 }
             }
