@@ -2,12 +2,14 @@
 //! frames planned, or adjusted first, then composited into one GeoTIFF or COG).
 
 use super::{Blend, MosaicFrame, MosaicOptions, MosaicReport, frames_from_photos};
-use super::{mosaic, mosaic_cog, mosaic_cog_with, mosaic_with};
+use super::{mosaic_cog_with, mosaic_with};
 use crate::Error;
 use crate::drone::DroneOptions;
 use crate::flight::{AdjustedFlight, FlightOptions, adjust_flight_for};
 use crate::options::OptionError;
+use aerorect_raster::AnyRaster;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// The mosaic's options: `blend` by name (feather, none), the seam's cross-fade, the largest
 /// frame ortho.
@@ -49,7 +51,8 @@ pub fn run_mosaic(
 ) -> Result<MosaicReport, Error> {
     let Some(fo) = flight else {
         let (frames, crs) = frames_from_photos(inputs, &frame_options(opts))?;
-        return write(frames, crs, out, mopts, cog);
+        let decode = |f: &MosaicFrame| Ok(aerorect_io::read_image(&f.path)?);
+        return write((frames, crs), out, (mopts, cog), decode);
     };
     let f = adjust_flight_for(inputs, &frame_options(opts), fo, false)?;
     adjusted(&f);
@@ -63,15 +66,9 @@ pub fn mosaic_adjusted(
     (opts, mopts, cog): (&DroneOptions, &MosaicOptions, bool),
 ) -> Result<MosaicReport, Error> {
     let frames = flight.mosaic_frames(&frame_options(opts))?;
-    let crs = flight.crs().clone();
     // The photos the rounds kept are handed over, not decoded again.
     let load = |f: &MosaicFrame| flight.photo(&f.path);
-    if cog {
-        let c = aerorect_io::CogOptions::masked_by_alpha(mopts.alpha);
-        mosaic_cog_with(frames, crs, out, (mopts, &c), load)
-    } else {
-        mosaic_with(frames, crs, out, mopts, load)
-    }
+    write((frames, flight.crs().clone()), out, (mopts, cog), load)
 }
 
 /// The options a mosaic plans its frames with: `opts` without nodata, alpha or COG (the
@@ -84,17 +81,17 @@ pub fn frame_options(opts: &DroneOptions) -> DroneOptions {
     o
 }
 
-fn write(
-    frames: Vec<super::MosaicFrame>,
-    crs: aerorect_geo::Crs,
+/// The mosaic of `frames` written to `out` (a COG when `cog`), each frame's image from `load`.
+fn write<R: Into<Arc<AnyRaster>>>(
+    (frames, crs): (Vec<MosaicFrame>, aerorect_geo::Crs),
     out: &Path,
-    mopts: &MosaicOptions,
-    cog: bool,
+    (mopts, cog): (&MosaicOptions, bool),
+    load: impl Fn(&MosaicFrame) -> Result<R, Error> + Sync,
 ) -> Result<MosaicReport, Error> {
     if cog {
         let c = aerorect_io::CogOptions::masked_by_alpha(mopts.alpha);
-        mosaic_cog(frames, crs, out, mopts, &c)
+        mosaic_cog_with(frames, crs, out, (mopts, &c), load)
     } else {
-        mosaic(frames, crs, out, mopts)
+        mosaic_with(frames, crs, out, mopts, load)
     }
 }

@@ -5,10 +5,12 @@
 //! nodes every [`SCORE_LATTICE`] cells of the frame's own grid (and at its last row and
 //! column). A block of cells between four nodes takes the bilinear blend of their scores when
 //! every node's centre lies at least [`LATTICE_MARGIN_PX`] inside the frame, so the whole
-//! block is seen. Blocks along the frame's edges, and blocks where the frame's map leaves out
-//! ground hidden from the camera, are scored cell by cell ([`MosaicPlan::score_at`]), so which cells a
-//! frame covers is decided per cell. The lattice belongs to the frame's grid, so a cell's score
-//! is the same whichever window asks for it, and tiles agree with the whole mosaic.
+//! block is seen; a block whose four nodes all lie that far beyond one edge of the frame is not
+//! scored. Other blocks (along the frame's edges) and blocks where the frame's map leaves out
+//! ground hidden from the camera are scored cell by cell ([`MosaicPlan::score_at`]), so which
+//! cells a frame covers is decided per cell. The lattice belongs to the frame's grid, so a
+//! cell's score is the same whichever window asks for it, and tiles agree with the whole
+//! mosaic.
 //!
 //! On snowpeak's 440-Mpx mosaic, scoring each cell exactly (two to five projections through
 //! the camera and the terrain per frame and cell) took about half the mosaic's CPU time.
@@ -20,8 +22,10 @@ use rayon::prelude::*;
 pub const SCORE_LATTICE: usize = 8;
 
 /// How far inside the frame (frame pixels) a block's four nodes must lie for its cells to
-/// count as covered without a test each: far more than a block's frame positions depart from
-/// the bilinear blend of its corners' (a hundredth of a pixel over 8 cells of any survey map).
+/// count as covered without a test each (or beyond one edge, for none to be): meant to be far
+/// more than a block's frame positions depart from the bilinear blend of its corners' over 8
+/// cells of a survey frame. The tests find coverage equal to the exact rule's, cell for cell,
+/// on frames tilted 20 degrees.
 pub const LATTICE_MARGIN_PX: f64 = 2.0;
 
 /// A cell evaluated exactly: the frame pixel of its centre (`None` beyond the horizon or
@@ -138,9 +142,10 @@ impl MosaicPlan {
     /// is hidden from the camera; outside when all four centres lie the margin beyond one edge.
     fn block(&self, k: usize, cols: [usize; 2], rows: [usize; 2], nodes: [Node; 4]) -> Block {
         let plan = &self.frames[k].plan;
-        let Some(c) = nodes.iter().map(|n| n.centre).collect::<Option<Vec<_>>>() else {
+        let [Some(tl), Some(tr), Some(bl), Some(br)] = nodes.map(|n| n.centre) else {
             return Block::Cells;
         };
+        let c = [tl, tr, bl, br];
         let size = plan.camera.size;
         let (w, h, m) = (
             size.width as f64 - 0.5,
