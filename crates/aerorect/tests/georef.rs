@@ -392,3 +392,66 @@ fn occlusion_hides_the_ground_behind_the_hills() {
     assert!(hidden > total / 50, "{hidden} of {total}");
     assert!(agree as f64 > 0.97 * total as f64, "{agree} of {total}");
 }
+
+/// A mosaic's lattice scores over a frame that hides ground (hills, `occlusion`): the frame
+/// covers exactly the cells its exact scores say, hidden ones left out, while most cells are
+/// blended. Here every block that meets hidden ground has a node that reads it (a mutant
+/// without the block-level `hides_any` test passes); that test is for patches inside a block.
+#[test]
+fn lattice_scores_leave_out_the_hidden_ground_cell_by_cell() {
+    use aerorect::mosaic::{MosaicFrame, MosaicOptions, MosaicPlan};
+    let dem = Arc::new(dem());
+    let (cam, _) = setup();
+    let r = CameraRotation::dji_gimbal(20.0, -30.0, 0.0).unwrap();
+    let pose = Pose::new([ORIGIN[0], ORIGIN[1], 60.0], r.ground_from_camera());
+    let world = utm35();
+    let ground = Ground::Dem {
+        dem,
+        fallback: None,
+        strict: false,
+    };
+    let req = OrthoRequest {
+        camera: &cam,
+        pose,
+        world: &world,
+        ground: &ground,
+        gsd_m: 1.0,
+        limits: RectifyLimits {
+            max_output_px: 4_000_000,
+        },
+        occlusion: true,
+    };
+    let p = plan_ortho(&req, WarpOptions::default()).unwrap();
+    let g = p.grid.size;
+    assert!(p.hides_any([0, g.width - 1], [0, g.height - 1]));
+    let frame = MosaicFrame {
+        path: "hills.tif".into(),
+        plan: p,
+        nadir_xy: [ORIGIN[0], ORIGIN[1]],
+        height_m: 60.0,
+    };
+    let plan = MosaicPlan::new(vec![frame], 1.0, MosaicOptions::default()).unwrap();
+    let size = plan.grid.size;
+    let (mut hidden, mut covered, mut blended) = (0, 0, 0);
+    for r in 0..size.height {
+        for c in 0..size.width {
+            let (lattice, exact) = (plan.lattice_score_at(0, c, r), plan.score_at(0, c, r));
+            assert_eq!(lattice.is_some(), exact.is_some(), "cell ({c}, {r})");
+            let unmasked = plan.frames[0]
+                .plan
+                .frame_pixel_of_unmasked(c as f64, r as f64);
+            let masked = plan.frames[0].plan.frame_pixel_of(c as f64, r as f64);
+            hidden += (unmasked
+                .is_some_and(|q| (0.0..639.0).contains(&q[0]) && (0.0..479.0).contains(&q[1]))
+                && masked.is_none()) as usize;
+            covered += exact.is_some() as usize;
+            blended += (lattice != exact) as usize;
+        }
+    }
+    eprintln!("{covered} cells covered, {hidden} hidden inside the frame, {blended} blended");
+    assert!(
+        hidden > 1000 && covered > 5 * hidden,
+        "{hidden} hidden, {covered} covered"
+    );
+    assert!(blended > covered / 2, "{blended} of {covered} blended");
+}
