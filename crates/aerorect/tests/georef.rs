@@ -340,19 +340,15 @@ fn downsampled_photo_lands_on_the_full_size_ortho() {
     assert!(worst < 0.25, "{worst}");
 }
 
-/// With --occlusion, the output pixels hidden behind a nearer hill are exactly those whose frame
-/// pixel sees other ground.
-#[test]
-fn occlusion_hides_the_ground_behind_the_hills() {
-    let dem = Arc::new(dem());
+/// A frame low and oblique over the hills, planned at 1 m with the occlusion test on (the hills
+/// hide each other): the plan, its pose and camera.
+fn occluded_plan() -> (OrthoPlan, Pose, Camera) {
     let (cam, _) = setup();
-    // Low and oblique so the hills hide each other.
     let r = CameraRotation::dji_gimbal(20.0, -30.0, 0.0).unwrap();
     let pose = Pose::new([ORIGIN[0], ORIGIN[1], 60.0], r.ground_from_camera());
-    let truth = truth_of(&dem);
     let world = utm35();
     let ground = Ground::Dem {
-        dem,
+        dem: Arc::new(dem()),
         fallback: None,
         strict: false,
     };
@@ -368,6 +364,15 @@ fn occlusion_hides_the_ground_behind_the_hills() {
         occlusion: true,
     };
     let p = plan_ortho(&req, WarpOptions::default()).unwrap();
+    (p, pose, cam)
+}
+
+/// With --occlusion, the output pixels hidden behind a nearer hill are exactly those whose frame
+/// pixel sees other ground.
+#[test]
+fn occlusion_hides_the_ground_behind_the_hills() {
+    let (p, pose, cam) = occluded_plan();
+    let truth = truth_of(&dem());
     let (mut agree, mut total, mut hidden) = (0usize, 0usize, 0usize);
     let g = p.grid;
     for r in (0..g.size.height).step_by(5) {
@@ -400,28 +405,7 @@ fn occlusion_hides_the_ground_behind_the_hills() {
 #[test]
 fn lattice_scores_leave_out_the_hidden_ground_cell_by_cell() {
     use aerorect::mosaic::{MosaicFrame, MosaicOptions, MosaicPlan};
-    let dem = Arc::new(dem());
-    let (cam, _) = setup();
-    let r = CameraRotation::dji_gimbal(20.0, -30.0, 0.0).unwrap();
-    let pose = Pose::new([ORIGIN[0], ORIGIN[1], 60.0], r.ground_from_camera());
-    let world = utm35();
-    let ground = Ground::Dem {
-        dem,
-        fallback: None,
-        strict: false,
-    };
-    let req = OrthoRequest {
-        camera: &cam,
-        pose,
-        world: &world,
-        ground: &ground,
-        gsd_m: 1.0,
-        limits: RectifyLimits {
-            max_output_px: 4_000_000,
-        },
-        occlusion: true,
-    };
-    let p = plan_ortho(&req, WarpOptions::default()).unwrap();
+    let (p, _, _) = occluded_plan();
     let g = p.grid.size;
     assert!(p.hides_any([0, g.width - 1], [0, g.height - 1]));
     let frame = MosaicFrame {
