@@ -45,7 +45,7 @@ pub(super) struct FrameCache<'a, L> {
     slots: Mutex<Vec<(usize, Arc<Slot>)>>,
     /// The first frame's format, which every frame must share.
     format: OnceLock<Format>,
-    /// Per frame: decodes.
+    /// Per frame: loads (decodes, or hand-overs by the loader).
     loads: Vec<AtomicUsize>,
 }
 
@@ -65,7 +65,7 @@ where
         }
     }
 
-    /// Decodes per frame so far.
+    /// Loads per frame so far.
     pub fn loads(&self) -> Vec<usize> {
         self.loads
             .iter()

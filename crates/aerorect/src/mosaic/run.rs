@@ -22,7 +22,8 @@ pub struct FrameUse {
     pub path: String,
     /// Cells whose best frame it is.
     pub cells: usize,
-    /// Times it was decoded (more than once when the cache had let it go).
+    /// Times it was loaded: decoded, or handed over by an adjusted flight (more than once
+    /// when the cache had let it go).
     pub loads: usize,
 }
 
@@ -73,7 +74,7 @@ where
             .collect()
     }
 
-    /// Per frame: its decodes so far (more than one when the cache had let it go).
+    /// Per frame: its loads so far (more than one when the cache had let it go).
     pub fn loads(&self) -> Vec<usize> {
         self.cache.loads()
     }
