@@ -9,6 +9,7 @@
 //! followed by a pairwise reduction**, not a scalar sum — see [`nrm2`].
 
 use super::hal::{exp_batch, grow_to, mag_ang_batch};
+use super::scatter::scatter;
 
 use super::orient::OrientedKeypoint;
 
@@ -24,12 +25,6 @@ pub const DESCR_SCL_FCTR: f32 = 3.0;
 pub const DESCR_MAG_THR: f32 = 0.2;
 /// Quantisation factor (`SIFT_INT_DESCR_FCTR`).
 pub const INT_DESCR_FCTR: f32 = 512.0;
-
-#[inline]
-fn floor_i(v: f32) -> i32 {
-    let i = v as i32;
-    i - i32::from(v < i as f32)
-}
 
 /// Narrow `[lo, hi]` to the `j` satisfying `-1 < j * coef + off < limit`.
 ///
@@ -85,13 +80,13 @@ fn nrm2(v: &[f32]) -> f32 {
 /// keypoint would dominate.
 #[derive(Default)]
 pub struct DescriptorScratch {
-    rbin: Vec<f32>,
-    cbin: Vec<f32>,
-    dx: Vec<f32>,
-    dy: Vec<f32>,
-    wt: Vec<f32>,
-    mag: Vec<f32>,
-    ang: Vec<f32>,
+    pub(super) rbin: Vec<f32>,
+    pub(super) cbin: Vec<f32>,
+    pub(super) dx: Vec<f32>,
+    pub(super) dy: Vec<f32>,
+    pub(super) wt: Vec<f32>,
+    pub(super) mag: Vec<f32>,
+    pub(super) ang: Vec<f32>,
 }
 
 impl DescriptorScratch {
@@ -102,202 +97,6 @@ impl DescriptorScratch {
     /// would only cost a pass that changes nothing.
     pub fn new() -> Self {
         Self::default()
-    }
-}
-
-/// Trilinear scatter of every resolved sample into `hist`.
-///
-/// Everything up to the eight accumulations is elementwise, so four lanes are
-/// bit-identical to the scalar tail; only the accumulation is order-sensitive
-/// (float addition does not associate) and it stays scalar, in the reference's
-/// sample order. This is the split `calcSIFTDescriptor` itself uses.
-fn scatter(sc: &DescriptorScratch, len: usize, ori: f32, bins_per_rad: f32, hist: &mut [f32]) {
-    const D: usize = DESCR_WIDTH;
-    const N: usize = DESCR_HIST_BINS;
-    let mut k = 0usize;
-
-    #[cfg(target_arch = "aarch64")]
-    {
-        use std::arch::aarch64::*;
-        // SAFETY: every buffer is `len` long, `k + 4 <= len`, and the scatter
-        // indices are bounded by the `rbin`/`cbin` range test applied during
-        // collection.
-        unsafe {
-            let vori = vdupq_n_f32(ori);
-            let vn = vdupq_n_s32(N as i32);
-            let vone = vdupq_n_s32(1);
-            while k + 4 <= len {
-                let mut rb = vld1q_f32(sc.rbin.as_ptr().add(k));
-                let mut cb = vld1q_f32(sc.cbin.as_ptr().add(k));
-                let mut ob = vmulq_n_f32(
-                    vsubq_f32(vld1q_f32(sc.ang.as_ptr().add(k)), vori),
-                    bins_per_rad,
-                );
-                // Round toward minus infinity: `floor_i`'s twin.
-                let r0 = vcvtmq_s32_f32(rb);
-                let c0 = vcvtmq_s32_f32(cb);
-                let mut o0 = vcvtmq_s32_f32(ob);
-                rb = vsubq_f32(rb, vcvtq_f32_s32(r0));
-                cb = vsubq_f32(cb, vcvtq_f32_s32(c0));
-                ob = vsubq_f32(ob, vcvtq_f32_s32(o0));
-
-                o0 = vbslq_s32(vcltq_s32(o0, vdupq_n_s32(0)), vaddq_s32(o0, vn), o0);
-                o0 = vbslq_s32(vcgeq_s32(o0, vn), vsubq_s32(o0, vn), o0);
-
-                let m = vmulq_f32(
-                    vld1q_f32(sc.mag.as_ptr().add(k)),
-                    vld1q_f32(sc.wt.as_ptr().add(k)),
-                );
-                let v_r1 = vmulq_f32(m, rb);
-                let v_r0 = vsubq_f32(m, v_r1);
-                let v_rc11 = vmulq_f32(v_r1, cb);
-                let v_rc10 = vsubq_f32(v_r1, v_rc11);
-                let v_rc01 = vmulq_f32(v_r0, cb);
-                let v_rc00 = vsubq_f32(v_r0, v_rc01);
-                let v111 = vmulq_f32(v_rc11, ob);
-                let v110 = vsubq_f32(v_rc11, v111);
-                let v101 = vmulq_f32(v_rc10, ob);
-                let v100 = vsubq_f32(v_rc10, v101);
-                let v011 = vmulq_f32(v_rc01, ob);
-                let v010 = vsubq_f32(v_rc01, v011);
-                let v001 = vmulq_f32(v_rc00, ob);
-                let v000 = vsubq_f32(v_rc00, v001);
-
-                let idx = vaddq_s32(
-                    vmulq_n_s32(
-                        vaddq_s32(
-                            vmulq_n_s32(vaddq_s32(r0, vone), (D + 2) as i32),
-                            vaddq_s32(c0, vone),
-                        ),
-                        (N + 2) as i32,
-                    ),
-                    o0,
-                );
-
-                let mut ib = [0i32; 4];
-                vst1q_s32(ib.as_mut_ptr(), idx);
-                // The bin coordinates come out too, to gate the dead pairs:
-                // the fold only reads cell rows/cols 1..D, so a pair whose
-                // row is 0/D+1 or whose column is 0/D+1 writes memory nothing
-                // ever reads. That is 36% of the pairs on average.
-                let mut rb4 = [0i32; 4];
-                vst1q_s32(rb4.as_mut_ptr(), r0);
-                let mut cb4 = [0i32; 4];
-                vst1q_s32(cb4.as_mut_ptr(), c0);
-
-                // The eight destinations are four *adjacent* pairs — offsets
-                // 0,1 / 10,11 / 60,61 / 70,71 — so each pair can accumulate as
-                // one 2-lane read-modify-write instead of two scalar ones.
-                // Interleaving each pair's two vectors puts lane `t`'s values
-                // next to each other: lane t's (a_t, b_t) is exactly one half
-                // of vzip1q/vzip2q, handed over REGISTER-TO-REGISTER. The
-                // previous form staged the zips through a 32-float stack
-                // buffer — 8 stores per 4 samples on the single store-data
-                // port, plus a load-behind-store round trip per pair — which
-                // the audit measured as a third of the scatter's stores.
-                // Elementwise vector add over distinct addresses is
-                // bit-identical to the scalar pair, and the t-outer order
-                // below is the sample order the reference fixes.
-                let z0 = (vzip1q_f32(v000, v001), vzip2q_f32(v000, v001));
-                let z1 = (vzip1q_f32(v010, v011), vzip2q_f32(v010, v011));
-                let z2 = (vzip1q_f32(v100, v101), vzip2q_f32(v100, v101));
-                let z3 = (vzip1q_f32(v110, v111), vzip2q_f32(v110, v111));
-                const OFF: [usize; 4] = [0, N + 2, (D + 2) * (N + 2), (D + 3) * (N + 2)];
-                let hp = hist.as_mut_ptr();
-                // One block per lane `t`, fully unrolled: vget_low/vget_high
-                // need a compile-time half. Slot liveness: 0 = (r+1,c+1),
-                // 1 = (r+1,c+2), 2 = (r+2,c+1), 3 = (r+2,c+2); a dead slot
-                // writes only never-read border cells (see the scalar tail),
-                // and skipping it keeps the live accumulation order exact.
-                macro_rules! lane_scatter {
-                    ($t:expr, $half:ident, $zi:tt) => {{
-                        // SAFETY: `rbin`/`cbin` were range-checked during
-                        // collection, so `b <= 287` and the widest touched
-                        // index is `b + 71 < HISTLEN`.
-                        let b = ib[$t] as usize;
-                        let (rlo, rhi) = (rb4[$t] >= 0, rb4[$t] <= D as i32 - 2);
-                        let (clo, chi) = (cb4[$t] >= 0, cb4[$t] <= D as i32 - 2);
-                        if rlo && clo {
-                            let h = hp.add(b + OFF[0]);
-                            vst1_f32(h, vadd_f32(vld1_f32(h), $half(z0.$zi)));
-                        }
-                        if rlo && chi {
-                            let h = hp.add(b + OFF[1]);
-                            vst1_f32(h, vadd_f32(vld1_f32(h), $half(z1.$zi)));
-                        }
-                        if rhi && clo {
-                            let h = hp.add(b + OFF[2]);
-                            vst1_f32(h, vadd_f32(vld1_f32(h), $half(z2.$zi)));
-                        }
-                        if rhi && chi {
-                            let h = hp.add(b + OFF[3]);
-                            vst1_f32(h, vadd_f32(vld1_f32(h), $half(z3.$zi)));
-                        }
-                    }};
-                }
-                // Lane t's pair: t 0/1 = low/high half of zip1, t 2/3 = low/
-                // high half of zip2 — [a0,b0,a1,b1] and [a2,b2,a3,b3].
-                lane_scatter!(0, vget_low_f32, 0);
-                lane_scatter!(1, vget_high_f32, 0);
-                lane_scatter!(2, vget_low_f32, 1);
-                lane_scatter!(3, vget_high_f32, 1);
-                k += 4;
-            }
-        }
-    }
-
-    while k < len {
-        let mut obin = (sc.ang[k] - ori) * bins_per_rad;
-        let (mut rb, mut cb) = (sc.rbin[k], sc.cbin[k]);
-        let (r0, c0) = (floor_i(rb), floor_i(cb));
-        let mut o0 = floor_i(obin);
-        rb -= r0 as f32;
-        cb -= c0 as f32;
-        obin -= o0 as f32;
-        if o0 < 0 {
-            o0 += N as i32;
-        }
-        if o0 >= N as i32 {
-            o0 -= N as i32;
-        }
-
-        let m = sc.mag[k] * sc.wt[k];
-        let v_r1 = m * rb;
-        let v_r0 = m - v_r1;
-        let v_rc11 = v_r1 * cb;
-        let v_rc10 = v_r1 - v_rc11;
-        let v_rc01 = v_r0 * cb;
-        let v_rc00 = v_r0 - v_rc01;
-        let v_rco111 = v_rc11 * obin;
-        let v_rco110 = v_rc11 - v_rco111;
-        let v_rco101 = v_rc10 * obin;
-        let v_rco100 = v_rc10 - v_rco101;
-        let v_rco011 = v_rc01 * obin;
-        let v_rco010 = v_rc01 - v_rco011;
-        let v_rco001 = v_rc00 * obin;
-        let v_rco000 = v_rc00 - v_rco001;
-
-        // Same border-ring elision as the vector block above.
-        let (rlo, rhi) = (r0 >= 0, r0 <= D as i32 - 2);
-        let (clo, chi) = (c0 >= 0, c0 <= D as i32 - 2);
-        let idx = (((r0 + 1) as usize * (D + 2) + (c0 + 1) as usize) * (N + 2)) + o0 as usize;
-        if rlo && clo {
-            hist[idx] += v_rco000;
-            hist[idx + 1] += v_rco001;
-        }
-        if rlo && chi {
-            hist[idx + (N + 2)] += v_rco010;
-            hist[idx + (N + 3)] += v_rco011;
-        }
-        if rhi && clo {
-            hist[idx + (D + 2) * (N + 2)] += v_rco100;
-            hist[idx + (D + 2) * (N + 2) + 1] += v_rco101;
-        }
-        if rhi && chi {
-            hist[idx + (D + 3) * (N + 2)] += v_rco110;
-            hist[idx + (D + 3) * (N + 2) + 1] += v_rco111;
-        }
-        k += 1;
     }
 }
 
@@ -489,6 +288,63 @@ pub fn compute_descriptor(
                     n += 4;
                 }
                 j += 4;
+            }
+        }
+
+        // The same body 8 wide on x86-64 (AVX2). Each lane repeats the scalar's expressions:
+        // `(r_rot + D / 2) - 0.5` as the scalar associates it (the NEON block above adds 1.5,
+        // its own order), and no fused multiply-add.
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        unsafe {
+            use std::arch::x86_64::*;
+            let isin = _mm256_set1_ps(i as f32 * sin_t);
+            let icos = _mm256_set1_ps(i as f32 * cos_t);
+            let (cv, sv) = (_mm256_set1_ps(cos_t), _mm256_set1_ps(sin_t));
+            let (mid, half) = (_mm256_set1_ps(D as f32 / 2.0), _mm256_set1_ps(0.5));
+            let (lo, hi) = (_mm256_set1_ps(-1.0), _mm256_set1_ps(D as f32));
+            let scale = _mm256_set1_ps(exp_scale);
+            let lanes = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
+            let inside = |v| {
+                _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(v, lo),
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(v, hi),
+                )
+            };
+            while j + 7 <= j_hi {
+                let jv = _mm256_add_ps(_mm256_set1_ps(j as f32), lanes);
+                let c_rot = _mm256_sub_ps(_mm256_mul_ps(jv, cv), isin);
+                let r_rot = _mm256_add_ps(_mm256_mul_ps(jv, sv), icos);
+                let rbin = _mm256_sub_ps(_mm256_add_ps(r_rot, mid), half);
+                let cbin = _mm256_sub_ps(_mm256_add_ps(c_rot, mid), half);
+                if _mm256_movemask_ps(_mm256_and_ps(inside(rbin), inside(cbin))) != 0xFF {
+                    // Partial block: rejects only at run ends; scalar keeps the order.
+                    for jj in j..j + 8 {
+                        push_sample!(jj);
+                    }
+                } else {
+                    // SAFETY: j..j+8 lie within [1 - px, w - 2 - px] (the row's clipped
+                    // run), so every load reads inside the image, and n + 8 <= cap.
+                    let (p, c0) = (img.as_ptr(), (px + j) as usize);
+                    let wt = _mm256_mul_ps(
+                        _mm256_add_ps(_mm256_mul_ps(c_rot, c_rot), _mm256_mul_ps(r_rot, r_rot)),
+                        scale,
+                    );
+                    let dxv = _mm256_sub_ps(
+                        _mm256_loadu_ps(p.add(row + c0 + 1)),
+                        _mm256_loadu_ps(p.add(row + c0 - 1)),
+                    );
+                    let dyv = _mm256_sub_ps(
+                        _mm256_loadu_ps(p.add(up + c0)),
+                        _mm256_loadu_ps(p.add(dn + c0)),
+                    );
+                    _mm256_storeu_ps(sc.dx.as_mut_ptr().add(n), dxv);
+                    _mm256_storeu_ps(sc.dy.as_mut_ptr().add(n), dyv);
+                    _mm256_storeu_ps(sc.rbin.as_mut_ptr().add(n), rbin);
+                    _mm256_storeu_ps(sc.cbin.as_mut_ptr().add(n), cbin);
+                    _mm256_storeu_ps(sc.wt.as_mut_ptr().add(n), wt);
+                    n += 8;
+                }
+                j += 8;
             }
         }
 

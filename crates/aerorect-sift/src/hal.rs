@@ -225,7 +225,7 @@ fn exp_with(x: f32, c: &ExpConsts, tab: &[f32; 64]) -> f32 {
 #[inline]
 pub(super) fn exp_batch(v: &mut [f32]) {
     #[cfg_attr(not(target_arch = "aarch64"), allow(unused_mut))]
-    let mut k = 0usize;
+    let mut k = x86::exp_lanes(v);
     #[cfg(target_arch = "aarch64")]
     {
         use std::arch::aarch64::*;
@@ -254,7 +254,8 @@ pub(super) fn mag_ang_batch(dx: &[f32], dy: &[f32], mag: &mut [f32], ang: &mut [
     debug_assert_eq!(dy.len(), len);
     debug_assert_eq!(mag.len(), len);
     debug_assert_eq!(ang.len(), len);
-    let mut k = 0usize;
+    #[cfg_attr(not(target_arch = "aarch64"), allow(unused_mut))]
+    let mut k = x86::mag_ang_lanes(dx, dy, mag, ang);
     #[cfg(target_arch = "aarch64")]
     {
         use std::arch::aarch64::*;
@@ -390,5 +391,111 @@ pub mod x4 {
         z = vfmaq_f32(vdupq_n_f32(c.a3), z, xf);
         z = vfmaq_f32(vdupq_n_f32(c.a4), z, xf);
         vmulq_f32(z, yf)
+    }
+}
+
+/// The batch primitives 8 lanes wide on x86-64 (AVX2 and FMA): each lane does the scalar's
+/// operations in its order (`exp_with`, `magnitude`, `atan2_deg_with`: a fused multiply-add
+/// exactly where the scalar calls `mul_add`, IEEE division and square root, rounding to
+/// nearest even), so the results are the scalar's bits. Each returns how many leading values
+/// it did (a multiple of 8); the scalar loop finishes the rest.
+#[cfg(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma"
+))]
+mod x86 {
+    use super::{ATAN_C, EXP_C, EXP_TAB};
+    use std::arch::x86_64::*;
+
+    pub(super) fn exp_lanes(v: &mut [f32]) -> usize {
+        let (c, tab) = (&*EXP_C, &*EXP_TAB);
+        let mut k = 0;
+        // SAFETY: AVX2 and FMA are enabled at compile time (the module's cfg); loads and
+        // stores touch k..k + 8 < v.len(), and the gather reads tab[xi & 63], inside 64.
+        unsafe {
+            let set = _mm256_set1_ps;
+            let (lo, hi) = (set(c.minval), set(c.maxval));
+            let (pre, post) = (set(c.prescale), set(c.postscale));
+            let (a1, a2, a3, a4) = (set(c.a1), set(c.a2), set(c.a3), set(c.a4));
+            let (mask, bias) = (_mm256_set1_epi32(63), _mm256_set1_epi32(127));
+            let (zero, top) = (_mm256_setzero_si256(), _mm256_set1_epi32(255));
+            while k + 8 <= v.len() {
+                let p = v.as_mut_ptr().add(k);
+                let x = _mm256_mul_ps(
+                    _mm256_min_ps(_mm256_max_ps(_mm256_loadu_ps(p), lo), hi),
+                    pre,
+                );
+                // Round to nearest, ties to even (the default rounding mode).
+                let xi = _mm256_cvtps_epi32(x);
+                let xf = _mm256_mul_ps(_mm256_sub_ps(x, _mm256_cvtepi32_ps(xi)), post);
+                let t = _mm256_add_epi32(_mm256_srai_epi32::<6>(xi), bias);
+                let t = _mm256_min_epi32(_mm256_max_epi32(t, zero), top);
+                let yf = _mm256_mul_ps(
+                    _mm256_i32gather_ps::<4>(tab.as_ptr(), _mm256_and_si256(xi, mask)),
+                    _mm256_castsi256_ps(_mm256_slli_epi32::<23>(t)),
+                );
+                let mut z = _mm256_add_ps(xf, a1);
+                z = _mm256_fmadd_ps(z, xf, a2);
+                z = _mm256_fmadd_ps(z, xf, a3);
+                z = _mm256_fmadd_ps(z, xf, a4);
+                _mm256_storeu_ps(p, _mm256_mul_ps(z, yf));
+                k += 8;
+            }
+        }
+        k
+    }
+
+    pub(super) fn mag_ang_lanes(dx: &[f32], dy: &[f32], mag: &mut [f32], ang: &mut [f32]) -> usize {
+        let c = &*ATAN_C;
+        let len = dx.len().min(dy.len()).min(mag.len()).min(ang.len());
+        let mut k = 0;
+        // SAFETY: as in `exp_batch`; every slice is at least `len` long.
+        unsafe {
+            let set = _mm256_set1_ps;
+            let (p1, p3, p5, p7, eps) = (set(c.p1), set(c.p3), set(c.p5), set(c.p7), set(c.eps));
+            let abs = _mm256_castsi256_ps(_mm256_set1_epi32(i32::MAX));
+            let zero = _mm256_setzero_ps();
+            while k + 8 <= len {
+                let x = _mm256_loadu_ps(dx.as_ptr().add(k));
+                let y = _mm256_loadu_ps(dy.as_ptr().add(k));
+                let m = _mm256_sqrt_ps(_mm256_fmadd_ps(x, x, _mm256_mul_ps(y, y)));
+                _mm256_storeu_ps(mag.as_mut_ptr().add(k), m);
+                let (ax, ay) = (_mm256_and_ps(x, abs), _mm256_and_ps(y, abs));
+                let (tmin, tmax) = (_mm256_min_ps(ax, ay), _mm256_max_ps(ax, ay));
+                let cc = _mm256_div_ps(tmin, _mm256_add_ps(tmax, eps));
+                let c2 = _mm256_mul_ps(cc, cc);
+                let mut a = _mm256_fmadd_ps(c2, p7, p5);
+                a = _mm256_fmadd_ps(a, c2, p3);
+                a = _mm256_fmadd_ps(a, c2, p1);
+                a = _mm256_mul_ps(a, cc);
+                // `!(ax >= ay)`: not-greater-or-equal, true where unordered as well.
+                let swap = _mm256_cmp_ps::<_CMP_NGE_UQ>(ax, ay);
+                a = _mm256_blendv_ps(a, _mm256_sub_ps(set(90.0), a), swap);
+                let neg_x = _mm256_cmp_ps::<_CMP_LT_OQ>(x, zero);
+                a = _mm256_blendv_ps(a, _mm256_sub_ps(set(180.0), a), neg_x);
+                let neg_y = _mm256_cmp_ps::<_CMP_LT_OQ>(y, zero);
+                a = _mm256_blendv_ps(a, _mm256_sub_ps(set(360.0), a), neg_y);
+                _mm256_storeu_ps(ang.as_mut_ptr().add(k), a);
+                k += 8;
+            }
+        }
+        k
+    }
+}
+
+/// Elsewhere the scalar (or NEON) loops do every value.
+#[cfg(not(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma"
+)))]
+mod x86 {
+    pub(super) fn exp_lanes(_: &mut [f32]) -> usize {
+        0
+    }
+
+    pub(super) fn mag_ang_lanes(_: &[f32], _: &[f32], _: &mut [f32], _: &mut [f32]) -> usize {
+        0
     }
 }
