@@ -3,6 +3,7 @@
 //! position, the Delaunay neighbours, and any pair whose footprints overlap).
 
 use delaunator::{Point, triangulate};
+use rayon::prelude::*;
 use thiserror::Error;
 
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -174,20 +175,24 @@ fn overlapping(fp: &[Vec<[f64; 2]>], frames: usize) -> Result<Vec<(usize, usize)
     let boxes: Vec<[f64; 4]> = fp.iter().map(bbox).collect();
     let mut order: Vec<usize> = (0..frames).collect();
     order.sort_by(|&a, &b| boxes[a][0].total_cmp(&boxes[b][0]));
-    let mut out = vec![];
-    for (r, &i) in order.iter().enumerate() {
-        for &j in &order[r + 1..] {
-            if boxes[j][0] > boxes[i][2] {
-                break;
-            }
-            if boxes[j][1] <= boxes[i][3]
-                && boxes[i][1] <= boxes[j][3]
-                && convex_overlap(&fp[i], &fp[j])
-            {
-                out.push((i, j));
-            }
-        }
-    }
+    // Frames in parallel: a DEM's footprints have 256 corners, and the 1,000-frame
+    // simulation's pairs whose boxes overlap took 2 s on one core.
+    let (boxes, order) = (&boxes, &order);
+    let out = order
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(r, &i)| {
+            order[r + 1..]
+                .iter()
+                .take_while(move |&&j| boxes[j][0] <= boxes[i][2])
+                .filter(move |&&j| {
+                    boxes[j][1] <= boxes[i][3]
+                        && boxes[i][1] <= boxes[j][3]
+                        && convex_overlap(&fp[i], &fp[j])
+                })
+                .map(move |&j| (i, j))
+        })
+        .collect();
     Ok(out)
 }
 
