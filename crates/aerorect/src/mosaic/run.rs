@@ -8,6 +8,7 @@ use super::score::best_of;
 use super::{Blend, MosaicFrame, MosaicOptions, MosaicPlan, Window};
 use crate::Error;
 use crate::drone::{DroneOptions, plan_from_metadata, plan_from_pose, pose_for};
+use aerorect_core::ImageSize;
 use aerorect_geo::Crs;
 use aerorect_io::GeoReference;
 use aerorect_raster::AnyRaster;
@@ -94,32 +95,39 @@ where
         let mut wsum = vec![0f32; n];
         for (j, &k) in cands.iter().enumerate() {
             let w = weights(&plan.opts, k, win, tile, &labels, &scores[j]);
-            if w.iter().all(|&v| v <= 0.0) {
+            // The frame is rendered over the box of the cells it weighs only, not the whole
+            // tile: most of a tile lies outside any one frame, and a pixel's value does not
+            // depend on the window it is rendered in.
+            let Some(b) = weighted_box(&w, tile.size.width) else {
                 continue;
-            }
+            };
             let img = self.cache.frame(k)?;
             let f = &plan.frames[k];
             let off = plan.offsets[k];
+            let (bw, bh) = (b.c1 - b.c0, b.r1 - b.r0);
             let r = f.plan.render_window(
                 &img,
-                tile.col0 as i64 - off[0],
-                tile.row0 as i64 - off[1],
-                tile.size,
+                (tile.col0 + b.c0) as i64 - off[0],
+                (tile.row0 + b.r0) as i64 - off[1],
+                ImageSize::new(bw, bh),
             )?;
             // Cells with a weight are inside the frame; its alpha band, when planned with one,
             // says so too.
             let valid = f.plan.warp.alpha.then(|| r.plane_f32(format.bands));
             let bands: Vec<Vec<f32>> = (0..format.bands).map(|b| r.plane_f32(b)).collect();
-            for i in 0..n {
+            for (s, i) in (b.r0..b.r1)
+                .flat_map(|row| row * tile.size.width + b.c0..row * tile.size.width + b.c1)
+                .enumerate()
+            {
                 let wi = w[i];
                 if wi <= 0.0
-                    || valid.as_ref().is_some_and(|a| a[i] <= 0.0)
-                    || bands.iter().any(|b| !b[i].is_finite())
+                    || valid.as_ref().is_some_and(|a| a[s] <= 0.0)
+                    || bands.iter().any(|b| !b[s].is_finite())
                 {
                     continue;
                 }
                 for (a, b) in acc.iter_mut().zip(&bands) {
-                    a[i] += wi * b[i];
+                    a[i] += wi * b[s];
                 }
                 wsum[i] += wi;
             }
@@ -221,25 +229,35 @@ struct CellBox {
     r1: usize,
 }
 
-/// The bounding box of the finite `scores` of a window `ww` cells wide, grown by `by` cells
-/// (within the window); `None` when no score is finite.
-fn covered_box(scores: &[f64], ww: usize, by: usize) -> Option<CellBox> {
-    let wh = scores.len() / ww;
+/// The bounding box of the cells of a grid `width` cells wide (`values` row by row) where
+/// `keep` holds; `None` where it holds nowhere.
+fn box_where<T>(values: &[T], width: usize, keep: impl Fn(&T) -> bool) -> Option<CellBox> {
     let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
-    for (r, row) in scores.chunks_exact(ww).enumerate() {
-        let (Some(first), Some(last)) = (
-            row.iter().position(|s| s.is_finite()),
-            row.iter().rposition(|s| s.is_finite()),
-        ) else {
+    for (r, row) in values.chunks_exact(width).enumerate() {
+        let (Some(first), Some(last)) = (row.iter().position(&keep), row.iter().rposition(&keep))
+        else {
             continue;
         };
         (c0, c1, r0, r1) = (c0.min(first), c1.max(last + 1), r0.min(r), r + 1);
     }
-    (c0 < c1).then(|| CellBox {
-        c0: c0.saturating_sub(by),
-        c1: (c1 + by).min(ww),
-        r0: r0.saturating_sub(by),
-        r1: (r1 + by).min(wh),
+    (c0 < c1).then_some(CellBox { c0, c1, r0, r1 })
+}
+
+/// The bounding box of the positive weights `w` of a tile `width` cells wide.
+fn weighted_box(w: &[f32], width: usize) -> Option<CellBox> {
+    box_where(w, width, |&v| v > 0.0)
+}
+
+/// The bounding box of the finite `scores` of a window `ww` cells wide, grown by `by` cells
+/// (within the window); `None` when no score is finite.
+fn covered_box(scores: &[f64], ww: usize, by: usize) -> Option<CellBox> {
+    let wh = scores.len() / ww;
+    let b = box_where(scores, ww, |s| s.is_finite())?;
+    Some(CellBox {
+        c0: b.c0.saturating_sub(by),
+        c1: (b.c1 + by).min(ww),
+        r0: b.r0.saturating_sub(by),
+        r1: (b.r1 + by).min(wh),
     })
 }
 
