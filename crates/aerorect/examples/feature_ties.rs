@@ -1,7 +1,9 @@
 //! For bench/features_vs_opencv.py: SIFT ties of frame pairs, one JSON line per pair.
 //!
-//! `feature_ties LONG_SIDE_PX A B [A B ...]`; a path prefixed `rot180:` is turned half a turn
-//! after decoding (a strip flown the other way). Prints keypoints and seconds per frame
+//! `feature_ties [--double-first-octave] LONG_SIDE_PX A B [A B ...]`; a path prefixed `rot180:`
+//! is turned half a turn after decoding (a strip flown the other way). With
+//! `--double-first-octave` the reduced frame is upsampled 2x before the first octave, as
+//! OpenCV's SIFT always does (the flight pipeline does not). Prints keypoints and seconds per frame
 //! (reduction + SIFT, decoding excluded), matches, and inliers under a homography and a
 //! fundamental matrix (RANSAC threshold 1 px of the reduced frame).
 
@@ -33,12 +35,17 @@ fn load(arg: &str, opts: &TieOptions) -> aerorect::features::FrameFeatures {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let double = args.first().is_some_and(|a| a == "--double-first-octave");
+    if double {
+        args.remove(0);
+    }
     let long: usize = args[0].parse().expect("LONG_SIDE_PX");
     let mut opts = TieOptions {
         long_side_px: long,
         ..TieOptions::default()
     };
+    opts.features.double_first_octave = double;
     for pair in args[1..].chunks_exact(2) {
         let (a, b) = (load(&pair[0], &opts), load(&pair[1], &opts));
         opts.verification = Verification::Homography;
