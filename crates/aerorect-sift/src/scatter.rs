@@ -316,7 +316,7 @@ fn scatter_lanes(
             // Where sample t's pair lies in the interleaved halves [0 1 4 5 | 2 3 6 7].
             const AT: [usize; 8] = [0, 2, 8, 10, 4, 6, 12, 14];
             for t in 0..8 {
-                add_pairs(hist, r[t], c[t], o[t], |q| pairs[q].as_ptr().add(AT[t]));
+                add_pairs(hist, (r[t], c[t], o[t]), &pairs, AT[t]);
             }
             k += 8;
         }
@@ -324,41 +324,34 @@ fn scatter_lanes(
     k
 }
 
-/// [`add_sample`] with each pair of bins added as one 64-bit read-modify-write: `pair(q)`
-/// points at the sample's two weights of pair q (000/001, 010/011, 100/101, 110/111).
-/// Elementwise addition of two lanes gives the scalar additions' bits.
-///
-/// # Safety
-/// AVX2, `pair(q)` readable for two floats, and `r0`, `c0` in -1..=D - 1 and `o0` in 0..N
-/// (the collection's bin test), so that the widest index, `idx + (D + 3)(N + 2) + 1`, lies
-/// inside `hist` of `(D + 2)^2 (N + 2)` bins.
+/// [`add_sample`] with each pair of bins added as one 64-bit read-modify-write: pair q of the
+/// sample (000/001, 010/011, 100/101, 110/111) is `pairs[q][at..at + 2]`. Elementwise addition
+/// of two lanes gives the scalar additions' bits. Both sides are indexed with bounds checks:
+/// `r0`, `c0` in -1..=D - 1 and `o0` in 0..N (the collection's bin test) keep them inside.
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 #[inline(always)]
-unsafe fn add_pairs(
-    hist: &mut [f32],
-    r0: i32,
-    c0: i32,
-    o0: i32,
-    pair: impl Fn(usize) -> *const f32,
-) {
+fn add_pairs(hist: &mut [f32], (r0, c0, o0): (i32, i32, i32), pairs: &[[f32; 16]; 4], at: usize) {
     use std::arch::x86_64::*;
     const D: usize = DESCR_WIDTH;
     const N: usize = DESCR_HIST_BINS;
     const OFF: [usize; 4] = [0, N + 2, (D + 2) * (N + 2), (D + 3) * (N + 2)];
-    debug_assert!((-1..D as i32).contains(&r0) && (-1..D as i32).contains(&c0));
-    debug_assert!((0..N as i32).contains(&o0));
     let (rlo, rhi) = (r0 >= 0, r0 <= D as i32 - 2);
     let (clo, chi) = (c0 >= 0, c0 <= D as i32 - 2);
     let live = [rlo && clo, rlo && chi, rhi && clo, rhi && chi];
     let idx = (((r0 + 1) as usize * (D + 2) + (c0 + 1) as usize) * (N + 2)) + o0 as usize;
     for q in 0..4 {
         if live[q] {
-            let h = hist.as_mut_ptr().add(idx + OFF[q]).cast::<f64>();
-            let sum = _mm_add_ps(
-                _mm_castpd_ps(_mm_load_sd(h)),
-                _mm_castpd_ps(_mm_load_sd(pair(q).cast::<f64>())),
-            );
-            _mm_store_sd(h, _mm_castps_pd(sum));
+            let h = &mut hist[idx + OFF[q]..idx + OFF[q] + 2];
+            let v = &pairs[q][at..at + 2];
+            // SAFETY: AVX2 (and so SSE2) is enabled at compile time; each 64-bit load and
+            // store touches the two floats of a slice two long.
+            unsafe {
+                let sum = _mm_add_ps(
+                    _mm_castpd_ps(_mm_load_sd(h.as_ptr().cast())),
+                    _mm_castpd_ps(_mm_load_sd(v.as_ptr().cast())),
+                );
+                _mm_store_sd(h.as_mut_ptr().cast(), _mm_castps_pd(sum));
+            }
         }
     }
 }
