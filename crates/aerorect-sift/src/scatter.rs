@@ -211,32 +211,31 @@ pub(super) fn scatter_scalar(
     }
 }
 
-/// One sample's eight trilinear weights `v` (in the order 000, 001, 010, ..., 111 of row,
-/// column and orientation) added to the bins of cell (`r0`, `c0`) and orientation `o0`. The
-/// border ring is elided as in the vector block: the fold reads only cell rows and columns
-/// 1..=D, so a pair whose row or column is 0 or D + 1 is never read.
+/// The first bin of each of a sample's four pairs of adjacent bins (orientations `o0` and
+/// `o0 + 1` of cells (`r0`, `c0`), (`r0`, `c0 + 1`), (`r0 + 1`, `c0`), (`r0 + 1`, `c0 + 1`)),
+/// `None` for a pair in the border ring: the fold reads only cell rows and columns 1..=D, so
+/// a pair whose row or column is 0 or D + 1 is never read and is not written.
 #[inline(always)]
-fn add_sample(hist: &mut [f32], r0: i32, c0: i32, o0: i32, v: &[f32; 8]) {
+fn pair_bins(r0: i32, c0: i32, o0: i32) -> [Option<usize>; 4] {
     const D: usize = DESCR_WIDTH;
     const N: usize = DESCR_HIST_BINS;
+    const OFF: [usize; 4] = [0, N + 2, (D + 2) * (N + 2), (D + 3) * (N + 2)];
     let (rlo, rhi) = (r0 >= 0, r0 <= D as i32 - 2);
     let (clo, chi) = (c0 >= 0, c0 <= D as i32 - 2);
+    let live = [rlo && clo, rlo && chi, rhi && clo, rhi && chi];
     let idx = (((r0 + 1) as usize * (D + 2) + (c0 + 1) as usize) * (N + 2)) + o0 as usize;
-    if rlo && clo {
-        hist[idx] += v[0];
-        hist[idx + 1] += v[1];
-    }
-    if rlo && chi {
-        hist[idx + (N + 2)] += v[2];
-        hist[idx + (N + 3)] += v[3];
-    }
-    if rhi && clo {
-        hist[idx + (D + 2) * (N + 2)] += v[4];
-        hist[idx + (D + 2) * (N + 2) + 1] += v[5];
-    }
-    if rhi && chi {
-        hist[idx + (D + 3) * (N + 2)] += v[6];
-        hist[idx + (D + 3) * (N + 2) + 1] += v[7];
+    std::array::from_fn(|q| live[q].then_some(idx + OFF[q]))
+}
+
+/// One sample's eight trilinear weights `v` (in the order 000, 001, 010, ..., 111 of row,
+/// column and orientation) added to its bins ([`pair_bins`]), in that order.
+#[inline(always)]
+fn add_sample(hist: &mut [f32], r0: i32, c0: i32, o0: i32, v: &[f32; 8]) {
+    for (q, first) in pair_bins(r0, c0, o0).into_iter().enumerate() {
+        if let Some(i) = first {
+            hist[i] += v[2 * q];
+            hist[i + 1] += v[2 * q + 1];
+        }
     }
 }
 
@@ -332,16 +331,9 @@ fn scatter_lanes(
 #[inline(always)]
 fn add_pairs(hist: &mut [f32], (r0, c0, o0): (i32, i32, i32), pairs: &[[f32; 16]; 4], at: usize) {
     use std::arch::x86_64::*;
-    const D: usize = DESCR_WIDTH;
-    const N: usize = DESCR_HIST_BINS;
-    const OFF: [usize; 4] = [0, N + 2, (D + 2) * (N + 2), (D + 3) * (N + 2)];
-    let (rlo, rhi) = (r0 >= 0, r0 <= D as i32 - 2);
-    let (clo, chi) = (c0 >= 0, c0 <= D as i32 - 2);
-    let live = [rlo && clo, rlo && chi, rhi && clo, rhi && chi];
-    let idx = (((r0 + 1) as usize * (D + 2) + (c0 + 1) as usize) * (N + 2)) + o0 as usize;
-    for q in 0..4 {
-        if live[q] {
-            let h = &mut hist[idx + OFF[q]..idx + OFF[q] + 2];
+    for (q, first) in pair_bins(r0, c0, o0).into_iter().enumerate() {
+        if let Some(i) = first {
+            let h = &mut hist[i..i + 2];
             let v = &pairs[q][at..at + 2];
             // SAFETY: AVX2 (and so SSE2) is enabled at compile time; each 64-bit load and
             // store touches the two floats of a slice two long.
