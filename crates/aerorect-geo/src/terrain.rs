@@ -28,17 +28,25 @@ fn bilinear(values: &[f32], width: usize, height: usize, col: f64, row: f64) -> 
     if !(col >= 0.0 && row >= 0.0 && col <= (width - 1) as f64 && row <= (height - 1) as f64) {
         return None;
     }
-    let (c0, r0) = (
-        (col.floor() as usize).min(width.saturating_sub(2)),
-        (row.floor() as usize).min(height.saturating_sub(2)),
-    );
-    let (c1, r1) = ((c0 + 1).min(width - 1), (r0 + 1).min(height - 1));
-    let (fx, fy) = (col - c0 as f64, row - r0 as f64);
+    let (c0, c1, fx) = nodes_around(col, width);
+    let (r0, r1, fy) = nodes_around(row, height);
     let at = |c: usize, r: usize| values[r * width + c] as f64;
-    let top = at(c0, r0) * (1.0 - fx) + at(c1, r0) * fx;
-    let bottom = at(c0, r1) * (1.0 - fx) + at(c1, r1) * fx;
-    let h = top * (1.0 - fy) + bottom * fy;
+    let top = lerp(at(c0, r0), at(c1, r0), fx);
+    let bottom = lerp(at(c0, r1), at(c1, r1), fx);
+    let h = lerp(top, bottom, fy);
     h.is_finite().then_some(h)
+}
+
+/// The nodes before and after position `v` (in 0..=n - 1) on an axis of `n` nodes, and `v`'s
+/// fraction of the way from the first.
+fn nodes_around(v: f64, n: usize) -> (usize, usize, f64) {
+    let i0 = (v.floor() as usize).min(n.saturating_sub(2));
+    (i0, (i0 + 1).min(n - 1), v - i0 as f64)
+}
+
+/// `a` to `b` by `t`, as `a (1 - t) + b t`.
+fn lerp(a: f64, b: f64, t: f64) -> f64 {
+    a * (1.0 - t) + b * t
 }
 
 impl Dem {
@@ -209,9 +217,7 @@ impl HeightGrid {
         if !(row >= 0.0 && row <= (h - 1) as f64) {
             return xs.fill(f64::NAN);
         }
-        let r0 = (row.floor() as usize).min(h.saturating_sub(2));
-        let r1 = (r0 + 1).min(h - 1);
-        let fy = row - r0 as f64;
+        let (r0, r1, fy) = nodes_around(row, h);
         let (top, bottom) = (&self.values[r0 * w..][..w], &self.values[r1 * w..][..w]);
         for x in xs {
             let col = ((*x - self.origin[0]) / self.spacing).clamp(0.0, (w - 1) as f64);
@@ -219,12 +225,10 @@ impl HeightGrid {
                 *x = f64::NAN;
                 continue;
             }
-            let c0 = (col.floor() as usize).min(w.saturating_sub(2));
-            let c1 = (c0 + 1).min(w - 1);
-            let fx = col - c0 as f64;
-            let t = top[c0] as f64 * (1.0 - fx) + top[c1] as f64 * fx;
-            let b = bottom[c0] as f64 * (1.0 - fx) + bottom[c1] as f64 * fx;
-            let v = t * (1.0 - fy) + b * fy;
+            let (c0, c1, fx) = nodes_around(col, w);
+            let t = lerp(top[c0] as f64, top[c1] as f64, fx);
+            let b = lerp(bottom[c0] as f64, bottom[c1] as f64, fx);
+            let v = lerp(t, b, fy);
             *x = if v.is_finite() { v } else { f64::NAN };
         }
     }
