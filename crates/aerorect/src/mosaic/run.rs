@@ -223,7 +223,7 @@ fn weights(
     out
 }
 
-/// A box of window cells: columns [c0, c1), rows [r0, r1).
+/// A box of cells of a window or a tile: columns [c0, c1), rows [r0, r1).
 struct CellBox {
     c0: usize,
     c1: usize,

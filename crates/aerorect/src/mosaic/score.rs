@@ -253,7 +253,7 @@ impl MosaicPlan {
                 match &quads[c] {
                     Block::Blend(v) => {
                         let tx = frac(pc, ncols[c], ncols[c + 1]);
-                        [v[0] * (1.0 - tx) + v[1] * tx, v[2] * (1.0 - tx) + v[3] * tx]
+                        [lerp(v[0], v[1], tx), lerp(v[2], v[3], tx)]
                     }
                     _ => [f64::NAN; 2],
                 }
@@ -269,7 +269,7 @@ impl MosaicPlan {
                 match quad {
                     Block::Blend(_) => {
                         for (o, e) in out.iter_mut().zip(&edges[c_start - cols.0..]) {
-                            *o = e[0] * (1.0 - ty) + e[1] * ty;
+                            *o = lerp(e[0], e[1], ty);
                         }
                     }
                     Block::Outside => {}
@@ -334,9 +334,12 @@ fn node_lines((lo, hi): (usize, usize), n: usize) -> Vec<usize> {
 /// The bilinear blend of nodes (top left, top right, bottom left, bottom right) at
 /// fractions (tx, ty).
 fn blend(v: [f64; 4], tx: f64, ty: f64) -> f64 {
-    let top = v[0] * (1.0 - tx) + v[1] * tx;
-    let bottom = v[2] * (1.0 - tx) + v[3] * tx;
-    top * (1.0 - ty) + bottom * ty
+    lerp(lerp(v[0], v[1], tx), lerp(v[2], v[3], tx), ty)
+}
+
+/// `a` to `b` by `t`, as `a (1 - t) + b t`: [`blend`]'s step, which the block rows repeat.
+fn lerp(a: f64, b: f64, t: f64) -> f64 {
+    a * (1.0 - t) + b * t
 }
 
 /// The lowest finite score's frame per cell (the first of equals).
