@@ -110,6 +110,16 @@ fn plan(cam: &Camera, pose: Pose, ground: &Ground) -> OrthoPlan {
 /// Median and 95th percentile of the distance (output pixels) between each output pixel's
 /// centre and the ground its frame pixel really sees.
 fn position_errors(p: &OrthoPlan, pose: &Pose, terrain: &Terrain) -> (f64, f64) {
+    position_errors_in(p, pose, terrain, (0.0, 50.0))
+}
+
+/// [`position_errors`] over terrain whose heights lie in `range` (m).
+fn position_errors_in(
+    p: &OrthoPlan,
+    pose: &Pose,
+    terrain: &Terrain,
+    range: (f64, f64),
+) -> (f64, f64) {
     let g = p.grid;
     let mut e = Vec::new();
     for r in (0..g.size.height).step_by(7) {
@@ -121,7 +131,7 @@ fn position_errors(p: &OrthoPlan, pose: &Pose, terrain: &Terrain) -> (f64, f64) 
                 continue;
             }
             let ray = pose.world_direction(p.camera.ray_from_pixel(f[0], f[1]).unwrap());
-            let hit = march_to_ground(pose, ray, terrain, (0.0, 50.0), 0.25).unwrap();
+            let hit = march_to_ground(pose, ray, terrain, range, 0.25).unwrap();
             let want = g.centre_of(c as f64, r as f64);
             e.push((hit[0] - want[0]).hypot(hit[1] - want[1]) / g.gsd);
         }
@@ -175,6 +185,67 @@ fn dem_ortho_of_a_frame_over_hills_matches_the_truth_and_flat_does_not() {
     );
     eprintln!("mean |ortho - truth|: DEM {ed:.2}, flat {ef:.2} grey levels");
     assert!(ed < 4.0 && ef > 4.0 * ed, "{ed} {ef}");
+}
+
+/// Ground falling away under an oblique frame's far field: the horizon cut planned on level
+/// ground at the DEM's middle height lets the rays run on past the output size limit, so the
+/// plan cuts again at the lowest ground under the frame. It keeps to the limit, and its pixels
+/// still land where the frame sees them (marched onto the true terrain).
+#[test]
+fn far_field_over_falling_ground_keeps_to_the_output_limit() {
+    // Level (0 m) to 200 m north of the camera, then falling 1 m in 8 to -100 m; 10 m cells.
+    let fall = |y: f64| -((y - ORIGIN[1] - 200.0).max(0.0) / 8.0).min(100.0);
+    let (n, cell) = (400usize, 10.0);
+    let top_left = [ORIGIN[0] - 2000.0, ORIGIN[1] + 2000.0];
+    let values: Vec<f32> = (0..n * n)
+        .map(|i| fall(top_left[1] - ((i / n) as f64 + 0.5) * cell) as f32)
+        .collect();
+    let truth = Terrain::Grid(HeightGrid {
+        origin: [top_left[0] + 0.5 * cell, top_left[1] - 0.5 * cell],
+        spacing: cell,
+        width: n,
+        height: n,
+        values: values.clone(),
+    });
+    let dem = Dem {
+        name: "falling".into(),
+        values,
+        width: n,
+        height: n,
+        top_left,
+        cell_size: [cell, cell],
+        crs: utm35(),
+    };
+    let (cam, _) = setup();
+    let r = CameraRotation::dji_gimbal(0.0, -20.0, 0.0).unwrap();
+    let pose = Pose::new([ORIGIN[0], ORIGIN[1], 100.0], r.ground_from_camera());
+    let (world, limit) = (utm35(), 1_000_000);
+    let ground = Ground::Dem {
+        dem: Arc::new(dem),
+        fallback: None,
+        strict: true,
+    };
+    let req = OrthoRequest {
+        camera: &cam,
+        pose,
+        world: &world,
+        ground: &ground,
+        gsd_m: 1.0,
+        limits: RectifyLimits {
+            max_output_px: limit,
+        },
+        occlusion: false,
+    };
+    let p = plan_ortho(&req, WarpOptions::default()).unwrap();
+    let size = p.grid.size;
+    eprintln!("falling ground: {} x {} px", size.width, size.height);
+    assert!(p.clipped && size.pixels() as u64 <= limit, "{size:?}");
+    // The ground reached lies past where the terrain starts to fall.
+    let north = p.footprint.iter().map(|q| q[1]).fold(f64::MIN, f64::max);
+    assert!(north > ORIGIN[1] + 400.0, "{north}");
+    let (median, p95) = position_errors_in(&p, &pose, &truth, (-100.0, 0.0));
+    eprintln!("falling ground: position error median {median:.4} px, 95% {p95:.4} px");
+    assert!(median < 0.05 && p95 < 0.5, "{median} {p95}");
 }
 
 /// The DEM's holes are refused with --strict and filled (with a warning) without it.
