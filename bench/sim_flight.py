@@ -33,7 +33,10 @@ attitude priors and the DEM under the ties decide. A fixed-wing directory (`fixe
 serves both fixed-wing modes, not the others.
 
 Needs only the standard library (and cargo). Run with the machine otherwise quiet.
-SIM_FLIGHT_MOSAIC=0 skips the mosaic; AERORECT_FLIGHT_TIMING=1 prints where the adjustment's
+SIM_FLIGHT_MOSAIC=0 skips the mosaic; SIM_FLIGHT_NO_DEM=H flies without the DEM, the ground
+taken level at H m (`--ground-height-m H`; the hills' mean is 25); SIM_FLIGHT_GPS_DRIFT=Z (GPS-only
+modes) makes the recorded fixes drift as a consumer GPS's can: up Z m over the flight, linearly in
+frame order, and 15 m east and 10 m south with it; AERORECT_FLIGHT_TIMING=1 prints where the adjustment's
 time went (stderr of `batch`).
 """
 import csv
@@ -88,6 +91,20 @@ def track_starts(positions):
         heading = math.degrees(math.atan2(b[0] - a[0], b[1] - a[1]))
         out[n] = [0.0, 0.0, -heading]
     return out
+
+
+def drift(geo, up_m):
+    """Rewrites an ODM geo.txt so that its fixes drift linearly in frame order: up_m up, and
+    15 m east and 10 m south for every 110 m up."""
+    lines = open(geo).read().splitlines()
+    rows = [l.split() for l in lines[1:]]
+    rows.sort(key=lambda r: r[0])
+    with open(geo, "w") as g:
+        g.write(lines[0] + "\n")
+        for k, r in enumerate(rows):
+            t = up_m * k / max(len(rows) - 1, 1)
+            x, y, z = float(r[1]) + t * 15 / 110, float(r[2]) - t * 10 / 110, float(r[3]) + t
+            g.write(f"{r[0]} {x:.3f} {y:.3f} {z:.3f}\n")
 
 
 def centres(path):
@@ -181,6 +198,8 @@ def main():
             for r in csv.DictReader(f):
                 g.write(f"{r['filename']} {r['x']} {r['y']} {r['z']}\n")
         common[0:2] = ["--geo", "geo.txt"]
+    if gps_only and os.environ.get("SIM_FLIGHT_GPS_DRIFT"):
+        drift(os.path.join(work, "geo.txt"), float(os.environ["SIM_FLIGHT_GPS_DRIFT"]))
     elif gps_only:
         rng = random.Random(1)
         with open(os.path.join(work, "truth.csv")) as f, open(os.path.join(work, "geo.txt"), "w") as g:
@@ -189,6 +208,9 @@ def main():
                 x, y, z = (float(r[k]) + rng.gauss(0, 3) for k in ("x", "y", "z"))
                 g.write(f"{r['filename']} {x:.3f} {y:.3f} {z:.3f}\n")
         common[0:2] = ["--geo", "geo.txt"]
+    if os.environ.get("SIM_FLIGHT_NO_DEM"):
+        at = common.index("--dem")
+        common[at:at + 2] = ["--ground-height-m", os.environ["SIM_FLIGHT_NO_DEM"]]
     if gcp:
         checks = open(os.path.join(work, "checkpoints.txt")).read().strip()
         common[1] = "pert_gps.csv"

@@ -498,3 +498,39 @@ fn the_solution_does_not_depend_on_the_number_of_threads() {
     let worst = max_norm(&errors(&fl.truth, &one.frames));
     assert!(worst < 0.05, "{worst}");
 }
+
+/// Without a DEM the level ground is a guess: tie points held to it firmly bend the frames
+/// over hills, and held per frame at a loose sigma ([`AdjustOptions::terrain_sigma_by_frame`])
+/// they follow the hills where the positions fix the block. The same sigma per frame as the
+/// terrain's is the same solve, bit for bit.
+#[test]
+fn per_frame_terrain_sigma_frees_ties_from_a_level_guess() {
+    let fl = flight(5, 4, 1.0, &hills, 13);
+    let level = |_: f64, _: f64| 25.0;
+    let solve = |by_frame: Option<&[f64]>| {
+        let opts = AdjustOptions {
+            refine_focal: false,
+            refine_principal_point: false,
+            terrain: Some((&level, 2.0)),
+            terrain_sigma_by_frame: by_frame,
+            ..Default::default()
+        };
+        adjust(&fl.recorded, &[camera(800.0)], &fl.ties, &opts).unwrap()
+    };
+    let n = fl.truth.len();
+    let firm = solve(None);
+    let same = solve(Some(&vec![2.0; n]));
+    let loose = solve(Some(&vec![1000.0; n]));
+    let (e_firm, e_loose) = (
+        max_norm(&errors(&fl.truth, &firm.frames)),
+        max_norm(&errors(&fl.truth, &loose.frames)),
+    );
+    eprintln!("level guess held at 2 m: worst {e_firm:.4} deg; at 1000 m: {e_loose:.4} deg");
+    assert!(
+        e_loose < 0.1 && e_firm > 4.0 * e_loose,
+        "{e_firm} {e_loose}"
+    );
+    for (a, b) in firm.frames.iter().zip(&same.frames) {
+        assert_eq!(a.world_from_camera, b.world_from_camera);
+    }
+}

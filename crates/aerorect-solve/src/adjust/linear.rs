@@ -175,7 +175,8 @@ impl Problem<'_> {
             let j = Matrix3::from_diagonal(&Vec3::from(c.sigma_m.map(|s| 1.0 / s)));
             return (j.transpose() * j, j.transpose() * self.point_prior(tie, x));
         }
-        if let Some((h, sigma)) = self.opts.terrain {
+        if let Some((h, _)) = self.opts.terrain {
+            let sigma = self.terrain_sigma(tie);
             // d/dx of (z - h(x, y)) / sigma (the terrain by central differences).
             let e = 1e-2;
             let gx = (h(x.x + e, x.y) - h(x.x - e, x.y)) / (2.0 * e);

@@ -135,6 +135,10 @@ pub struct AdjustOptions<'a> {
     pub huber: f64,
     /// Terrain height at (x, y) and its standard deviation (m): tie points stay on the ground.
     pub terrain: Option<(HeightFn<'a>, f64)>,
+    /// The terrain's standard deviation (m) per frame, instead of the one in
+    /// [`Self::terrain`]: a tie point takes its first observation's frame's (a flight without
+    /// a DEM holds ties to its level ground less firmly where the GPS fixes a block's tilt).
+    pub terrain_sigma_by_frame: Option<&'a [f64]>,
     pub max_iterations: usize,
     /// The stops on the cost's relative decrease, the gradient and the step (Ceres's).
     pub tolerances: Tolerances,
@@ -182,6 +186,7 @@ impl Default for AdjustOptions<'_> {
             pixel_sigma: 0.5,
             huber: 3.0,
             terrain: None,
+            terrain_sigma_by_frame: None,
             max_iterations: 50,
             tolerances: Tolerances::default(),
             datum: Datum::Recorded,

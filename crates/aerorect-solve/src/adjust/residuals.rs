@@ -175,9 +175,20 @@ impl Problem<'_> {
             return Vec3::from_fn(|k, _| (x[k] - c.ground[k]) / c.sigma_m[k]);
         }
         match self.opts.terrain {
-            Some((h, sigma)) => Vec3::new(0.0, 0.0, (x.z - h(x.x, x.y)) / sigma),
+            Some((h, _)) => Vec3::new(0.0, 0.0, (x.z - h(x.x, x.y)) / self.terrain_sigma(tie)),
             None => Vec3::zeros(),
         }
+    }
+
+    /// The standard deviation (m) tie point `tie` is held to the terrain with: its first
+    /// observation's frame's ([`AdjustOptions::terrain_sigma_by_frame`]), else the terrain's.
+    pub fn terrain_sigma(&self, tie: &TiePoint) -> f64 {
+        let own = self.opts.terrain_sigma_by_frame.and_then(|by_frame| {
+            let f = tie.observations.first()?.frame;
+            by_frame.get(f).copied()
+        });
+        own.or(self.opts.terrain.map(|(_, sigma)| sigma))
+            .unwrap_or(f64::INFINITY)
     }
 
     /// Whether camera `c`'s parameter `p` is solved for.

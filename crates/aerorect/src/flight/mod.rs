@@ -34,6 +34,7 @@ mod frames;
 mod guide;
 mod plan;
 mod predict;
+mod relief;
 mod render;
 mod roll;
 pub mod sift;

@@ -108,6 +108,7 @@ pub(super) fn match_and_adjust(
             attitude_sigma_deg: frames[k].own_attitude_sigma_deg(fo.attitude_sigma_deg),
         })
         .collect();
+    let relief = (!dem).then(|| plan.relief_sigmas_m(&ties));
     let aopts = AdjustOptions {
         attitude_sigma_deg: fo.attitude_sigma_deg,
         position_sigma_m,
@@ -124,6 +125,8 @@ pub(super) fn match_and_adjust(
             // correlator's, is a real point on the hills (see RELIEF_SIGMA_M).
             terrain_sigma_m(dem),
         )),
+        // Where the GPS decides a block's tilt, its ties leave the level ground freely.
+        terrain_sigma_by_frame: relief.as_deref(),
         max_iterations: 100,
         start,
         settled: Some(SOLVE_SETTLED_DEG),
@@ -146,10 +149,23 @@ pub(super) fn match_and_adjust(
         }
         _ => ties.as_slice().into(),
     };
-    let adjusted = timing::time("solve: adjust", || {
-        aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &all, &aopts)
-    })
-    .map_err(Error::context("flight adjustment"))?;
+    let solve = |o: &AdjustOptions| {
+        timing::time("solve: adjust", || {
+            aerorect_solve::adjust::adjust(&adjust_frames, &rec.cameras, &all, o)
+        })
+        .map_err(Error::context("flight adjustment"))
+    };
+    let mut adjusted = solve(&aopts)?;
+    // A block its GPS tilted steeper than ground is goes back to the level ground.
+    let levelled = relief
+        .as_deref()
+        .and_then(|r| plan.level_steep_blocks(r, &ties, &adjusted));
+    if let Some((r, _)) = &levelled {
+        adjusted = solve(&AdjustOptions {
+            terrain_sigma_by_frame: Some(r),
+            ..aopts.clone()
+        })?;
+    }
     let accuracy = plan.control.as_ref().map(|c| {
         let recorded = aerorect_solve::adjust::OrientedFrames {
             frames: &adjust_frames,
@@ -158,6 +174,7 @@ pub(super) fn match_and_adjust(
         accuracy::accuracy_report(c, (recorded, adjusted.oriented()), frames, &all)
     });
     let mut warnings = solve_warnings(frames, &adjusted.report)?;
+    warnings.extend(levelled.map(|(_, w)| w));
     let gps = gps_checks(frames, &adjust_frames, &adjusted.report, position_sigma_m);
     warnings.extend(contradictions(
         frames,
