@@ -198,8 +198,6 @@ def main():
             for r in csv.DictReader(f):
                 g.write(f"{r['filename']} {r['x']} {r['y']} {r['z']}\n")
         common[0:2] = ["--geo", "geo.txt"]
-    if gps_only and os.environ.get("SIM_FLIGHT_GPS_DRIFT"):
-        drift(os.path.join(work, "geo.txt"), float(os.environ["SIM_FLIGHT_GPS_DRIFT"]))
     elif gps_only:
         rng = random.Random(1)
         with open(os.path.join(work, "truth.csv")) as f, open(os.path.join(work, "geo.txt"), "w") as g:
@@ -208,6 +206,8 @@ def main():
                 x, y, z = (float(r[k]) + rng.gauss(0, 3) for k in ("x", "y", "z"))
                 g.write(f"{r['filename']} {x:.3f} {y:.3f} {z:.3f}\n")
         common[0:2] = ["--geo", "geo.txt"]
+    if gps_only and os.environ.get("SIM_FLIGHT_GPS_DRIFT"):
+        drift(os.path.join(work, "geo.txt"), float(os.environ["SIM_FLIGHT_GPS_DRIFT"]))
     if os.environ.get("SIM_FLIGHT_NO_DEM"):
         at = common.index("--dem")
         common[at:at + 2] = ["--ground-height-m", os.environ["SIM_FLIGHT_NO_DEM"]]

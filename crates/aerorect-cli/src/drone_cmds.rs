@@ -189,8 +189,9 @@ pub struct FlightArgs {
     #[arg(long, requires = "adjust", default_value = "both")]
     pub ties: String,
     /// With --adjust and no --gcps: take each GPS fix robustly (Huber at three sigmas) about
-    /// the block's common shift, so that a fix the images contradict is down-weighted (see
-    /// adjustment.json's gps[].weight).
+    /// the block's common shift from the first solve, so that a fix the images contradict is
+    /// down-weighted (see adjustment.json's gps[].weight); without it, a solve that leaves a
+    /// fix contradicted is solved again so.
     #[arg(long, requires = "adjust")]
     pub robust_gps: bool,
     /// With --adjust and no --dem: render the adjusted frames over the level ground

@@ -10,38 +10,7 @@
 #[allow(dead_code)]
 mod simulate_flight;
 
-use aerorect::core::CameraRotation;
-use std::collections::BTreeMap;
-use std::process::Command;
-
-/// filename -> (omega, phi, kappa) degrees of a pose table.
-fn attitudes(path: &std::path::Path) -> BTreeMap<String, [f64; 3]> {
-    let text = std::fs::read_to_string(path).unwrap();
-    text.lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            let name = f[0].rsplit('/').next().unwrap().to_string();
-            let v = |k: usize| f[k].trim().parse::<f64>().unwrap();
-            (name, [v(4), v(5), v(6)])
-        })
-        .collect()
-}
-
-/// The angle (deg) between two omega-phi-kappa attitudes.
-fn angle_deg(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let r = |o: [f64; 3]| {
-        CameraRotation::omega_phi_kappa(o[0], o[1], o[2])
-            .unwrap()
-            .ground_from_camera()
-            .to_owned()
-    };
-    let d = r(a) * r(b).transpose();
-    ((d.trace() - 1.0) / 2.0)
-        .clamp(-1.0, 1.0)
-        .acos()
-        .to_degrees()
-}
+mod common;
 
 #[test]
 fn features_that_agree_better_than_a_correlated_sample_end_the_rounds() {
@@ -54,25 +23,7 @@ fn features_that_agree_better_than_a_correlated_sample_end_the_rounds() {
         .collect();
     frames.sort();
     let out = tmp.path().join("out");
-    let status = Command::new(env!("CARGO_BIN_EXE_aerorect"))
-        .arg("batch")
-        .args(&frames)
-        .arg("--out-dir")
-        .arg(&out)
-        .arg("--poses")
-        .arg(sim.join("pert.csv"))
-        .arg("--camera")
-        .arg(sim.join("cam.toml"))
-        .arg("--dem")
-        .arg(sim.join("dem.tif"))
-        .args(["--gsd-m", "0.25", "--adjust", "--attitude-sigma-deg", "1"])
-        .stdout(std::process::Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("adjustment.json")).unwrap())
-            .unwrap();
+    let r = common::batch_adjust_rendered(&frames, &sim, ["--poses", "pert.csv"], &out);
     let rounds = r["rounds"].as_array().unwrap();
     let first = &rounds[0];
     eprintln!("{} round(s); the first: {first}", rounds.len());
@@ -100,15 +51,15 @@ fn features_that_agree_better_than_a_correlated_sample_end_the_rounds() {
     assert_eq!(r["settled"], true);
     // Against the truth: every frame recorded about 1.7 deg off (three axes of 1 deg) ends
     // within a twentieth of a degree.
-    let truth = attitudes(&sim.join("truth.csv"));
-    let adjusted = attitudes(&out.join("adjusted_poses.csv"));
-    let recorded = attitudes(&sim.join("pert.csv"));
+    let truth = common::pose_table(&sim.join("truth.csv"));
+    let adjusted = common::pose_table(&out.join("adjusted_poses.csv"));
+    let recorded = common::pose_table(&sim.join("pert.csv"));
     let mut errors: Vec<f64> = Vec::new();
     for (name, t) in &truth {
-        let (a, p) = (adjusted[name], recorded[name]);
-        errors.push(angle_deg(a, *t));
+        let (a, p) = (&adjusted[name], &recorded[name]);
+        errors.push(common::angle_opk_deg(&a[3..6], &t[3..6]));
         assert!(
-            angle_deg(p, *t) > 0.1,
+            common::angle_opk_deg(&p[3..6], &t[3..6]) > 0.1,
             "{name}: recorded too close to the truth"
         );
     }

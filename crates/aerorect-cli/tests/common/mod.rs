@@ -63,3 +63,62 @@ pub fn jpeg_with_xmp(dir: &Path, name: &str, xmp: Option<&str>) -> std::path::Pa
     std::fs::write(&p, out).unwrap();
     p
 }
+
+/// The angle (deg) between two omega-phi-kappa attitudes (degrees).
+pub fn angle_opk_deg(a: &[f64], b: &[f64]) -> f64 {
+    let r = |o: &[f64]| {
+        aerorect::core::CameraRotation::omega_phi_kappa(o[0], o[1], o[2])
+            .unwrap()
+            .ground_from_camera()
+            .to_owned()
+    };
+    let d = r(a) * r(b).transpose();
+    ((d.trace() - 1.0) / 2.0)
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees()
+}
+
+/// `batch --adjust` of a rendered flight's `frames` (aerorect's `examples/simulate_flight.rs`,
+/// its `cam.toml` and `dem.tif` in `sim`) into `out`, the positions from `source`
+/// (`["--poses", "pert.csv"]` or `["--geo", "geo.txt"]`, the file in `sim`), at 0.25 m and an
+/// attitude prior of 1 deg; its `adjustment.json`.
+pub fn batch_adjust_rendered(
+    frames: &[std::path::PathBuf],
+    sim: &Path,
+    source: [&str; 2],
+    out: &Path,
+) -> serde_json::Value {
+    let status = Command::new(env!("CARGO_BIN_EXE_aerorect"))
+        .arg("batch")
+        .args(frames)
+        .arg("--out-dir")
+        .arg(out)
+        .arg(source[0])
+        .arg(sim.join(source[1]))
+        .arg("--camera")
+        .arg(sim.join("cam.toml"))
+        .arg("--dem")
+        .arg(sim.join("dem.tif"))
+        .args(["--gsd-m", "0.25", "--adjust", "--attitude-sigma-deg", "1"])
+        .stdout(std::process::Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    serde_json::from_str(&std::fs::read_to_string(out.join("adjustment.json")).unwrap()).unwrap()
+}
+
+/// A pose table (`filename,x,y,z,omega,phi,kappa`): file name (without folders) -> the
+/// numbers after it.
+pub fn pose_table(path: &Path) -> std::collections::BTreeMap<String, Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let name = f[0].rsplit('/').next().unwrap().to_string();
+            let v = f[1..].iter().map(|s| s.trim().parse().unwrap()).collect();
+            (name, v)
+        })
+        .collect()
+}

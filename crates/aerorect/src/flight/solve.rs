@@ -133,7 +133,7 @@ pub(super) fn match_and_adjust(
         standard_deviations: sigmas,
         ..AdjustOptions::default()
     };
-    let aopts = robust_gps(
+    let aopts = relook::robust_gps(
         control,
         (position_sigma_m, fo.robust_gps),
         frames.len(),
@@ -155,17 +155,15 @@ pub(super) fn match_and_adjust(
         })
         .map_err(Error::context("flight adjustment"))
     };
-    let mut adjusted = solve(&aopts)?;
-    // A block its GPS tilted steeper than ground is goes back to the level ground.
-    let levelled = relief
-        .as_deref()
-        .and_then(|r| plan.level_steep_blocks(r, &ties, &adjusted));
-    if let Some((r, _)) = &levelled {
-        adjusted = solve(&AdjustOptions {
-            terrain_sigma_by_frame: Some(r),
-            ..aopts.clone()
-        })?;
-    }
+    let relook = relook::Relook {
+        plan,
+        ties: &ties,
+        adjust_frames: &adjust_frames,
+        relief: relief.as_deref(),
+        position_sigma_m,
+        control: control.is_some(),
+    };
+    let (adjusted, relooked) = relook.solve(&aopts, solve)?;
     let accuracy = plan.control.as_ref().map(|c| {
         let recorded = aerorect_solve::adjust::OrientedFrames {
             frames: &adjust_frames,
@@ -174,7 +172,7 @@ pub(super) fn match_and_adjust(
         accuracy::accuracy_report(c, (recorded, adjusted.oriented()), frames, &all)
     });
     let mut warnings = solve_warnings(frames, &adjusted.report)?;
-    warnings.extend(levelled.map(|(_, w)| w));
+    warnings.extend(relooked);
     let gps = gps_checks(frames, &adjust_frames, &adjusted.report, position_sigma_m);
     warnings.extend(contradictions(
         frames,
@@ -218,33 +216,6 @@ fn tie_vectors(
             })
         })
         .collect()
-}
-
-/// The datum and the robustness of the GPS priors: with ground control, the datum the control
-/// fixes (its shift free); without, with [`FlightOptions::robust_gps`] and three frames or more,
-/// a shift held at a GPS fix's sigma
-/// over the root of the frames' count (the block stays where its GPS puts it) and each fix
-/// taken robustly about it (Huber at [`GPS_CONTRADICTION_SIGMAS`]): a fix the images
-/// contradict is down-weighted and the images win.
-fn robust_gps<'a>(
-    control: Option<&control::Resolved>,
-    (position_sigma_m, robust): (Option<f64>, bool),
-    frames: usize,
-    aopts: AdjustOptions<'a>,
-) -> AdjustOptions<'a> {
-    match (control, position_sigma_m) {
-        (Some(c), _) => AdjustOptions {
-            datum: c.datum(),
-            ..aopts
-        },
-        (None, Some(sigma)) if frames >= 3 && robust => AdjustOptions {
-            datum: Datum::Shift,
-            datum_shift_sigma_m: sigma / (frames as f64).sqrt(),
-            position_huber: Some(GPS_CONTRADICTION_SIGMAS),
-            ..aopts
-        },
-        _ => aopts,
-    }
 }
 
 /// The warnings of a solve (gauge freedoms held, an iteration limit met with a sub-pixel

@@ -1,0 +1,101 @@
+//! A round's solve looked at again: where its own result says a prior was wrong, the flight
+//! is solved once more without it. A block freed from the level ground that its GPS tilted
+//! steeper than ground is ([`FlightPlan::level_steep_blocks`]) goes back to the level ground;
+//! GPS fixes the images contradict are then taken robustly, so that the images win.
+
+use super::*;
+use aerorect_solve::adjust::Adjusted;
+
+/// What the second looks need beyond the solve: the flight, its ties and frames as solved,
+/// each frame's relief sigma without a DEM (`relief`), the recorded positions' sigma, and
+/// whether ground control sets the datum (it decides the GPS's weight itself).
+pub(super) struct Relook<'p> {
+    pub(super) plan: &'p FlightPlan,
+    pub(super) ties: &'p [TiePoint],
+    pub(super) adjust_frames: &'p [AdjustFrame],
+    pub(super) relief: Option<&'p [f64]>,
+    pub(super) position_sigma_m: Option<f64>,
+    pub(super) control: bool,
+}
+
+impl Relook<'_> {
+    /// `solve` with `aopts`, then again as the result asks; the last result and the warnings
+    /// that say why it was solved again.
+    pub(super) fn solve(
+        &self,
+        aopts: &AdjustOptions<'_>,
+        solve: impl Fn(&AdjustOptions<'_>) -> Result<Adjusted, Error>,
+    ) -> Result<(Adjusted, Vec<String>), Error> {
+        let mut adjusted = solve(aopts)?;
+        let mut warnings = Vec::new();
+        let levelled = self
+            .relief
+            .and_then(|r| self.plan.level_steep_blocks(r, self.ties, &adjusted));
+        let mut opts = aopts.clone();
+        if let Some((r, w)) = &levelled {
+            opts.terrain_sigma_by_frame = Some(r);
+            adjusted = solve(&opts)?;
+            warnings.push(w.clone());
+        }
+        if let Some(robust) = self.robust_after(&opts, &adjusted) {
+            adjusted = solve(&robust)?;
+        }
+        Ok((adjusted, warnings))
+    }
+
+    /// The options that take every GPS fix robustly ([`robust_gps`]) when the solve with
+    /// `opts` left some fix contradicted by the images and took them quadratically; none
+    /// otherwise (with ground control, or where robust GPS does not apply).
+    fn robust_after<'o>(
+        &self,
+        opts: &AdjustOptions<'o>,
+        adjusted: &Adjusted,
+    ) -> Option<AdjustOptions<'o>> {
+        if self.control || opts.position_huber.is_some() {
+            return None;
+        }
+        let frames = &self.plan.frames;
+        let gps = gps_checks(
+            frames,
+            self.adjust_frames,
+            &adjusted.report,
+            self.position_sigma_m,
+        );
+        if !gps.iter().any(|g| g.contradicted) {
+            return None;
+        }
+        let robust = robust_gps(
+            None,
+            (self.position_sigma_m, true),
+            frames.len(),
+            opts.clone(),
+        );
+        robust.position_huber.is_some().then_some(robust)
+    }
+}
+
+/// The datum and the robustness of the GPS priors: with ground control, the datum the control
+/// fixes (its shift free); without, with `robust` and three frames or more, a shift held at a
+/// GPS fix's sigma over the root of the frames' count (the block stays where its GPS puts it)
+/// and each fix taken robustly about it (Huber at [`GPS_CONTRADICTION_SIGMAS`]): a fix the
+/// images contradict is down-weighted and the images win.
+pub(super) fn robust_gps<'a>(
+    control: Option<&control::Resolved>,
+    (position_sigma_m, robust): (Option<f64>, bool),
+    frames: usize,
+    aopts: AdjustOptions<'a>,
+) -> AdjustOptions<'a> {
+    match (control, position_sigma_m) {
+        (Some(c), _) => AdjustOptions {
+            datum: c.datum(),
+            ..aopts
+        },
+        (None, Some(sigma)) if frames >= 3 && robust => AdjustOptions {
+            datum: Datum::Shift,
+            datum_shift_sigma_m: sigma / (frames as f64).sqrt(),
+            position_huber: Some(GPS_CONTRADICTION_SIGMAS),
+            ..aopts
+        },
+        _ => aopts,
+    }
+}
