@@ -39,12 +39,24 @@ pub const MAX_BLOCK_SLOPE_DEG: f64 = 8.0;
 /// At most this many ties of a block are intersected to find its ground's slope.
 const SLOPE_SAMPLE: usize = 2000;
 
+/// How firmly a flight without a DEM holds each frame's ties to the level ground, and the
+/// blocks it frees from it.
+pub(super) struct Relief {
+    /// Each frame's relief standard deviation (m).
+    pub(super) sigmas_m: Vec<f64>,
+    /// The blocks (frames the ties connect, each sorted) held at [`FREE_RELIEF_SIGMA_M`].
+    pub(super) freed: Vec<Vec<usize>>,
+}
+
 impl FlightPlan {
-    /// Each frame's relief standard deviation (m) without a DEM: [`FREE_RELIEF_SIGMA_M`] in
-    /// a block (frames that `ties` connect) whose recorded positions decide its tilt
-    /// ([`GPS_TILT_SIGMA_DEG`]), else [`RELIEF_SIGMA_M`].
-    pub(super) fn relief_sigmas_m(&self, ties: &[TiePoint]) -> Vec<f64> {
-        let mut out = vec![RELIEF_SIGMA_M; self.len()];
+    /// The relief without a DEM: [`FREE_RELIEF_SIGMA_M`] in a block (frames that `ties`
+    /// connect) whose recorded positions decide its tilt ([`GPS_TILT_SIGMA_DEG`]), else
+    /// [`RELIEF_SIGMA_M`].
+    pub(super) fn relief(&self, ties: &[TiePoint]) -> Relief {
+        let mut out = Relief {
+            sigmas_m: vec![RELIEF_SIGMA_M; self.len()],
+            freed: Vec::new(),
+        };
         for block in aerorect_solve::adjust::connected(self.len(), ties) {
             let centres: Vec<[f64; 2]> = block
                 .iter()
@@ -60,8 +72,9 @@ impl FlightPlan {
                 .fold(0.0, f64::max);
             if gps_tilt_sigma_rad(&centres, sigma) < GPS_TILT_SIGMA_DEG.to_radians() {
                 for &k in &block {
-                    out[k] = FREE_RELIEF_SIGMA_M;
+                    out.sigmas_m[k] = FREE_RELIEF_SIGMA_M;
                 }
+                out.freed.push(block);
             }
         }
         out
@@ -69,28 +82,24 @@ impl FlightPlan {
 }
 
 impl FlightPlan {
-    /// The blocks freed from the level ground (`relief`, [`Self::relief_sigmas_m`]) whose
-    /// `adjusted` ties lie on a plane steeper than [`MAX_BLOCK_SLOPE_DEG`]: the relief with
-    /// those blocks held to the level ground again, and a warning naming them; none when no
-    /// block is that steep.
+    /// The blocks `relief` frees ([`Self::relief`]) whose `adjusted` ties lie on a plane
+    /// steeper than [`MAX_BLOCK_SLOPE_DEG`]: each frame's relief sigma with those blocks held
+    /// to the level ground again, and a warning naming them; none when no block is that steep.
     pub(super) fn level_steep_blocks(
         &self,
-        relief: &[f64],
+        relief: &Relief,
         ties: &[TiePoint],
         adjusted: &aerorect_solve::adjust::Adjusted,
     ) -> Option<(Vec<f64>, String)> {
-        let mut levelled = relief.to_vec();
+        let mut levelled = relief.sigmas_m.clone();
         let mut steep = Vec::new();
-        for block in aerorect_solve::adjust::connected(self.len(), ties) {
+        for block in &relief.freed {
             let Some(&first) = block.first() else {
                 continue;
             };
-            if relief[first] == RELIEF_SIGMA_M {
-                continue;
-            }
-            let slope = block_slope_deg(&block, ties, adjusted);
+            let slope = block_slope_deg(block, ties, adjusted);
             if slope.is_some_and(|s| s > MAX_BLOCK_SLOPE_DEG) {
-                for &k in &block {
+                for &k in block {
                     levelled[k] = RELIEF_SIGMA_M;
                 }
                 steep.push(format!(

@@ -14,7 +14,7 @@ pub(super) struct Relook<'p> {
     pub(super) plan: &'p FlightPlan,
     pub(super) ties: &'p [TiePoint],
     pub(super) adjust_frames: &'p [AdjustFrame],
-    pub(super) relief: Option<&'p [f64]>,
+    pub(super) relief: Option<&'p relief::Relief>,
     pub(super) position_sigma_m: Option<f64>,
     pub(super) control: bool,
 }
@@ -32,12 +32,10 @@ impl Relook<'_> {
         // the block's common tilt (424 s for the simulated fixed wing without a DEM; 158 s
         // so, as accurate).
         let level = match (self.relief, aopts.start) {
-            (Some(r), None) if r.iter().any(|&s| s != RELIEF_SIGMA_M) => {
-                Some(solve(&AdjustOptions {
-                    terrain_sigma_by_frame: None,
-                    ..aopts.clone()
-                })?)
-            }
+            (Some(r), None) if !r.freed.is_empty() => Some(solve(&AdjustOptions {
+                terrain_sigma_by_frame: None,
+                ..aopts.clone()
+            })?),
             _ => None,
         };
         let warm;
@@ -58,7 +56,7 @@ impl Relook<'_> {
             .and_then(|r| self.plan.level_steep_blocks(r, self.ties, &adjusted));
         let mut opts = aopts.clone();
         if let Some((r, w)) = &levelled {
-            opts.terrain_sigma_by_frame = Some(r);
+            opts.terrain_sigma_by_frame = Some(r.as_slice());
             adjusted = solve(&opts)?;
             warnings.push(w.clone());
         }

@@ -108,7 +108,7 @@ pub(super) fn match_and_adjust(
             attitude_sigma_deg: frames[k].own_attitude_sigma_deg(fo.attitude_sigma_deg),
         })
         .collect();
-    let relief = (!dem).then(|| plan.relief_sigmas_m(&ties));
+    let relief = (!dem).then(|| plan.relief(&ties));
     let aopts = AdjustOptions {
         attitude_sigma_deg: fo.attitude_sigma_deg,
         position_sigma_m,
@@ -126,7 +126,7 @@ pub(super) fn match_and_adjust(
             terrain_sigma_m(dem),
         )),
         // Where the GPS decides a block's tilt, its ties leave the level ground freely.
-        terrain_sigma_by_frame: relief.as_deref(),
+        terrain_sigma_by_frame: relief.as_ref().map(|r| r.sigmas_m.as_slice()),
         max_iterations: 100,
         start,
         settled: Some(SOLVE_SETTLED_DEG),
@@ -159,7 +159,7 @@ pub(super) fn match_and_adjust(
         plan,
         ties: &ties,
         adjust_frames: &adjust_frames,
-        relief: relief.as_deref(),
+        relief: relief.as_ref(),
         position_sigma_m,
         control: control.is_some(),
     };
