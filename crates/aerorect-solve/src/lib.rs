@@ -31,6 +31,9 @@ pub enum SolveError {
     /// A tie point the adjustment cannot take, and why.
     #[error("tie point {index}: {why}")]
     BadTie { index: usize, why: String },
+    /// GPS drift times that are not one finite time per frame.
+    #[error("{got} GPS drift times given for {frames} frames: one finite time per frame is needed")]
+    DriftTimes { got: usize, frames: usize },
 }
 
 /// Hartley's normalisation: centroid to the origin, mean distance sqrt(2).

@@ -47,18 +47,20 @@ pub(super) const CAMERA_PARAMS: [CameraParam; 8] = [
     CameraParam::Boresight(2),
 ];
 
-/// A datum parameter: what the GPS positions' frame is off from the ground control's by, as
-/// a shift (m), a small rotation (rotation vector, radians) and a scale about the frames'
-/// centroid. Only solved with ground control (see [`super::Datum`]).
+/// A datum parameter: what the GPS positions' frame is off from the ground control's (or the
+/// images') by, as a shift (m), a small rotation (rotation vector, radians) and a scale about
+/// the frames' centroid (see [`super::Datum`]), and a drift (m over the flight, linear in each
+/// frame's time: see [`super::AdjustOptions::gps_drift_times`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum DatumParam {
     Shift(usize),
     Rotation(usize),
     Scale,
+    Drift(usize),
 }
 
 /// The datum's parameters in order.
-pub(super) const DATUM_PARAMS: [DatumParam; 7] = [
+pub(super) const DATUM_PARAMS: [DatumParam; 10] = [
     DatumParam::Shift(0),
     DatumParam::Shift(1),
     DatumParam::Shift(2),
@@ -66,6 +68,9 @@ pub(super) const DATUM_PARAMS: [DatumParam; 7] = [
     DatumParam::Rotation(1),
     DatumParam::Rotation(2),
     DatumParam::Scale,
+    DatumParam::Drift(0),
+    DatumParam::Drift(1),
+    DatumParam::Drift(2),
 ];
 
 /// The datum's values.
@@ -74,6 +79,7 @@ pub(super) struct DatumBlock {
     pub shift: Vec3,
     pub rotation: Vec3,
     pub scale: f64,
+    pub drift: Vec3,
 }
 
 impl DatumBlock {
@@ -82,6 +88,7 @@ impl DatumBlock {
             DatumParam::Shift(k) => self.shift[k],
             DatumParam::Rotation(k) => self.rotation[k],
             DatumParam::Scale => self.scale,
+            DatumParam::Drift(k) => self.drift[k],
         }
     }
     pub fn get_mut(&mut self, p: DatumParam) -> &mut f64 {
@@ -89,6 +96,7 @@ impl DatumBlock {
             DatumParam::Shift(k) => &mut self.shift[k],
             DatumParam::Rotation(k) => &mut self.rotation[k],
             DatumParam::Scale => &mut self.scale,
+            DatumParam::Drift(k) => &mut self.drift[k],
         }
     }
 }
@@ -160,7 +168,7 @@ pub(super) const LOCAL: usize = 14;
 pub(super) struct Layout {
     frames: Vec<[Option<usize>; 6]>,
     cameras: Vec<[Option<usize>; 8]>,
-    datum: [Option<usize>; 7],
+    datum: [Option<usize>; DATUM_PARAMS.len()],
     len: usize,
 }
 

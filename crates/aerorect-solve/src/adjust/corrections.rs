@@ -16,7 +16,7 @@ pub struct Corrections {
 /// Values per frame, per camera and of the datum in [`Corrections::to_values`].
 const FRAME_VALUES: usize = 6;
 const CAMERA_VALUES: usize = 8;
-const DATUM_VALUES: usize = 7;
+const DATUM_VALUES: usize = blocks::DATUM_PARAMS.len();
 
 impl Corrections {
     /// Every value, frames first, then cameras, then the datum (to carry between processes).
@@ -32,11 +32,22 @@ impl Corrections {
         out
     }
 
+    /// How many values [`Self::to_values`] gives for `frames` frames and `cameras` cameras.
+    pub fn value_count(frames: usize, cameras: usize) -> usize {
+        frames * FRAME_VALUES + cameras * CAMERA_VALUES + DATUM_VALUES
+    }
+
+    /// How many cameras `len` values of [`Self::to_values`] for `frames` frames hold; none
+    /// when no count fits.
+    pub fn camera_count(len: usize, frames: usize) -> Option<usize> {
+        let rest = len.checked_sub(frames * FRAME_VALUES + DATUM_VALUES)?;
+        (rest % CAMERA_VALUES == 0).then_some(rest / CAMERA_VALUES)
+    }
+
     /// The corrections of `frames` frames and `cameras` cameras from [`Self::to_values`];
     /// none when the count does not match.
     pub fn from_values(frames: usize, cameras: usize, v: &[f64]) -> Option<Self> {
-        let n = frames * FRAME_VALUES + cameras * CAMERA_VALUES + DATUM_VALUES;
-        if v.len() != n {
+        if v.len() != Self::value_count(frames, cameras) {
             return None;
         }
         let (fv, rest) = v.split_at(frames * FRAME_VALUES);
@@ -80,8 +91,10 @@ mod tests {
         c.cameras[0].boresight.x = 2e-4;
         c.datum.scale = 3e-6;
         let v = c.to_values();
-        assert_eq!(v.len(), 3 * 6 + 2 * 8 + 7);
+        assert_eq!(v.len(), 3 * 6 + 2 * 8 + 10);
         assert_eq!(Corrections::from_values(3, 2, &v), Some(c));
         assert_eq!(Corrections::from_values(2, 2, &v), None);
+        assert_eq!(Corrections::camera_count(v.len(), 3), Some(2));
+        assert_eq!(Corrections::camera_count(v.len(), 4), None);
     }
 }

@@ -151,6 +151,13 @@ pub struct AdjustOptions<'a> {
     /// GPS fixes the images contradict: each frame's position prior (relative to the datum)
     /// takes Huber's loss at this many of its sigmas; `None` keeps it quadratic.
     pub position_huber: Option<f64>,
+    /// Each frame's time in the flight, for a GPS drift linear in time solved with a free
+    /// [`Self::datum`]: frame `f`'s recorded position belongs `drift t_f` further (on top of
+    /// the datum's shift). The times are taken as given (the flight passes its frames' order,
+    /// centred and scaled to -0.5..0.5, so that the drift is metres over the flight). Consumer
+    /// GPS drifts: on one GPS-only flight the altitude climbed 110 m while the images held it
+    /// within 40 m. `None` (or a datum held as recorded) solves no drift.
+    pub gps_drift_times: Option<&'a [f64]>,
     /// Where the solve starts: a previous adjustment's corrections of the same frames and
     /// cameras (its [`Adjusted::corrections`]; the priors stay on the recorded values). A
     /// flight's later rounds start where the last ended, so they need a few iterations, not
@@ -192,6 +199,7 @@ impl Default for AdjustOptions<'_> {
             datum: Datum::Recorded,
             datum_shift_sigma_m: 1000.0,
             position_huber: None,
+            gps_drift_times: None,
             start: None,
             settled: None,
             standard_deviations: true,
@@ -207,6 +215,10 @@ pub struct FrameAdjustment {
     pub rotation_sigma_deg: [f64; 3],
     pub position_m: [f64; 3],
     pub position_sigma_m: [f64; 3],
+    /// Where the solved datum (its shift, rotation, scale and drift) moves this frame's
+    /// recorded position (0 without a datum): `position_m` less this is what the images moved
+    /// the fix beyond what the whole flight's GPS shares.
+    pub datum_offset_m: [f64; 3],
     pub observations: usize,
     pub rms_before_px: f64,
     pub rms_after_px: f64,
@@ -267,6 +279,18 @@ pub struct DatumAdjustment {
     pub rotation_sigma_deg: [f64; 3],
     pub scale_ppm: f64,
     pub scale_sigma_ppm: f64,
+    /// The GPS drift, where one was solved ([`AdjustOptions::gps_drift_times`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift: Option<GpsDrift>,
+}
+
+/// A GPS drift linear in time: the recorded positions of the flight's last frame belong
+/// `over_flight_m` further than its first's (beyond the datum's shift), each axis with its
+/// standard deviation.
+#[derive(Debug, Clone, Serialize)]
+pub struct GpsDrift {
+    pub over_flight_m: [f64; 3],
+    pub sigma_m: [f64; 3],
 }
 
 /// The adjusted orientation of every frame and camera.
@@ -287,7 +311,7 @@ pub fn adjust(
     opts: &AdjustOptions<'_>,
 ) -> Result<Adjusted, SolveError> {
     let t0 = std::time::Instant::now();
-    check_input(frames, cameras, ties)?;
+    check_input(frames, cameras, ties, opts.gps_drift_times)?;
     let mut positions_free = vec![opts.position_sigma_m.is_some(); frames.len()];
     let gauge: Vec<GaugeHold> = if opts.position_sigma_m.is_some() {
         gauge::one_point_sets(frames, ties)
@@ -311,6 +335,7 @@ pub fn adjust(
         |c, p| Problem::camera_free(opts, &cameras[c], p),
         |p| match (datum, p) {
             (Datum::Recorded, _) => false,
+            (_, DatumParam::Drift(_)) => opts.gps_drift_times.is_some(),
             (Datum::Shift, DatumParam::Shift(_)) => true,
             (Datum::Shift, _) => false,
             (Datum::Similarity, _) => true,
@@ -478,7 +503,16 @@ fn check_input(
     frames: &[AdjustFrame],
     cameras: &[Camera],
     ties: &[TiePoint],
+    drift_times: Option<&[f64]>,
 ) -> Result<(), SolveError> {
+    if let Some(t) =
+        drift_times.filter(|t| t.len() != frames.len() || t.iter().any(|v| !v.is_finite()))
+    {
+        return Err(SolveError::DriftTimes {
+            got: t.len(),
+            frames: frames.len(),
+        });
+    }
     if let Some((frame, f)) = frames
         .iter()
         .enumerate()

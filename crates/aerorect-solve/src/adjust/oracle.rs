@@ -120,3 +120,89 @@ fn analytic_jacobians_agree_with_central_differences() {
     }
     assert_eq!(checked, 9);
 }
+
+/// A GPS position prior's row against a free datum (shift, rotation, scale and drift): its
+/// terms are the central differences of its value by every free parameter.
+#[test]
+fn position_prior_rows_agree_with_central_differences() {
+    use super::blocks::{DatumBlock, FrameParam, Layout, Param, State};
+    use super::residuals::Problem;
+    use super::{AdjustOptions, Datum};
+    let frames: Vec<AdjustFrame> = (0..3)
+        .map(|k| AdjustFrame {
+            camera: 0,
+            centre: [k as f64 * 40.0 - 30.0, 10.0 * k as f64, 100.0 + k as f64],
+            world_from_camera: nalgebra::Matrix3::identity(),
+            position_sigma_m: None,
+            attitude_sigma_deg: None,
+        })
+        .collect();
+    let cameras = [Camera::new(
+        Intrinsics::new(900.0, 880.0, 510.0, 380.0).expect("valid"),
+        None,
+        ImageSize::new(1000, 750),
+    )];
+    let times = [-0.5, 0.1, 0.5];
+    let opts = AdjustOptions {
+        position_sigma_m: Some(3.0),
+        datum: Datum::Similarity,
+        gps_drift_times: Some(&times),
+        ..AdjustOptions::default()
+    };
+    let p = Problem {
+        frames: &frames,
+        cameras: &cameras,
+        ties: &[],
+        layout: Layout::new(
+            3,
+            1,
+            |_, q| matches!(q, FrameParam::Position(_)),
+            |_, _| false,
+            |_| true,
+        ),
+        opts: &opts,
+        huber: opts.huber,
+        centroid: Vec3::new(1.0, 2.0, 3.0),
+    };
+    let s = State {
+        frames: (0..3)
+            .map(|k| FrameBlock {
+                rotation: Vec3::zeros(),
+                position: Vec3::new(0.5, -0.3, 1.2) * k as f64,
+            })
+            .collect(),
+        cameras: vec![CameraBlock::default()],
+        datum: DatumBlock {
+            shift: Vec3::new(1.0, -2.0, 0.5),
+            rotation: Vec3::new(0.01, -0.02, 0.005),
+            scale: 1e-3,
+            drift: Vec3::new(2.0, -1.0, 5.0),
+        },
+        points: Vec::new(),
+    };
+    let free: Vec<(usize, Param)> = p.layout.free().collect();
+    let rows = p.prior_rows(&s);
+    let mut checked = 0;
+    for (r, (row, &(_, q))) in rows.iter().zip(&free).enumerate() {
+        if !matches!(q, Param::Frame(_, FrameParam::Position(_))) {
+            continue;
+        }
+        for &(j, by) in &free {
+            let value_at = |h: f64| {
+                let mut t = s.clone();
+                *by.value_mut(&mut t) += h;
+                p.prior_rows(&t)[r].value
+            };
+            let h = 1e-6;
+            let numeric = (value_at(h) - value_at(-h)) / (2.0 * h);
+            let analytic: f64 = row.terms.iter().filter(|t| t.0 == j).map(|t| t.1).sum();
+            assert!(
+                (numeric - analytic).abs() < 1e-6,
+                "{q:?} by {by:?}: {analytic} vs {numeric}"
+            );
+            checked += 1;
+        }
+    }
+    // Nine position rows, each by the 9 positions and the 10 datum parameters.
+    assert_eq!(checked, 9 * 19);
+}

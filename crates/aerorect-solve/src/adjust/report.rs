@@ -5,7 +5,7 @@ use super::residuals::{Problem, world_from_camera};
 use super::schur::factor;
 use super::{
     AdjustFrame, AdjustReport, Adjusted, CameraAdjustment, Datum, DatumAdjustment, FrameAdjustment,
-    GaugeHold, Termination,
+    GaugeHold, GpsDrift, Termination,
 };
 use faer::linalg::solvers::Solve;
 use rayon::prelude::*;
@@ -72,10 +72,11 @@ fn sigma_of(fit: &Fit, q: Param) -> f64 {
         .map_or(0.0, |(_, s)| *s)
 }
 
-fn frame_report(s: &State, fit: &Fit, f: usize) -> FrameAdjustment {
+fn frame_report(p: &Problem<'_>, s: &State, fit: &Fit, f: usize) -> FrameAdjustment {
     let b = &s.frames[f];
     let sd = |q| sigma_of(fit, Param::Frame(f, q));
     FrameAdjustment {
+        datum_offset_m: p.datum_offset(s, f).into(),
         rotation_deg: b.rotation.map(f64::to_degrees).into(),
         rotation_sigma_deg: [0, 1, 2].map(|k| sd(FrameParam::Rotation(k)).to_degrees()),
         position_m: b.position.into(),
@@ -112,7 +113,12 @@ fn datum_report(p: &Problem<'_>, s: &State, fit: &Fit) -> Option<DatumAdjustment
     };
     let sd = |q| sigma_of(fit, Param::Datum(q));
     let d = &s.datum;
+    let drift = free(DatumParam::Drift(0)).then(|| GpsDrift {
+        over_flight_m: d.drift.into(),
+        sigma_m: [0, 1, 2].map(|k| sd(DatumParam::Drift(k))),
+    });
     Some(DatumAdjustment {
+        drift,
         model,
         centroid: p.centroid.into(),
         shift_m: d.shift.into(),
@@ -164,7 +170,7 @@ pub(super) fn finish(p: &Problem<'_>, s: &State, fit: Fit) -> Adjusted {
         .collect();
     let report = AdjustReport {
         frames: (0..p.frames.len())
-            .map(|f| frame_report(s, &fit, f))
+            .map(|f| frame_report(p, s, &fit, f))
             .collect(),
         cameras: (0..p.cameras.len())
             .map(|c| camera_report(s, &fit, c))

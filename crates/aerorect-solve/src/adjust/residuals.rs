@@ -89,20 +89,27 @@ pub(super) struct PriorRow {
 }
 
 /// The datum's weak priors: a shift of [`AdjustOptions::datum_shift_sigma_m`], a degree, one
-/// percent of scale. Ground control decides it; the priors keep a datum control cannot see
-/// from drifting (and without control, the shift's prior holds the block where its GPS is).
+/// percent of scale, [`GPS_DRIFT_SIGMA_M`] of drift. Ground control (or for the drift, the
+/// images) decides it; the priors keep a datum control cannot see from drifting (and without
+/// control, the shift's prior holds the block where its GPS is).
 pub(super) fn datum_sigma(opts: &AdjustOptions<'_>, p: DatumParam) -> f64 {
     match p {
         DatumParam::Shift(_) => opts.datum_shift_sigma_m,
         DatumParam::Rotation(_) => 1f64.to_radians(),
         DatumParam::Scale => 0.01,
+        DatumParam::Drift(_) => GPS_DRIFT_SIGMA_M,
     }
 }
 
-/// The position offset the datum gives a frame recorded `d` from the centroid:
-/// `shift + rotation x d + scale d`.
-pub(super) fn datum_offset(datum: &DatumBlock, d: &Vec3) -> Vec3 {
-    datum.shift + datum.rotation.cross(d) + d * datum.scale
+/// The GPS drift's prior (m over the flight, each axis): weak, so that the images decide it
+/// (a flight solves a drift only where its frames' times are not a line through their
+/// positions, which would trade the drift for the block's scale and tilt).
+pub(super) const GPS_DRIFT_SIGMA_M: f64 = 1000.0;
+
+/// The position offset the datum gives a frame recorded `d` from the centroid at time `t`
+/// ([`AdjustOptions::gps_drift_times`]): `shift + rotation x d + scale d + drift t`.
+pub(super) fn datum_offset(datum: &DatumBlock, d: &Vec3, t: f64) -> Vec3 {
+    datum.shift + datum.rotation.cross(d) + d * datum.scale + datum.drift * t
 }
 
 impl Problem<'_> {
@@ -256,10 +263,20 @@ impl Problem<'_> {
         }
     }
 
+    /// Frame `f`'s time for the GPS drift (0 without one).
+    fn drift_time(&self, f: usize) -> f64 {
+        self.opts.gps_drift_times.map_or(0.0, |t| t[f])
+    }
+
+    /// Where the datum at `s` moves frame `f`'s recorded position.
+    pub fn datum_offset(&self, s: &State, f: usize) -> Vec3 {
+        let d = Vec3::from(self.frames[f].centre) - self.centroid;
+        datum_offset(&s.datum, &d, self.drift_time(f))
+    }
+
     /// Frame `f`'s whitened position residual against the datum's offset (all three axes).
     pub fn position_residual(&self, s: &State, f: usize) -> Vec3 {
-        let d = Vec3::from(self.frames[f].centre) - self.centroid;
-        let offset = datum_offset(&s.datum, &d);
+        let offset = self.datum_offset(s, f);
         Vec3::from_fn(|k, _| {
             (s.frames[f].position[k] - offset[k]) / self.frame_sigma(f, FrameParam::Position(k))
         })
@@ -280,9 +297,11 @@ impl Problem<'_> {
     fn position_row(&self, s: &State, f: usize, k: usize, i: usize) -> PriorRow {
         let sigma = self.frame_sigma(f, FrameParam::Position(k));
         let d = Vec3::from(self.frames[f].centre) - self.centroid;
-        let offset = datum_offset(&s.datum, &d);
+        let t = self.drift_time(f);
+        let offset = datum_offset(&s.datum, &d, t);
         let mut terms = vec![(i, 1.0)];
-        // d offset_k / d shift_k = 1; d (w x d)_k / d w_j = -[d]x_kj; d offset_k / d scale = d_k.
+        // d offset_k / d shift_k = 1; d (w x d)_k / d w_j = -[d]x_kj; d offset_k / d scale = d_k;
+        // d offset_k / d drift_k = t.
         let cross = d.cross_matrix();
         let mut add = |q: DatumParam, v: f64| {
             if let Some(j) = self.layout.datum(q) {
@@ -294,6 +313,7 @@ impl Problem<'_> {
             add(DatumParam::Rotation(j), -cross[(k, j)]);
         }
         add(DatumParam::Scale, d[k]);
+        add(DatumParam::Drift(k), t);
         let value = s.frames[f].position[k] - offset[k];
         let r = value / sigma;
         // The frame's Huber cost shared among its axes by their squares.

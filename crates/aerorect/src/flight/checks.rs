@@ -42,10 +42,10 @@ pub(super) fn gps_checks(
         .zip(&report.frames)
         .map(|((f, a), r)| {
             let sigma = a.position_sigma_m.unwrap_or([default; 3]);
-            // Against the block's common shift where one was solved.
-            let shift = report.datum.as_ref().map_or([0.0; 3], |d| d.shift_m);
+            // Against what the solved datum (the block's common shift, its drift) gives
+            // the frame.
             let sigmas = (0..3)
-                .map(|k| ((r.position_m[k] - shift[k]) / sigma[k]).powi(2))
+                .map(|k| ((r.position_m[k] - r.datum_offset_m[k]) / sigma[k]).powi(2))
                 .sum::<f64>()
                 .sqrt();
             GpsCheck {
@@ -215,6 +215,7 @@ mod tests {
             rotation_sigma_deg: [0.0; 3],
             position_m: [0.0; 3],
             position_sigma_m: [0.0; 3],
+            datum_offset_m: [0.0; 3],
             observations,
             rms_before_px: 0.0,
             rms_after_px: rms,

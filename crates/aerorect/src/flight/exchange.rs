@@ -164,7 +164,7 @@ impl FlightProgress {
         };
         let start = match (&orientation, f.start) {
             (Some(o), Some(v)) => {
-                let cameras = camera_count(&v, o.poses.len());
+                let cameras = Corrections::camera_count(v.len(), o.poses.len());
                 cameras.and_then(|c| Corrections::from_values(o.poses.len(), c, &v))
             }
             _ => None,
@@ -178,13 +178,6 @@ impl FlightProgress {
             surface: f.surface.map(SurfaceFile::into_surface).transpose()?,
         })
     }
-}
-
-/// The cameras of corrections `v` of `frames` frames (see [`Corrections::to_values`]: six
-/// values per frame, eight per camera, seven of the datum).
-fn camera_count(v: &[f64], frames: usize) -> Option<usize> {
-    let rest = v.len().checked_sub(6 * frames + 7)?;
-    (rest % 8 == 0).then_some(rest / 8)
 }
 
 #[cfg(test)]
@@ -254,7 +247,7 @@ mod tests {
             rounds: vec![],
             done: true,
             since: None,
-            start: Corrections::from_values(1, 1, &[0.125; 6 + 8 + 7]),
+            start: Corrections::from_values(1, 1, &vec![0.125; Corrections::value_count(1, 1)]),
             surface: None,
         };
         assert!(p.start.is_some());

@@ -28,6 +28,7 @@ mod checks;
 mod control;
 mod correlate;
 mod decoded;
+mod drift;
 mod exchange;
 mod features;
 mod frames;

@@ -28,6 +28,8 @@ pub struct FlightPlan {
     pub(super) roll: Option<RollChoice>,
     /// The photos decoded once for the features and every round's render.
     pub(super) decoded: std::sync::Arc<decoded::Decoded>,
+    /// Each frame's time in the flight, for a GPS drift ([`drift::flight_times`]).
+    pub(super) times: Vec<f64>,
 }
 
 /// Every frame's pose and camera (a round's adjusted orientation).
@@ -92,6 +94,7 @@ impl FlightPlan {
         };
         warnings.extend(control.iter().flat_map(|c| c.warnings.iter().cloned()));
         Ok(Self {
+            times: drift::flight_times(&metas),
             ground: ground_fn(&opts, &crs),
             control,
             rec,

@@ -136,7 +136,7 @@ pub(super) fn match_and_adjust(
     let aopts = relook::robust_gps(
         control,
         (position_sigma_m, fo.robust_gps),
-        frames.len(),
+        (frames.len(), plan.gps_drift_times()),
         aopts,
     );
     // The control points join the ties for the solve; without control the ties go as they are
@@ -173,6 +173,7 @@ pub(super) fn match_and_adjust(
     });
     let mut warnings = solve_warnings(frames, &adjusted.report)?;
     warnings.extend(relooked);
+    warnings.extend(drift::drift_warning(&adjusted.report));
     let gps = gps_checks(frames, &adjust_frames, &adjusted.report, position_sigma_m);
     warnings.extend(contradictions(
         frames,
@@ -450,6 +451,16 @@ impl FlightPlan {
             PositionPrior::Sigma(s) => Some(s),
             PositionPrior::Recorded => (!posed || control).then_some(GPS_SIGMA_M),
         }
+    }
+
+    /// Each frame's time for a GPS drift, where a DEM decides the block's heights and the
+    /// images can tell the drift ([`drift::drift_decided`]). Without a DEM the level ground
+    /// cannot: the block's height, its focal length and a drift along the strips trade (the
+    /// simulated fixed wing, GPS 110 m up over the flight, ended 92 m from the truth).
+    pub(super) fn gps_drift_times(&self) -> Option<&[f64]> {
+        let centres: Vec<[f64; 3]> = self.rec.poses.iter().map(|p| p.centre).collect();
+        let decided = self.opts.dem.is_some() && drift::drift_decided(&centres);
+        decided.then_some(self.times.as_slice())
     }
 
     /// Frame `k`'s own position prior (m; east, north, up): its receiver's RTK standard

@@ -291,7 +291,8 @@ mod tests {
                 cameras: vec![camera.clone(), camera],
             },
             placed: vec![true, false],
-            start: Corrections::from_values(2, 1, &[0.1 + 0.2; 2 * 6 + 8 + 7]).unwrap(),
+            start: Corrections::from_values(2, 1, &vec![0.1 + 0.2; Corrections::value_count(2, 1)])
+                .unwrap(),
         };
         let text = g.to_json().unwrap();
         let back = StepGuide::from_json(&text, 2).unwrap();
