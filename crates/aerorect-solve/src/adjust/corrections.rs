@@ -32,6 +32,12 @@ impl Corrections {
         out
     }
 
+    /// The GPS drift over the flight these corrections carry (m; zero where none was solved:
+    /// see [`super::AdjustOptions::gps_drift_times`]).
+    pub fn drift_m(&self) -> [f64; 3] {
+        self.datum.drift.into()
+    }
+
     /// How many values [`Self::to_values`] gives for `frames` frames and `cameras` cameras.
     pub fn value_count(frames: usize, cameras: usize) -> usize {
         frames * FRAME_VALUES + cameras * CAMERA_VALUES + DATUM_VALUES

@@ -374,8 +374,9 @@ pub struct FlightReport {
     pub rounds: Vec<RoundSummary>,
     pub match_gsd_m: f64,
     /// Whether the last round's median turn was below `settled_deg`; when not,
-    /// `oscillating` says whether the turns stopped shrinking (the last round's median turn
-    /// is above half the smallest before it) and a warning lists the turns per round.
+    /// `oscillating` says whether the turns stopped halving (the last round's median turn
+    /// is above half the smallest before it) and a warning lists the turns per round (saying
+    /// they oscillate where the last rose above one before it).
     pub settled: bool,
     /// The median turn that settles the rounds ([`FlightPlan::settled_deg`]).
     pub settled_deg: f64,

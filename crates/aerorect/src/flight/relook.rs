@@ -49,6 +49,18 @@ impl<'p> Relook<'p> {
             }
             None => aopts,
         };
+        // A round that starts where one that solved a GPS drift ended solves the drift from
+        // the start (the fixes quadratically): solved without it, the fixes would be
+        // contradicted again, and the 1,000-frame simulation's final solve took 33 s of three
+        // solves instead of 21 s of two.
+        let carried;
+        let aopts = match self.carried_drift(aopts) {
+            Some(d) => {
+                carried = d;
+                &carried
+            }
+            None => aopts,
+        };
         let mut adjusted = solve(aopts)?;
         let mut warnings = Vec::new();
         let levelled = self
@@ -81,17 +93,46 @@ impl<'p> Relook<'p> {
         if robust.gps_drift_times.is_none() {
             return solve(robust);
         }
-        let drifted = solve(&AdjustOptions {
-            position_huber: None,
-            start: Some(&last.corrections),
-            ..robust.clone()
-        })?;
-        if !self.any_contradicted(&drifted) {
-            return Ok(drifted);
-        }
+        let drifted = match last.corrections.drift_m() != [0.0; 3] {
+            true => last,
+            false => {
+                let d = solve(&AdjustOptions {
+                    position_huber: None,
+                    start: Some(&last.corrections),
+                    ..robust.clone()
+                })?;
+                if !self.any_contradicted(&d) {
+                    return Ok(d);
+                }
+                d
+            }
+        };
         solve(&AdjustOptions {
             start: Some(&drifted.corrections),
             ..robust.clone()
+        })
+    }
+
+    /// The options that solve a GPS drift with the fixes taken quadratically, where `opts`
+    /// start from a solve that found one ([`robust_gps`] would solve a drift too); none
+    /// otherwise.
+    fn carried_drift<'o>(&self, opts: &AdjustOptions<'o>) -> Option<AdjustOptions<'o>>
+    where
+        'p: 'o,
+    {
+        let start = opts.start?;
+        if self.control || opts.position_huber.is_some() || start.drift_m() == [0.0; 3] {
+            return None;
+        }
+        let drift = robust_gps(
+            None,
+            (self.position_sigma_m, true),
+            (self.plan.frames.len(), self.plan.gps_drift_times()),
+            opts.clone(),
+        );
+        drift.gps_drift_times.is_some().then_some(AdjustOptions {
+            position_huber: None,
+            ..drift
         })
     }
 

@@ -290,12 +290,19 @@ pub(super) fn rounds_warning(
         .iter()
         .map(|r| format!("{:.3}", r.median_turn_deg))
         .collect();
+    // Turns that stopped halving but still shrink are not an oscillation: the 100-frame
+    // simulation without a DEM turned its median frame 31.2, 0.060 and 0.054 deg.
+    let rising = rounds.split_last().is_some_and(|(last, earlier)| {
+        earlier
+            .iter()
+            .any(|r| last.median_turn_deg > r.median_turn_deg)
+    });
     format!(
         "the matching rounds {} in {} rounds: the median frame turned by {} deg per round (largest {:.3} deg in the last), never below {settled_deg:.4} deg; the last round's orientation is kept",
-        if oscillating {
-            "oscillate"
-        } else {
-            "did not settle"
+        match (oscillating, rising) {
+            (true, true) => "oscillate",
+            (true, false) => "stopped halving their turns",
+            (false, _) => "did not settle",
         },
         rounds.len(),
         turns.join(", "),

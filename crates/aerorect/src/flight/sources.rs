@@ -298,4 +298,29 @@ mod tests {
         assert!(oscillates(&turns, 0.357));
         assert!(!oscillates(&turns, 0.08));
     }
+
+    /// The warning says the rounds oscillate only where the last turn rose above one before
+    /// it; turns that still shrink, by less than half, stopped halving.
+    #[test]
+    fn the_warning_tells_rising_turns_from_turns_that_stopped_halving() {
+        let rising = [round(6.27, false), round(0.34, false), round(0.45, false)];
+        let w = rounds_warning(&rising, 0.0128, true);
+        assert!(
+            w.starts_with("the matching rounds oscillate in 3 rounds"),
+            "{w}"
+        );
+        let slowing = [round(31.2, false), round(0.060, false), round(0.054, false)];
+        assert!(oscillates(&slowing[..2], 0.054));
+        let w = rounds_warning(&slowing, 0.0128, true);
+        assert!(
+            w.starts_with("the matching rounds stopped halving their turns in 3 rounds"),
+            "{w}"
+        );
+        assert!(w.contains("31.200, 0.060, 0.054 deg per round"), "{w}");
+        let capped = rounds_warning(&slowing, 0.0128, false);
+        assert!(
+            capped.starts_with("the matching rounds did not settle"),
+            "{capped}"
+        );
+    }
 }
