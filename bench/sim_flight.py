@@ -36,7 +36,8 @@ Needs only the standard library (and cargo). Run with the machine otherwise quie
 SIM_FLIGHT_MOSAIC=0 skips the mosaic; SIM_FLIGHT_NO_DEM=H flies without the DEM, the ground
 taken level at H m (`--ground-height-m H`; the hills' mean is 25); SIM_FLIGHT_GPS_DRIFT=Z (GPS-only
 modes) makes the recorded fixes drift as a consumer GPS's can: up Z m over the flight, linearly in
-frame order, and 15 m east and 10 m south with it; AERORECT_FLIGHT_TIMING=1 prints where the adjustment's
+frame order, and 15 m east and 10 m south with it; SIM_FLIGHT_PASSES=N gives `--adjust-passes N`;
+AERORECT_FLIGHT_TIMING=1 prints where the adjustment's
 time went (stderr of `batch`).
 """
 import csv
@@ -208,6 +209,8 @@ def main():
         common[0:2] = ["--geo", "geo.txt"]
     if gps_only and os.environ.get("SIM_FLIGHT_GPS_DRIFT"):
         drift(os.path.join(work, "geo.txt"), float(os.environ["SIM_FLIGHT_GPS_DRIFT"]))
+    if os.environ.get("SIM_FLIGHT_PASSES"):
+        common += ["--adjust-passes", os.environ["SIM_FLIGHT_PASSES"]]
     if os.environ.get("SIM_FLIGHT_NO_DEM"):
         at = common.index("--dem")
         common[at:at + 2] = ["--ground-height-m", os.environ["SIM_FLIGHT_NO_DEM"]]
