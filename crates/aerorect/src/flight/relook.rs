@@ -73,44 +73,9 @@ impl<'p> Relook<'p> {
             warnings.push(w.clone());
         }
         if let Some(robust) = self.robust_after(&opts, &adjusted) {
-            adjusted = self.solve_robust(&robust, adjusted, &solve)?;
+            adjusted = solve(&robust)?;
         }
         Ok((adjusted, warnings))
-    }
-
-    /// The solve with the GPS taken robustly (`robust`, from [`Self::robust_after`]) after
-    /// `last`. With a drift to solve, the drift is solved first with every fix taken
-    /// quadratically, from where `last` ended, and robustly after that only where a fix is
-    /// still contradicted: from the first fixes' large offsets, Huber's loss let go of the
-    /// GPS before the drift was found (the simulated fixed wing without a DEM, GPS 110 m up
-    /// over the flight, slid to a block 74 m too low, 3.5 deg off).
-    fn solve_robust(
-        &self,
-        robust: &AdjustOptions<'_>,
-        last: Adjusted,
-        solve: &impl Fn(&AdjustOptions<'_>) -> Result<Adjusted, Error>,
-    ) -> Result<Adjusted, Error> {
-        if robust.gps_drift_times.is_none() {
-            return solve(robust);
-        }
-        let drifted = match last.corrections.drift_m() != [0.0; 3] {
-            true => last,
-            false => {
-                let d = solve(&AdjustOptions {
-                    position_huber: None,
-                    start: Some(&last.corrections),
-                    ..robust.clone()
-                })?;
-                if !self.any_contradicted(&d) {
-                    return Ok(d);
-                }
-                d
-            }
-        };
-        solve(&AdjustOptions {
-            start: Some(&drifted.corrections),
-            ..robust.clone()
-        })
     }
 
     /// The options that solve a GPS drift with the fixes taken quadratically, where `opts`
