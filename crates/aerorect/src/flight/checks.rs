@@ -18,7 +18,8 @@ pub struct GpsCheck {
     pub frame: String,
     pub offset_m: [f64; 3],
     pub prior_sigma_m: [f64; 3],
-    /// The offset's whitened norm (less the block's common shift, where one was solved);
+    /// The offset's whitened norm, less what the solved datum gives the frame (the block's
+    /// common shift and GPS drift, where solved: `adjustment.frames[k].datum_offset_m`);
     /// above [`THREE_SIGMA_3D`] the images contradict the fix.
     pub sigmas: f64,
     pub contradicted: bool,
@@ -85,7 +86,7 @@ pub(super) fn contradictions(
         .collect();
     if !moved.is_empty() {
         out.push(format!(
-            "the images contradict the GPS positions of {} frames (moved beyond {THREE_SIGMA_3D} sigma from the block's common shift, three sigma of a 3-D offset; down-weighted where the weight is below 1): {}",
+            "the images contradict the GPS positions of {} frames (moved beyond {THREE_SIGMA_3D} sigma from where the block's common shift (and drift, where one was solved) puts them, three sigma of a 3-D offset; down-weighted where the weight is below 1): {}",
             moved.len(),
             moved.join(", ")
         ));
