@@ -267,8 +267,9 @@ pub struct AdjustReport {
     pub seconds: f64,
 }
 
-/// The datum between the recorded positions' frame and the ground control's: a recorded
-/// position `c` belongs at `c + shift + rotation x (c - centroid) + scale (c - centroid)`.
+/// The datum between the recorded positions' frame and the ground control's (or the images'):
+/// a recorded position `c` at time `t` belongs at
+/// `c + shift + rotation x (c - centroid) + scale (c - centroid) + drift t`.
 #[derive(Debug, Clone, Serialize)]
 pub struct DatumAdjustment {
     pub model: Datum,
@@ -284,8 +285,9 @@ pub struct DatumAdjustment {
     pub drift: Option<GpsDrift>,
 }
 
-/// A GPS drift linear in time: the recorded positions of the flight's last frame belong
-/// `over_flight_m` further than its first's (beyond the datum's shift), each axis with its
+/// A GPS drift linear in time, per unit of [`AdjustOptions::gps_drift_times`] (a flight's
+/// times span one unit, so over the flight: its last frame's recorded position belongs
+/// `over_flight_m` further than its first's, beyond the datum's shift), each axis with its
 /// standard deviation.
 #[derive(Debug, Clone, Serialize)]
 pub struct GpsDrift {
