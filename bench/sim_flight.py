@@ -36,7 +36,7 @@ Needs only the standard library (and cargo). Run with the machine otherwise quie
 SIM_FLIGHT_MOSAIC=0 skips the mosaic; SIM_FLIGHT_NO_DEM=H flies without the DEM, the ground
 taken level at H m (`--ground-height-m H`; the hills' mean is 25); SIM_FLIGHT_GPS_DRIFT=Z (GPS-only
 modes) makes the recorded fixes drift as a consumer GPS's can: up Z m over the flight, linearly in
-frame order, and 15 m east and 10 m south with it; SIM_FLIGHT_PASSES=N gives `--adjust-passes N`;
+frame order, and 15 m east and 10 m south with it (mode `gcp` too: its pose table's positions); SIM_FLIGHT_PASSES=N gives `--adjust-passes N`;
 AERORECT_FLIGHT_TIMING=1 prints where the adjustment's
 time went (stderr of `batch`).
 """
@@ -46,6 +46,7 @@ import math
 import os
 import random
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -106,6 +107,23 @@ def drift(geo, up_m):
             t = up_m * k / max(len(rows) - 1, 1)
             x, y, z = float(r[1]) + t * 15 / 110, float(r[2]) - t * 10 / 110, float(r[3]) + t
             g.write(f"{r[0]} {x:.3f} {y:.3f} {z:.3f}\n")
+
+
+def drift_csv(src, dst, up_m):
+    """drift() for a pose table: `src`'s positions drift as a consumer GPS's, written to `dst`."""
+    with open(src) as f:
+        rows = list(csv.DictReader(f))
+    rows.sort(key=lambda r: r["filename"])
+    with open(dst, "w", newline="") as g:
+        w = csv.DictWriter(g, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        for k, r in enumerate(rows):
+            t = up_m * k / max(len(rows) - 1, 1)
+            r["x"] = f"{float(r['x']) + t * 15 / 110:.3f}"
+            r["y"] = f"{float(r['y']) - t * 10 / 110:.3f}"
+            r["z"] = f"{float(r['z']) + t:.3f}"
+            w.writerow(r)
+    shutil.copyfile(os.path.splitext(src)[0] + ".prj", os.path.splitext(dst)[0] + ".prj")
 
 
 def centres(path):
@@ -209,6 +227,9 @@ def main():
         common[0:2] = ["--geo", "geo.txt"]
     if gps_only and os.environ.get("SIM_FLIGHT_GPS_DRIFT"):
         drift(os.path.join(work, "geo.txt"), float(os.environ["SIM_FLIGHT_GPS_DRIFT"]))
+    if gcp and os.environ.get("SIM_FLIGHT_GPS_DRIFT"):
+        drift_csv(os.path.join(work, "pert_gps.csv"), os.path.join(work, "pert_gps_drift.csv"),
+                  float(os.environ["SIM_FLIGHT_GPS_DRIFT"]))
     if os.environ.get("SIM_FLIGHT_PASSES"):
         common += ["--adjust-passes", os.environ["SIM_FLIGHT_PASSES"]]
     if os.environ.get("SIM_FLIGHT_NO_DEM"):
@@ -216,7 +237,7 @@ def main():
         common[at:at + 2] = ["--ground-height-m", os.environ["SIM_FLIGHT_NO_DEM"]]
     if gcp:
         checks = open(os.path.join(work, "checkpoints.txt")).read().strip()
-        common[1] = "pert_gps.csv"
+        common[1] = "pert_gps_drift.csv" if os.environ.get("SIM_FLIGHT_GPS_DRIFT") else "pert_gps.csv"
         common += ["--gcps", "gcp_list.txt", "--checkpoints", checks]
     secs, peak, _ = timed([BIN, "batch", *frames, "--out-dir", "out", "--force", *common], work)
     if gcp:
