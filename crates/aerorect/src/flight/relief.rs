@@ -10,6 +10,9 @@
 //! common turn is taken out), held at [`FREE_RELIEF_SIGMA_M`] 0.38 deg (0.05 deg), and the
 //! snowpeak strips, pairs and four-frame block need the level ground to stay upright.
 //!
+//! Ground control decides a block's tilt and height as a GPS does, and better: a block whose
+//! control points decide its tilt is freed too.
+//!
 //! A GPS can also tilt a block that is level: a consumer receiver whose altitude drifts
 //! 110 m over the same simulated flight tilted the freed block 14 deg (frames 14.4 deg off);
 //! its ties then lie on a plane steeper than ground under a survey block is
@@ -50,8 +53,8 @@ pub(super) struct Relief {
 
 impl FlightPlan {
     /// The relief without a DEM: [`FREE_RELIEF_SIGMA_M`] in a block (frames that `ties`
-    /// connect) whose recorded positions decide its tilt ([`GPS_TILT_SIGMA_DEG`]), else
-    /// [`RELIEF_SIGMA_M`].
+    /// connect) whose recorded positions decide its tilt ([`GPS_TILT_SIGMA_DEG`]) or whose
+    /// control points do ([`Self::control_holds`]), else [`RELIEF_SIGMA_M`].
     pub(super) fn relief(&self, ties: &[TiePoint]) -> Relief {
         let mut out = Relief {
             sigmas_m: vec![RELIEF_SIGMA_M; self.len()],
