@@ -75,7 +75,30 @@ const FW_GPS_SIGMA_M: [f64; 3] = [3.0, 3.0, 2.0];
 
 fn hills(x: f64, y: f64) -> f64 {
     let (u, v) = (x - ORIGIN[0], y - ORIGIN[1]);
-    25.0 + 20.0 * (u / 140.0).sin() * (v / 120.0).cos() + 6.0 * (u / 47.0 + v / 61.0).sin()
+    25.0 + 20.0 * (u / 140.0).sin() * (v / 120.0).cos()
+        + 6.0 * (u / 47.0 + v / 61.0).sin()
+        + ramp_m(u)
+}
+
+/// The slope (degrees, the ground rising east) of a ramp under the hills, as `f64` bits: none
+/// by default (the hills to the bit as without it). For tests of steep ground: set once per
+/// process ([`set_ramp_deg`]) before [`simulate`].
+static RAMP_DEG_BITS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Where the ramp crosses the hills' mean (m east of the origin): the middle of a 5 x 4 block.
+const RAMP_CENTRE_M: f64 = 80.0;
+
+/// Puts the hills on a ramp of `deg` degrees rising east (see [`RAMP_DEG_BITS`]).
+pub fn set_ramp_deg(deg: f64) {
+    RAMP_DEG_BITS.store(deg.to_bits(), std::sync::atomic::Ordering::Relaxed);
+}
+
+fn ramp_m(u: f64) -> f64 {
+    let deg = f64::from_bits(RAMP_DEG_BITS.load(std::sync::atomic::Ordering::Relaxed));
+    match deg {
+        0.0 => 0.0,
+        _ => deg.to_radians().tan() * (u - RAMP_CENTRE_M),
+    }
 }
 
 /// Lattice value noise in [0, 1] at (x, y) in cells, smoothly interpolated.
