@@ -166,28 +166,9 @@ fn with_ground_control_a_drifting_gps_still_lands_the_check_points() {
     let table = std::fs::read_to_string(sim.join("pert_gps.csv")).unwrap();
     std::fs::write(sim.join("drifting.csv"), drifting_pose_table(&table)).unwrap();
     std::fs::copy(sim.join("pert_gps.prj"), sim.join("drifting.prj")).unwrap();
-    let checks = std::fs::read_to_string(sim.join("checkpoints.txt")).unwrap();
-    let frames: Vec<_> = common::pose_table(&sim.join("truth.csv"))
-        .keys()
-        .map(|n| sim.join("frames").join(n))
-        .collect();
-    let out = tmp.path().join("out");
-    let status = std::process::Command::new(env!("CARGO_BIN_EXE_aerorect"))
-        .arg("batch")
-        .args(&frames)
-        .arg("--out-dir")
-        .arg(&out)
-        .args(["--poses", "drifting.csv", "--camera", "cam.toml"])
-        .args(["--ground-height-m", "25", "--gsd-m", "0.25", "--adjust"])
-        .args(["--attitude-sigma-deg", "1", "--gcps", "gcp_list.txt"])
-        .args(["--checkpoints", checks.trim()])
-        .current_dir(&sim)
-        .stdout(std::process::Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let acc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("accuracy.json")).unwrap()).unwrap();
+    let frames = common::rendered_frames(&sim);
+    let (acc, _) =
+        common::batch_adjust_controlled(&frames, &sim, "drifting.csv", &tmp.path().join("out"));
     let rmse = |what: &str, axis: &str| acc[what][axis].as_f64().unwrap();
     eprintln!(
         "check points XY / Z: recorded {:.3} / {:.3} m, adjusted {:.3} / {:.3} m",

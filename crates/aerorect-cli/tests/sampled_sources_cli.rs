@@ -17,11 +17,7 @@ fn features_that_agree_better_than_a_correlated_sample_end_the_rounds() {
     let tmp = tempfile::tempdir().unwrap();
     let sim = tmp.path().join("sim");
     simulate_flight::simulate(5, 4, &sim, 1.0, false);
-    let mut frames: Vec<_> = std::fs::read_dir(sim.join("frames"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    frames.sort();
+    let frames = common::rendered_frames(&sim);
     let out = tmp.path().join("out");
     let r = common::batch_adjust_rendered(&frames, &sim, ["--poses", "pert.csv"], &out);
     let rounds = r["rounds"].as_array().unwrap();

@@ -10,38 +10,18 @@
 #[allow(dead_code)]
 mod simulate_flight;
 
+mod common;
+
 #[test]
 fn a_block_held_by_control_keeps_its_steep_ground() {
     simulate_flight::set_ramp_deg(12.0);
     let tmp = tempfile::tempdir().unwrap();
     let sim = tmp.path().join("sim");
     simulate_flight::simulate(5, 4, &sim, 1.0, false);
-    let checks = std::fs::read_to_string(sim.join("checkpoints.txt")).unwrap();
-    let mut frames: Vec<_> = std::fs::read_dir(sim.join("frames"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    frames.sort();
+    let frames = common::rendered_frames(&sim);
     assert_eq!(frames.len(), 20);
-    let out = tmp.path().join("out");
-    let status = std::process::Command::new(env!("CARGO_BIN_EXE_aerorect"))
-        .arg("batch")
-        .args(&frames)
-        .arg("--out-dir")
-        .arg(&out)
-        .args(["--poses", "pert_gps.csv", "--camera", "cam.toml"])
-        .args(["--ground-height-m", "25", "--gsd-m", "0.25", "--adjust"])
-        .args(["--attitude-sigma-deg", "1", "--gcps", "gcp_list.txt"])
-        .args(["--checkpoints", checks.trim()])
-        .current_dir(&sim)
-        .stdout(std::process::Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let read = |name: &str| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(out.join(name)).unwrap()).unwrap()
-    };
-    let (acc, report) = (read("accuracy.json"), read("adjustment.json"));
+    let (acc, report) =
+        common::batch_adjust_controlled(&frames, &sim, "pert_gps.csv", &tmp.path().join("out"));
     let rmse = |what: &str, axis: &str| acc[what][axis].as_f64().unwrap();
     eprintln!(
         "check points XY / Z: recorded {:.3} / {:.3} m, adjusted {:.3} / {:.3} m; warnings {}",

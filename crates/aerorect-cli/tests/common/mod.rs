@@ -79,6 +79,16 @@ pub fn angle_opk_deg(a: &[f64], b: &[f64]) -> f64 {
         .to_degrees()
 }
 
+/// A rendered flight's frames (`sim/frames`, aerorect's `examples/simulate_flight.rs`), sorted.
+pub fn rendered_frames(sim: &Path) -> Vec<std::path::PathBuf> {
+    let mut frames: Vec<_> = std::fs::read_dir(sim.join("frames"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    frames.sort();
+    frames
+}
+
 /// `batch --adjust` of a rendered flight's `frames` (aerorect's `examples/simulate_flight.rs`,
 /// its `cam.toml` and `dem.tif` in `sim`) into `out`, the positions from `source`
 /// (`["--poses", "pert.csv"]` or `["--geo", "geo.txt"]`, the file in `sim`), at 0.25 m and an
@@ -106,6 +116,37 @@ pub fn batch_adjust_rendered(
         .unwrap();
     assert!(status.success());
     serde_json::from_str(&std::fs::read_to_string(out.join("adjustment.json")).unwrap()).unwrap()
+}
+
+/// `batch --adjust` of a rendered flight's `frames` (see [`batch_adjust_rendered`]) into `out`
+/// with no DEM (level ground at 25 m, the hills' mean), the positions from the pose table
+/// `poses` (in `sim`) and the simulation's ground control (`gcp_list.txt`, its
+/// `checkpoints.txt` kept out): its `accuracy.json` and `adjustment.json`.
+pub fn batch_adjust_controlled(
+    frames: &[std::path::PathBuf],
+    sim: &Path,
+    poses: &str,
+    out: &Path,
+) -> (serde_json::Value, serde_json::Value) {
+    let checks = std::fs::read_to_string(sim.join("checkpoints.txt")).unwrap();
+    let status = Command::new(env!("CARGO_BIN_EXE_aerorect"))
+        .arg("batch")
+        .args(frames)
+        .arg("--out-dir")
+        .arg(out)
+        .args(["--poses", poses, "--camera", "cam.toml"])
+        .args(["--ground-height-m", "25", "--gsd-m", "0.25", "--adjust"])
+        .args(["--attitude-sigma-deg", "1", "--gcps", "gcp_list.txt"])
+        .args(["--checkpoints", checks.trim()])
+        .current_dir(sim)
+        .stdout(std::process::Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let read = |name: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join(name)).unwrap()).unwrap()
+    };
+    (read("accuracy.json"), read("adjustment.json"))
 }
 
 /// A pose table (`filename,x,y,z,omega,phi,kappa`): file name (without folders) -> the
