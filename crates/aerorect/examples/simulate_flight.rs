@@ -95,10 +95,8 @@ pub fn set_ramp_deg(deg: f64) {
 
 fn ramp_m(u: f64) -> f64 {
     let deg = f64::from_bits(RAMP_DEG_BITS.load(std::sync::atomic::Ordering::Relaxed));
-    match deg {
-        0.0 => 0.0,
-        _ => deg.to_radians().tan() * (u - RAMP_CENTRE_M),
-    }
+    // At 0 degrees a signed zero: the sum it joins keeps its bits.
+    deg.to_radians().tan() * (u - RAMP_CENTRE_M)
 }
 
 /// Lattice value noise in [0, 1] at (x, y) in cells, smoothly interpolated.

@@ -48,8 +48,20 @@ const SLOPE_SAMPLE: usize = 2000;
 pub(super) struct Relief {
     /// Each frame's relief standard deviation (m).
     pub(super) sigmas_m: Vec<f64>,
-    /// The blocks (frames the ties connect, each sorted) held at [`FREE_RELIEF_SIGMA_M`].
+    /// The blocks (frames the ties connect, each sorted) held at [`FREE_RELIEF_SIGMA_M`]
+    /// because their GPS decides their tilt: their slope may be the GPS's drift
+    /// ([`FlightPlan::level_steep_blocks`]).
     pub(super) freed: Vec<Vec<usize>>,
+    /// The same for the blocks ground control holds ([`FlightPlan::control_holds`]): their
+    /// slope is the ground's.
+    pub(super) held: Vec<Vec<usize>>,
+}
+
+impl Relief {
+    /// Whether any block is freed from the level ground.
+    pub(super) fn any_freed(&self) -> bool {
+        !self.freed.is_empty() || !self.held.is_empty()
+    }
 }
 
 impl FlightPlan {
@@ -60,6 +72,7 @@ impl FlightPlan {
         let mut out = Relief {
             sigmas_m: vec![RELIEF_SIGMA_M; self.len()],
             freed: Vec::new(),
+            held: Vec::new(),
         };
         for block in aerorect_solve::adjust::connected(self.len(), ties) {
             let centres: Vec<[f64; 2]> = block
@@ -75,12 +88,15 @@ impl FlightPlan {
                 .map(|&k| self.frame_position_sigma_m(k).unwrap_or(0.0))
                 .fold(0.0, f64::max);
             let decided = gps_tilt_sigma_rad(&centres, sigma) < GPS_TILT_SIGMA_DEG.to_radians();
-            if decided || self.control_holds(&block) {
-                for &k in &block {
-                    out.sigmas_m[k] = FREE_RELIEF_SIGMA_M;
-                }
-                out.freed.push(block);
+            let list = match (self.control_holds(&block), decided) {
+                (true, _) => &mut out.held,
+                (false, true) => &mut out.freed,
+                (false, false) => continue,
+            };
+            for &k in &block {
+                out.sigmas_m[k] = FREE_RELIEF_SIGMA_M;
             }
+            list.push(block);
         }
         out
     }
@@ -112,9 +128,10 @@ impl FlightPlan {
         gps_tilt_sigma_rad(&xy, sigma) < GPS_TILT_SIGMA_DEG.to_radians()
     }
 
-    /// The blocks `relief` frees ([`Self::relief`]), unless ground control holds them, whose
-    /// `adjusted` ties lie on a plane steeper than [`MAX_BLOCK_SLOPE_DEG`]: each frame's relief sigma with those blocks held
-    /// to the level ground again, and a warning naming them; none when no block is that steep.
+    /// The blocks `relief` frees by their GPS ([`Relief::freed`]; not those ground control
+    /// holds, whose slope is the ground's) whose `adjusted` ties lie on a plane steeper than
+    /// [`MAX_BLOCK_SLOPE_DEG`]: each frame's relief sigma with those blocks held to the level
+    /// ground again, and a warning naming them; none when no block is that steep.
     pub(super) fn level_steep_blocks(
         &self,
         relief: &Relief,
@@ -123,10 +140,9 @@ impl FlightPlan {
     ) -> Option<(Vec<f64>, String)> {
         let mut levelled = relief.sigmas_m.clone();
         let mut steep = Vec::new();
-        // Where ground control holds a block, its tilt is the control's and the slope the
-        // ground's: on the simulated 5 x 4 block over a 12-degree ramp, levelled again, its
-        // check points ended 6.8 m off in height.
-        for block in relief.freed.iter().filter(|b| !self.control_holds(b)) {
+        // A block ground control holds is not among them: on the simulated 5 x 4 block over
+        // a 12-degree ramp, levelled again, its check points ended 6.8 m off in height.
+        for block in &relief.freed {
             let Some(&first) = block.first() else {
                 continue;
             };

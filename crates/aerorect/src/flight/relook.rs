@@ -32,7 +32,7 @@ impl<'p> Relook<'p> {
         // the block's common tilt (424 s for the simulated fixed wing without a DEM; 158 s
         // so, as accurate).
         let level = match (self.relief, aopts.start) {
-            (Some(r), None) if !r.freed.is_empty() => Some(solve(&AdjustOptions {
+            (Some(r), None) if r.any_freed() => Some(solve(&AdjustOptions {
                 terrain_sigma_by_frame: None,
                 ..aopts.clone()
             })?),
