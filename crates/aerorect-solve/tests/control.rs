@@ -243,7 +243,7 @@ fn a_gps_fix_the_images_contradict_is_down_weighted_and_the_images_win() {
             refine_principal_point: false,
             position_sigma_m: Some(5.0),
             datum: Datum::Shift,
-            datum_shift_sigma_m: 5.0 / 10.0,
+            datum_shift_sigma_m: [5.0 / 10.0; 3],
             position_huber: huber,
             max_iterations: 100,
             ..Default::default()
@@ -320,7 +320,7 @@ fn a_gps_drift_in_time_is_solved_where_the_strips_alternate() {
             refine_principal_point: false,
             position_sigma_m: Some(5.0),
             datum: Datum::Shift,
-            datum_shift_sigma_m: if drift.is_some() { 5.0 } else { 0.5 },
+            datum_shift_sigma_m: [if drift.is_some() { 5.0 } else { 0.5 }; 3],
             position_huber: Some(3.0),
             gps_drift_times: drift,
             terrain: Some((&terrain, 1.0)),

@@ -144,10 +144,12 @@ pub struct AdjustOptions<'a> {
     pub tolerances: Tolerances,
     /// What is solved between the recorded positions' frame and the control's.
     pub datum: Datum,
-    /// The datum shift's prior standard deviation (m): weak (1 km) where ground control
-    /// decides it; without control, about a GPS fix's over the root of the frames' count, so
-    /// that the block stays where its GPS puts it while single fixes are taken robustly.
-    pub datum_shift_sigma_m: f64,
+    /// The datum shift's prior standard deviation (m; east, north, up in the positions'
+    /// frame): weak (1 km) where ground control decides it; without control, about a GPS
+    /// fix's over the root of the frames' count, so that the block stays where its GPS puts it
+    /// while single fixes are taken robustly (and weak in height where the fixes drift: see
+    /// the flight's `robust_gps`).
+    pub datum_shift_sigma_m: [f64; 3],
     /// GPS fixes the images contradict: each frame's position prior (relative to the datum)
     /// takes Huber's loss at this many of its sigmas; `None` keeps it quadratic.
     pub position_huber: Option<f64>,
@@ -197,7 +199,7 @@ impl Default for AdjustOptions<'_> {
             max_iterations: 50,
             tolerances: Tolerances::default(),
             datum: Datum::Recorded,
-            datum_shift_sigma_m: 1000.0,
+            datum_shift_sigma_m: [1000.0; 3],
             position_huber: None,
             gps_drift_times: None,
             start: None,

@@ -94,7 +94,7 @@ pub(super) struct PriorRow {
 /// control, the shift's prior holds the block where its GPS is).
 pub(super) fn datum_sigma(opts: &AdjustOptions<'_>, p: DatumParam) -> f64 {
     match p {
-        DatumParam::Shift(_) => opts.datum_shift_sigma_m,
+        DatumParam::Shift(k) => opts.datum_shift_sigma_m[k],
         DatumParam::Rotation(_) => 1f64.to_radians(),
         DatumParam::Scale => 0.01,
         DatumParam::Drift(_) => GPS_DRIFT_SIGMA_M,

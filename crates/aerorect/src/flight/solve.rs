@@ -460,13 +460,21 @@ impl FlightPlan {
         }
     }
 
-    /// Each frame's time for a GPS drift, where a DEM decides the block's heights and the
-    /// images can tell the drift ([`drift::drift_decided`]). Without a DEM the level ground
-    /// cannot: the block's height, its focal length and a drift along the strips trade (the
-    /// simulated fixed wing, GPS 110 m up over the flight, ended 92 m from the truth).
+    /// Each frame's time for a GPS drift, where the images can tell the drift
+    /// ([`drift::drift_decided`]): a DEM holds the block's tilt and height under it; without
+    /// one, the strips' order must decide the drift's height apart from the block's tilt
+    /// ([`drift::drift_tilt_sigma_rad`] below [`drift::MAX_DRIFT_TILT_SIGMA_DEG`]), and the
+    /// level ground the freed ties average to places the block in height.
     pub(super) fn gps_drift_times(&self) -> Option<&[f64]> {
         let centres: Vec<[f64; 3]> = self.rec.poses.iter().map(|p| p.centre).collect();
-        let decided = self.opts.dem.is_some() && drift::drift_decided(&centres);
+        let sigma = (0..self.len())
+            .filter_map(|k| self.frame_position_sigma_m(k))
+            .fold(0.0, f64::max);
+        let tilt_decided = || {
+            drift::drift_tilt_sigma_rad(&centres, &self.times, sigma)
+                < drift::MAX_DRIFT_TILT_SIGMA_DEG.to_radians()
+        };
+        let decided = drift::drift_decided(&centres) && (self.opts.dem.is_some() || tilt_decided());
         decided.then_some(self.times.as_slice())
     }
 
