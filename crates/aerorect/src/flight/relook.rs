@@ -2,7 +2,8 @@
 //! is solved once more without it (and a cold solve that frees blocks from the level ground
 //! starts from the level ground's). A block freed from the level ground that its GPS tilted
 //! steeper than ground is ([`FlightPlan::level_steep_blocks`]) goes back to the level ground;
-//! GPS fixes the images contradict are then taken robustly, so that the images win.
+//! GPS fixes the images contradict are then taken robustly, so that the images win, and fixes
+//! that drift in time as a whole ([`drift::drift_seen`]) are solved with their drift.
 
 use super::*;
 use aerorect_solve::adjust::Adjusted;
@@ -102,16 +103,32 @@ impl<'p> Relook<'p> {
         })
     }
 
-    /// Whether `adjusted` leaves some GPS fix contradicted by the images.
+    /// Whether `adjusted` leaves some GPS fix contradicted by the images, or, solved without
+    /// a drift where one can be told, the fixes drifting ([`drift::drift_seen`]).
     fn any_contradicted(&self, adjusted: &Adjusted) -> bool {
-        gps_checks(
+        let checks = gps_checks(
             &self.plan.frames,
             self.adjust_frames,
             &adjusted.report,
             self.position_sigma_m,
-        )
-        .iter()
-        .any(|g| g.contradicted)
+        );
+        checks.iter().any(|g| g.contradicted) || self.drift_seen(adjusted, &checks)
+    }
+
+    /// Whether `adjusted`, solved without a drift, left the fixes drifting.
+    fn drift_seen(&self, adjusted: &Adjusted, checks: &[GpsCheck]) -> bool {
+        let solved = adjusted
+            .report
+            .datum
+            .as_ref()
+            .is_some_and(|d| d.drift.is_some());
+        let Some(times) = self.plan.gps_drift_times().filter(|_| !solved) else {
+            return false;
+        };
+        let centres: Vec<[f64; 3]> = self.plan.rec.poses.iter().map(|p| p.centre).collect();
+        let offsets: Vec<[f64; 3]> = checks.iter().map(|g| g.offset_m).collect();
+        let sigmas: Vec<[f64; 3]> = checks.iter().map(|g| g.prior_sigma_m).collect();
+        offsets.len() == centres.len() && drift::drift_seen(&centres, times, &offsets, &sigmas)
     }
 
     /// The options that take every GPS fix robustly ([`robust_gps`]) when the solve with
