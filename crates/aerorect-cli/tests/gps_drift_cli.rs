@@ -200,23 +200,9 @@ fn without_a_dem_alternating_strips_decide_a_drifting_gps() {
     let geo = drifting_geo(truth.iter().map(|(n, t)| (n.as_str(), t)));
     std::fs::write(sim.join("geo.txt"), geo).unwrap();
     let out = tmp.path().join("out");
-    let status = std::process::Command::new(env!("CARGO_BIN_EXE_aerorect"))
-        .arg("batch")
-        .args(common::rendered_frames(&sim))
-        .arg("--out-dir")
-        .arg(&out)
-        .arg("--geo")
-        .arg(sim.join("geo.txt"))
-        .arg("--camera")
-        .arg(sim.join("cam.toml"))
-        .args(["--ground-height-m", "25", "--gsd-m", "0.25", "--adjust"])
-        .stdout(std::process::Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("adjustment.json")).unwrap())
-            .unwrap();
+    let frames = common::rendered_frames(&sim);
+    let ground = ["--ground-height-m".as_ref(), "25".as_ref()];
+    let r = common::batch_adjust_over(&frames, &sim, ["--geo", "geo.txt"], &ground, &[], &out);
     let adjusted = common::pose_table(&out.join("adjusted_poses.csv"));
     let (median, worst) = errors_deg(&truth, &adjusted);
     let mut heights: Vec<f64> = truth

@@ -99,6 +99,28 @@ pub fn batch_adjust_rendered(
     source: [&str; 2],
     out: &Path,
 ) -> serde_json::Value {
+    let dem = sim.join("dem.tif");
+    let ground = ["--dem".as_ref(), dem.as_os_str()];
+    batch_adjust_over(
+        frames,
+        sim,
+        source,
+        &ground,
+        &["--attitude-sigma-deg", "1"],
+        out,
+    )
+}
+
+/// [`batch_adjust_rendered`] over the `ground` given (`--dem FILE` or `--ground-height-m H`),
+/// with `extra` arguments (no attitude prior of its own).
+pub fn batch_adjust_over(
+    frames: &[std::path::PathBuf],
+    sim: &Path,
+    source: [&str; 2],
+    ground: &[&std::ffi::OsStr],
+    extra: &[&str],
+    out: &Path,
+) -> serde_json::Value {
     let status = Command::new(env!("CARGO_BIN_EXE_aerorect"))
         .arg("batch")
         .args(frames)
@@ -108,9 +130,9 @@ pub fn batch_adjust_rendered(
         .arg(sim.join(source[1]))
         .arg("--camera")
         .arg(sim.join("cam.toml"))
-        .arg("--dem")
-        .arg(sim.join("dem.tif"))
-        .args(["--gsd-m", "0.25", "--adjust", "--attitude-sigma-deg", "1"])
+        .args(ground)
+        .args(["--gsd-m", "0.25", "--adjust"])
+        .args(extra)
         .stdout(std::process::Stdio::null())
         .status()
         .unwrap();
