@@ -63,13 +63,13 @@ impl Camera {
     }
 
     /// The camera of a photo from its own tags (DJI DewarpData or calibration tags, the
-    /// sensor database, or the 35 mm equivalent), sized to the decoded image.
+    /// sensor database, or the 35 mm equivalent), sized to the image (from its header).
     #[staticmethod]
     fn from_metadata(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
         let cam = py
             .detach(|| -> anyhow::Result<_> {
                 let meta = aerorect::io::read_photo_metadata(&path)?;
-                let size = aerorect::io::read_image(&path)?.size();
+                let size = aerorect::io::read_image_size(&path)?;
                 let file = path.display().to_string();
                 Ok(aerorect::drone::camera_from_metadata(&meta, size, &file)?.camera)
             })

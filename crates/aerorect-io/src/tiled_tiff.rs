@@ -43,11 +43,12 @@ pub fn write_tiled_tiff<E: From<IoError>>(
     })
 }
 
-/// Tiles made and compressed at once by [`write_tiled_tiff_parallel`]: four per thread of
+/// Tiles made and compressed at once by [`write_tiled_tiff_parallel`]: sixteen per thread of
 /// the rayon pool (each thread kept busy while tiles take unequal times; the tiles of a batch
-/// are held, compressed, until the batch is written).
+/// are held, compressed, until the batch is written: a few MB). Four per thread left the
+/// threads of snowpeak's mosaic waiting at the batches' ends: 8.9 s against 8.6 s on 2 cores.
 pub fn tiles_per_batch() -> usize {
-    4 * rayon::current_num_threads().max(1)
+    16 * rayon::current_num_threads().max(1)
 }
 
 /// [`write_tiled_tiff`] with the tiles made and compressed on every thread of the rayon pool,

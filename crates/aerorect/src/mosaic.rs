@@ -285,6 +285,7 @@ mod assemble;
 mod cache;
 mod request;
 mod run;
+mod weights;
 
 pub use request::{check_mosaic_name, frame_options, mosaic_adjusted, mosaic_options, run_mosaic};
 pub use score::{LATTICE_MARGIN_PX, SCORE_LATTICE};

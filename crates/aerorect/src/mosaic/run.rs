@@ -3,8 +3,8 @@
 
 use super::assemble::{assemble, paste};
 use super::cache::FrameCache;
-use super::distance::distance_within;
-use super::score::best_of;
+use super::score::{NO_FRAME, best_of};
+use super::weights::weights;
 use super::{Blend, MosaicFrame, MosaicOptions, MosaicPlan, Window};
 use crate::Error;
 use crate::drone::{DroneOptions, plan_from_metadata, plan_from_pose, pose_for};
@@ -86,42 +86,44 @@ where
         let format = self.cache.format()?;
         let margin = plan.opts.margin();
         let win = tile.grown(margin, plan.grid.size);
-        let cands = plan.meeting(win);
-        let scores: Vec<Vec<f64>> = cands.iter().map(|&k| plan.scores(k, win)).collect();
-        let labels = best_of(&cands, &scores, win.size.pixels());
-        let n = tile.size.pixels();
+        let (cands, scores) = plan.scores_of(&plan.meeting(win), win);
+        let (n, tw) = (tile.size.pixels(), tile.size.width);
+        if cands.is_empty() {
+            let acc = vec![Vec::new(); format.bands];
+            return assemble(format, tile.size, acc, &vec![0.0; n], &plan.opts);
+        }
+        let labels = best_of(&cands, &scores, win.size);
         self.count_cells(tile, win, &labels);
         let mut acc = vec![vec![0f32; n]; format.bands];
         let mut wsum = vec![0f32; n];
         for (j, &k) in cands.iter().enumerate() {
-            let w = weights(&plan.opts, k, win, tile, &labels, &scores[j]);
             // The frame is rendered over the box of the cells it weighs only, not the whole
             // tile: most of a tile lies outside any one frame. A pixel's value depends on the
             // window only where the warp evaluates a homography relative to the window's
             // origin, in its last bit (as it did relative to the tile's): on the snowpeak
             // flight 4 of 1.3 billion samples moved by 1 DN.
-            let Some(b) = weighted_box(&w, tile.size.width) else {
+            let Some(w) = weights(&plan.opts, k, (win, tile), &labels, &scores[j]) else {
+                continue;
+            };
+            let Some(b) = w.positive_box() else {
                 continue;
             };
             let img = self.cache.frame(k)?;
             let f = &plan.frames[k];
             let off = plan.offsets[k];
-            let (bw, bh) = (b.c1 - b.c0, b.r1 - b.r0);
             let r = f.plan.render_window(
                 &img,
                 (tile.col0 + b.c0) as i64 - off[0],
                 (tile.row0 + b.r0) as i64 - off[1],
-                ImageSize::new(bw, bh),
+                ImageSize::new(b.width(), b.r1 - b.r0),
             )?;
             // Cells with a weight are inside the frame; its alpha band, when planned with one,
             // says so too.
             let valid = f.plan.warp.alpha.then(|| r.plane_f32(format.bands));
             let bands: Vec<Vec<f32>> = (0..format.bands).map(|b| r.plane_f32(b)).collect();
-            for (s, i) in (b.r0..b.r1)
-                .flat_map(|row| row * tile.size.width + b.c0..row * tile.size.width + b.c1)
-                .enumerate()
-            {
-                let wi = w[i];
+            let cells = (b.r0..b.r1).flat_map(|row| (b.c0..b.c1).map(move |col| (row, col)));
+            for (s, (row, col)) in cells.enumerate() {
+                let (i, wi) = (row * tw + col, w.at(col, row));
                 if wi <= 0.0
                     || valid.as_ref().is_some_and(|a| a[s] <= 0.0)
                     || bands.iter().any(|b| !b[s].is_finite())
@@ -138,11 +140,14 @@ where
     }
 
     /// Adds the cells of `tile` each frame is best at (`labels` over `win`) to the counts.
-    fn count_cells(&self, tile: Window, win: Window, labels: &[Option<usize>]) {
+    fn count_cells(&self, tile: Window, win: Window, labels: &[usize]) {
         let mut cells = vec![0usize; self.cells.len()];
         for r in 0..tile.size.height {
             let j = (r + tile.row0 - win.row0) * win.size.width + tile.col0 - win.col0;
-            for k in labels[j..j + tile.size.width].iter().flatten() {
+            for k in labels[j..j + tile.size.width]
+                .iter()
+                .filter(|&&k| k != NO_FRAME)
+            {
                 cells[*k] += 1;
             }
         }
@@ -152,115 +157,6 @@ where
             }
         }
     }
-}
-
-/// Frame k's weight over the cells of `tile`.
-fn weights(
-    opts: &MosaicOptions,
-    k: usize,
-    win: Window,
-    tile: Window,
-    labels: &[Option<usize>],
-    scores: &[f64],
-) -> Vec<f32> {
-    let ww = win.size.width;
-    let mut out = vec![0.0; tile.size.pixels()];
-    let cap = opts.feather_px;
-    // Beyond the box of k's covered cells k's weight is 0. Feathered, the weights read
-    // distances at covered cells to features within the feather's width, so the transforms
-    // run over that box grown by one more: the whole window's distances there.
-    let grow = match opts.blend {
-        Blend::Feather => cap + 1,
-        Blend::None => 0,
-    };
-    let Some(b) = covered_box(scores, ww, grow) else {
-        return out;
-    };
-    let bw = b.c1 - b.c0;
-    let (mut mine, mut uncovered) = (Vec::new(), Vec::new());
-    for r in b.r0..b.r1 {
-        let cells = r * ww + b.c0..r * ww + b.c1;
-        mine.extend(labels[cells.clone()].iter().map(|l| *l == Some(k)));
-        uncovered.extend(scores[cells].iter().map(|s| !s.is_finite()));
-    }
-    if !mine.contains(&true) {
-        return out;
-    }
-    let feathered = (opts.blend == Blend::Feather).then(|| {
-        let not_mine: Vec<bool> = mine.iter().map(|m| !m).collect();
-        [
-            distance_within(&not_mine, bw, cap),
-            distance_within(&mine, bw, cap),
-            distance_within(&uncovered, bw, cap),
-        ]
-    });
-    let n = cap as f32;
-    for (r, row) in out.chunks_exact_mut(tile.size.width).enumerate() {
-        let wr = r + tile.row0 - win.row0;
-        if wr < b.r0 || wr >= b.r1 {
-            continue;
-        }
-        for (c, o) in row.iter_mut().enumerate() {
-            let wc = c + tile.col0 - win.col0;
-            if wc < b.c0 || wc >= b.c1 {
-                continue;
-            }
-            let j = (wr - b.r0) * bw + wc - b.c0;
-            *o = match &feathered {
-                None => f32::from(u8::from(mine[j])),
-                Some(_) if uncovered[j] => 0.0,
-                Some([d_in, d_out, d_cov]) => {
-                    let s = if mine[j] {
-                        d_in[j] - 0.5
-                    } else {
-                        0.5 - d_out[j]
-                    };
-                    (0.5 + s / n).clamp(0.0, 1.0) * (d_cov[j] / n).min(1.0)
-                }
-            };
-        }
-    }
-    out
-}
-
-/// A box of cells of a window or a tile: columns [c0, c1), rows [r0, r1).
-struct CellBox {
-    c0: usize,
-    c1: usize,
-    r0: usize,
-    r1: usize,
-}
-
-/// The bounding box of the cells of a grid `width` cells wide (`values` row by row) where
-/// `keep` holds; `None` where it holds nowhere.
-fn box_where<T>(values: &[T], width: usize, keep: impl Fn(&T) -> bool) -> Option<CellBox> {
-    let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
-    for (r, row) in values.chunks_exact(width).enumerate() {
-        let (Some(first), Some(last)) = (row.iter().position(&keep), row.iter().rposition(&keep))
-        else {
-            continue;
-        };
-        (c0, c1, r0, r1) = (c0.min(first), c1.max(last + 1), r0.min(r), r + 1);
-    }
-    (c0 < c1).then_some(CellBox { c0, c1, r0, r1 })
-}
-
-/// The bounding box of the positive weights `w` of a tile `width` cells wide.
-fn weighted_box(w: &[f32], width: usize) -> Option<CellBox> {
-    box_where(w, width, |&v| v > 0.0)
-}
-
-/// The bounding box of the finite `scores` of a window `ww` cells wide, grown by `by` cells
-/// (within the window); `None` when no score is finite.
-fn covered_box(scores: &[f64], ww: usize, by: usize) -> Option<CellBox> {
-    let wh = scores.len() / ww;
-    let b = box_where(scores, ww, |s| s.is_finite())?;
-    Some(CellBox {
-        c0: b.c0.saturating_sub(by),
-        c1: (b.c1 + by).min(ww),
-        r0: b.r0.saturating_sub(by),
-        r1: (b.r1 + by).min(wh),
-    })
 }
 
 /// The plan of a mosaic written to `out` and its georeference, after refusing an `out` that
@@ -436,7 +332,8 @@ where
 
 /// Plans photos for a mosaic from their metadata (or `opts.poses`): one GSD for all (`opts`'s,
 /// else the finest frame's own, to the millimetre) and one CRS (`opts.crs`, else the first
-/// frame's UTM zone, which every frame must share). Each photo is decoded once for its size.
+/// frame's UTM zone, which every frame must share). A photo's size is read from its header:
+/// damaged pixels are found when its tiles are made (and nothing is written).
 pub fn frames_from_photos(
     paths: &[PathBuf],
     opts: &DroneOptions,
@@ -444,7 +341,7 @@ pub fn frames_from_photos(
     let mut inputs = Vec::with_capacity(paths.len());
     for p in paths {
         let meta = aerorect_io::read_photo_metadata(p)?;
-        let size = aerorect_io::read_image(p)?.size();
+        let size = aerorect_io::read_image_size(p)?;
         inputs.push((p.clone(), meta, size));
     }
     let plan_all = |o: &DroneOptions| -> Result<Vec<_>, Error> {

@@ -176,9 +176,21 @@ impl MosaicPlan {
     }
 
     /// Frame `k`'s scores over `w` (infinity where it does not cover), row-major: the lattice
-    /// rule, each node evaluated once.
+    /// rule, each node evaluated once ([`Self::scores_in`] spread over the window).
     pub fn scores(&self, k: usize, w: Window) -> Vec<f64> {
         let mut out = vec![f64::INFINITY; w.size.pixels()];
+        if let Some(s) = self.scores_in(k, w) {
+            for (r, row) in s.values.chunks_exact(s.cells.width()).enumerate() {
+                let at = (s.cells.r0 + r) * w.size.width + s.cells.c0;
+                out[at..at + row.len()].copy_from_slice(row);
+            }
+        }
+        out
+    }
+
+    /// Frame `k`'s scores over the cells of `w` its grid meets (`None` where it meets none):
+    /// a window meets dozens of a large flight's frames, each over a small part of it.
+    pub(super) fn scores_in(&self, k: usize, w: Window) -> Option<BoxScores> {
         let (off, s) = (self.offsets[k], self.frames[k].plan.grid.size);
         // The frame-grid cells inside the window: [lo, hi) per axis.
         let range = |w0: usize, n: usize, o: i64, len: usize| {
@@ -189,22 +201,29 @@ impl MosaicPlan {
         let cols = range(w.col0, w.size.width, off[0], s.width);
         let rows = range(w.row0, w.size.height, off[1], s.height);
         if cols.0 >= cols.1 || rows.0 >= rows.1 {
-            return out;
+            return None;
         }
+        let c0 = (cols.0 as i64 + off[0]) as usize - w.col0;
+        let r0 = (rows.0 as i64 + off[1]) as usize - w.row0;
+        let cells = CellBox {
+            c0,
+            c1: c0 + cols.1 - cols.0,
+            r0,
+            r1: r0 + rows.1 - rows.0,
+        };
+        let bw = cells.width();
+        let mut values = vec![f64::INFINITY; bw * (rows.1 - rows.0)];
         let (ncols, nrows) = (node_lines(cols, s.width), node_lines(rows, s.height));
         let nodes: Vec<Node> = nrows
             .par_iter()
             .flat_map_iter(|&r| ncols.iter().map(move |&c| self.exact(k, c, r)))
             .collect();
-        // One task per block row: the window's rows of that block row.
-        let ww = w.size.width;
-        let c_out = (cols.0 as i64 + off[0]) as usize - w.col0;
-        let first_row = (rows.0 as i64 + off[1]) as usize - w.row0;
-        let mut rest: &mut [f64] = &mut out[first_row * ww..];
+        // One task per block row: the box's rows of that block row.
+        let mut rest: &mut [f64] = &mut values;
         let mut tasks = Vec::with_capacity(nrows.len());
         for (b, pair) in nrows.windows(2).enumerate() {
             let (r_start, r_end) = (pair[0].max(rows.0), (pair[0] + SCORE_LATTICE).min(rows.1));
-            let (mine, tail) = std::mem::take(&mut rest).split_at_mut((r_end - r_start) * ww);
+            let (mine, tail) = std::mem::take(&mut rest).split_at_mut((r_end - r_start) * bw);
             rest = tail;
             tasks.push((b, r_start, mine));
         }
@@ -217,21 +236,19 @@ impl MosaicPlan {
                 bottom: &nodes[(b + 1) * nc..(b + 2) * nc],
                 r_start,
             };
-            self.score_block_row(&band, &ncols, cols, &mut block.chunks_mut(ww), c_out)
+            self.score_block_row(&band, &ncols, cols, &mut block.chunks_mut(bw))
         });
-        out
+        Some(BoxScores { cells, values })
     }
 
     /// The cells of one block row: per block, blended or scored cell by cell. `rows` holds the
-    /// window's rows from the band's `r_start`; the frame's column `cols.0` is the window's
-    /// `c_out`.
+    /// box's rows from the band's `r_start`, each from the frame's column `cols.0`.
     fn score_block_row<'r>(
         &self,
         band: &BlockRow<'_>,
         ncols: &[usize],
         cols: (usize, usize),
         rows: &mut impl Iterator<Item = &'r mut [f64]>,
-        c_out: usize,
     ) {
         let k = band.k;
         let quads: Vec<_> = (0..ncols.len() - 1)
@@ -265,7 +282,7 @@ impl MosaicPlan {
             let ty = frac(pr, n0, n1);
             for (pair, quad) in ncols.windows(2).zip(&quads) {
                 let (c_start, c_end) = (pair[0].max(cols.0), (pair[0] + SCORE_LATTICE).min(cols.1));
-                let out = &mut row[c_out + c_start - cols.0..c_out + c_end - cols.0];
+                let out = &mut row[c_start - cols.0..c_end - cols.0];
                 match quad {
                     Block::Blend(_) => {
                         for (o, e) in out.iter_mut().zip(&edges[c_start - cols.0..]) {
@@ -285,11 +302,23 @@ impl MosaicPlan {
         }
     }
 
+    /// The frames of `cands` whose grid meets `w`, and their scores there.
+    pub(super) fn scores_of(&self, cands: &[usize], w: Window) -> (Vec<usize>, Vec<BoxScores>) {
+        cands
+            .iter()
+            .filter_map(|&k| self.scores_in(k, w).map(|s| (k, s)))
+            .unzip()
+    }
+
     /// The best frame of each cell of `w` (row-major), `None` where no frame covers it.
     pub fn labels(&self, w: Window) -> Vec<Option<usize>> {
         let cands = self.meeting(w);
-        let scores: Vec<Vec<f64>> = cands.iter().map(|&k| self.scores(k, w)).collect();
-        best_of(&cands, &scores, w.size.pixels())
+        let (cands, scores) = self.scores_of(&cands, w);
+        let labels = best_of(&cands, &scores, w.size);
+        labels
+            .into_iter()
+            .map(|l| (l != NO_FRAME).then_some(l))
+            .collect()
     }
 }
 
@@ -342,17 +371,73 @@ fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a * (1.0 - t) + b * t
 }
 
-/// The lowest finite score's frame per cell (the first of equals).
-pub(super) fn best_of(cands: &[usize], scores: &[Vec<f64>], n: usize) -> Vec<Option<usize>> {
-    (0..n)
-        .map(|i| {
-            let mut best: Option<(usize, f64)> = None;
-            for (j, s) in scores.iter().enumerate() {
-                if s[i].is_finite() && best.is_none_or(|b| s[i] < b.1) {
-                    best = Some((cands[j], s[i]));
-                }
+/// A box of cells of a window or a tile: columns [c0, c1), rows [r0, r1).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct CellBox {
+    pub c0: usize,
+    pub c1: usize,
+    pub r0: usize,
+    pub r1: usize,
+}
+
+impl CellBox {
+    pub fn width(&self) -> usize {
+        self.c1 - self.c0
+    }
+
+    /// `inner`, a box given from this box's first cell, in the coordinates this box is in.
+    pub fn shifted(&self, inner: CellBox) -> CellBox {
+        CellBox {
+            c0: self.c0 + inner.c0,
+            c1: self.c0 + inner.c1,
+            r0: self.r0 + inner.r0,
+            r1: self.r0 + inner.r1,
+        }
+    }
+}
+
+/// A frame's scores over a box of a window's cells (row-major; infinity where it does not
+/// cover); the window's other cells it does not cover.
+pub(super) struct BoxScores {
+    pub cells: CellBox,
+    pub values: Vec<f64>,
+}
+
+impl BoxScores {
+    /// The score of the window's cell (col, row).
+    pub fn at(&self, col: usize, row: usize) -> f64 {
+        let b = &self.cells;
+        if col < b.c0 || col >= b.c1 || row < b.r0 || row >= b.r1 {
+            return f64::INFINITY;
+        }
+        self.values[(row - b.r0) * b.width() + col - b.c0]
+    }
+}
+
+/// [`best_of`]'s label of a cell no frame covers.
+pub(super) const NO_FRAME: usize = usize::MAX;
+
+/// The lowest finite score's frame per cell of a window of `size` (the first of equals;
+/// [`NO_FRAME`] where none is finite).
+pub(super) fn best_of(
+    cands: &[usize],
+    scores: &[BoxScores],
+    size: aerorect_core::ImageSize,
+) -> Vec<usize> {
+    let (n, ww) = (size.pixels(), size.width);
+    let (mut best, mut labels) = (vec![f64::INFINITY; n], vec![NO_FRAME; n]);
+    for (&k, s) in cands.iter().zip(scores) {
+        for (r, row) in s.values.chunks_exact(s.cells.width()).enumerate() {
+            let at = (s.cells.r0 + r) * ww + s.cells.c0;
+            let cells = best[at..at + row.len()]
+                .iter_mut()
+                .zip(&mut labels[at..at + row.len()]);
+            for (&v, (b, l)) in row.iter().zip(cells) {
+                let better = v < *b && v.is_finite();
+                *b = if better { v } else { *b };
+                *l = if better { k } else { *l };
             }
-            best.map(|b| b.0)
-        })
-        .collect()
+        }
+    }
+    labels
 }

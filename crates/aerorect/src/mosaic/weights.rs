@@ -1,0 +1,133 @@
+//! Each frame's weight over a tile: 1 over the cells it is best at, cross-faded over
+//! `feather_px` across each seam and faded out towards the edge of its cover.
+
+use super::distance::distance_within;
+use super::score::{BoxScores, CellBox};
+use super::{Blend, MosaicOptions, Window};
+use aerorect_core::ImageSize;
+
+/// Frame k's weights over a box of a tile's cells (tile coordinates); 0 elsewhere.
+pub(super) struct Weights {
+    cells: CellBox,
+    values: Vec<f32>,
+}
+
+impl Weights {
+    /// The weight at the tile's cell (col, row), which must lie in the box.
+    pub(super) fn at(&self, col: usize, row: usize) -> f32 {
+        self.values[(row - self.cells.r0) * self.cells.width() + col - self.cells.c0]
+    }
+
+    /// The bounding box of the positive weights (tile coordinates).
+    pub(super) fn positive_box(&self) -> Option<CellBox> {
+        let b = box_where(&self.values, self.cells.width(), |&v| v > 0.0)?;
+        Some(self.cells.shifted(b))
+    }
+}
+
+/// Frame k's weight over the cells of `tile` (within `win`, which `labels` and `scores` cover);
+/// `None` where it weighs none.
+pub(super) fn weights(
+    opts: &MosaicOptions,
+    k: usize,
+    (win, tile): (Window, Window),
+    labels: &[usize],
+    scores: &BoxScores,
+) -> Option<Weights> {
+    let ww = win.size.width;
+    let cap = opts.feather_px;
+    // Beyond the box of k's covered cells k's weight is 0. Feathered, the weights read
+    // distances at covered cells to features within the feather's width, so the transforms
+    // run over that box grown by one more: the whole window's distances there.
+    let grow = match opts.blend {
+        Blend::Feather => cap + 1,
+        Blend::None => 0,
+    };
+    let b = covered_box(scores, win.size, grow)?;
+    let bw = b.width();
+    let (mut mine, mut uncovered) = (Vec::new(), Vec::new());
+    for r in b.r0..b.r1 {
+        mine.extend(labels[r * ww + b.c0..r * ww + b.c1].iter().map(|&l| l == k));
+        uncovered.extend((b.c0..b.c1).map(|c| !scores.at(c, r).is_finite()));
+    }
+    if !mine.contains(&true) {
+        return None;
+    }
+    // The cross-fade is 0 or 1 beyond half the feather from the seam: a distance to it over
+    // `cap / 2 + 1` (infinity) gives the weight the exact distance would.
+    let feathered = (opts.blend == Blend::Feather).then(|| {
+        let not_mine: Vec<bool> = mine.iter().map(|m| !m).collect();
+        [
+            distance_within(&not_mine, bw, cap / 2 + 1),
+            distance_within(&mine, bw, cap / 2 + 1),
+            distance_within(&uncovered, bw, cap),
+        ]
+    });
+    // The tile's cells in the box (window coordinates).
+    let (tc, tr) = (tile.col0 - win.col0, tile.row0 - win.row0);
+    let cells = CellBox {
+        c0: b.c0.max(tc),
+        c1: b.c1.min(tc + tile.size.width),
+        r0: b.r0.max(tr),
+        r1: b.r1.min(tr + tile.size.height),
+    };
+    if cells.c0 >= cells.c1 || cells.r0 >= cells.r1 {
+        return None;
+    }
+    let n = cap as f32;
+    let weight = |j: usize| match &feathered {
+        None => f32::from(u8::from(mine[j])),
+        Some(_) if uncovered[j] => 0.0,
+        Some([d_in, d_out, d_cov]) => {
+            let s = if mine[j] {
+                d_in[j] - 0.5
+            } else {
+                0.5 - d_out[j]
+            };
+            (0.5 + s / n).clamp(0.0, 1.0) * (d_cov[j] / n).min(1.0)
+        }
+    };
+    let values = (cells.r0..cells.r1)
+        .flat_map(|r| (cells.c0..cells.c1).map(move |c| (r - b.r0) * bw + c - b.c0))
+        .map(weight)
+        .collect();
+    Some(Weights {
+        cells: CellBox {
+            c0: cells.c0 - tc,
+            c1: cells.c1 - tc,
+            r0: cells.r0 - tr,
+            r1: cells.r1 - tr,
+        },
+        values,
+    })
+}
+
+/// The bounding box of the cells of a grid `width` cells wide (`values` row by row) where
+/// `keep` holds; `None` where it holds nowhere.
+fn box_where<T>(values: &[T], width: usize, keep: impl Fn(&T) -> bool) -> Option<CellBox> {
+    let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
+    for (r, row) in values.chunks_exact(width).enumerate() {
+        let (Some(first), Some(last)) = (row.iter().position(&keep), row.iter().rposition(&keep))
+        else {
+            continue;
+        };
+        (c0, c1, r0, r1) = (c0.min(first), c1.max(last + 1), r0.min(r), r + 1);
+    }
+    (c0 < c1).then_some(CellBox { c0, c1, r0, r1 })
+}
+
+/// The bounding box of the finite `scores` in a window of `size`, grown by `by` cells (within
+/// the window); `None` when no score is finite.
+fn covered_box(scores: &BoxScores, size: ImageSize, by: usize) -> Option<CellBox> {
+    let b = scores.cells.shifted(box_where(
+        &scores.values,
+        scores.cells.width(),
+        |s: &f64| s.is_finite(),
+    )?);
+    Some(CellBox {
+        c0: b.c0.saturating_sub(by),
+        c1: (b.c1 + by).min(size.width),
+        r0: b.r0.saturating_sub(by),
+        r1: (b.r1 + by).min(size.height),
+    })
+}
