@@ -1,10 +1,62 @@
 //! A tile from the frames' weighted sums, and tiles pasted into one raster.
 
 use super::cache::Format;
+use super::score::CellBox;
+use super::weights::Weights;
 use super::{MosaicOptions, Window};
 use crate::Error;
 use aerorect_core::ImageSize;
 use aerorect_raster::{AnyRaster, Raster, Sample};
+
+/// Adds a frame's cells `r` (rendered over box `b` of a tile `tw` cells wide: `bands` bands,
+/// then an alpha band when `alpha`), weighted by `w`, to the tile's weighted sums and weights.
+/// A cell adds nothing where its weight is not positive, its alpha is 0 (outside the frame) or
+/// a sample is not finite.
+pub(super) fn accumulate(
+    (acc, wsum): (&mut [Vec<f32>], &mut [f32]),
+    tw: usize,
+    (b, w): (CellBox, &Weights),
+    r: &AnyRaster,
+    (bands, alpha): (usize, bool),
+) {
+    let valid = alpha.then(|| r.plane_f32(bands));
+    let planes: Vec<Vec<f32>> = (0..bands).map(|i| r.plane_f32(i)).collect();
+    // Integer samples are finite: a cell that adds nothing adds 0 x its sample (+0), which
+    // leaves the sums as they were, in one pass the compiler vectorises.
+    let integer = !matches!(r, AnyRaster::F32(_));
+    let bw = b.width();
+    let cells = (b.r0..b.r1).flat_map(|row| (b.c0..b.c1).map(move |col| (row, col)));
+    let weight: Vec<f32> = cells
+        .enumerate()
+        .map(|(s, (row, col))| {
+            let wi = w.at(col, row);
+            let inside = valid.as_ref().is_none_or(|a| a[s] > 0.0);
+            let finite = integer || planes.iter().all(|p| p[s].is_finite());
+            if wi > 0.0 && inside && finite {
+                wi
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    for (j, row) in (b.r0..b.r1).enumerate() {
+        let (i0, s0) = (row * tw + b.c0, j * bw);
+        let we = &weight[s0..s0 + bw];
+        for (a, p) in acc.iter_mut().zip(&planes) {
+            let cells = a[i0..i0 + bw].iter_mut().zip(&p[s0..s0 + bw]).zip(we);
+            if integer {
+                cells.for_each(|((x, &v), &e)| *x += e * v);
+            } else {
+                cells
+                    .filter(|(_, e)| **e > 0.0)
+                    .for_each(|((x, &v), &e)| *x += e * v);
+            }
+        }
+        for (x, &e) in wsum[i0..i0 + bw].iter_mut().zip(we) {
+            *x += e;
+        }
+    }
+}
 
 /// The tile from its weighted sums: the frames' sample type, an alpha band when asked.
 pub(super) fn assemble(

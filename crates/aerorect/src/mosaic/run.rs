@@ -1,7 +1,7 @@
 //! Compositing tiles: weights from the labels, frames rendered only over the tile, decoded
 //! frames shared between the threads, and the tiled GeoTIFF or COG written from the tiles.
 
-use super::assemble::{assemble, paste};
+use super::assemble::{accumulate, assemble, paste};
 use super::cache::FrameCache;
 use super::score::{NO_FRAME, best_of};
 use super::weights::weights;
@@ -117,24 +117,8 @@ where
                 (tile.row0 + b.r0) as i64 - off[1],
                 ImageSize::new(b.width(), b.r1 - b.r0),
             )?;
-            // Cells with a weight are inside the frame; its alpha band, when planned with one,
-            // says so too.
-            let valid = f.plan.warp.alpha.then(|| r.plane_f32(format.bands));
-            let bands: Vec<Vec<f32>> = (0..format.bands).map(|b| r.plane_f32(b)).collect();
-            let cells = (b.r0..b.r1).flat_map(|row| (b.c0..b.c1).map(move |col| (row, col)));
-            for (s, (row, col)) in cells.enumerate() {
-                let (i, wi) = (row * tw + col, w.at(col, row));
-                if wi <= 0.0
-                    || valid.as_ref().is_some_and(|a| a[s] <= 0.0)
-                    || bands.iter().any(|b| !b[s].is_finite())
-                {
-                    continue;
-                }
-                for (a, b) in acc.iter_mut().zip(&bands) {
-                    a[i] += wi * b[s];
-                }
-                wsum[i] += wi;
-            }
+            let sums = (acc.as_mut_slice(), wsum.as_mut_slice());
+            accumulate(sums, tw, (b, &w), &r, (format.bands, f.plan.warp.alpha));
         }
         assemble(format, tile.size, acc, &wsum, &plan.opts)
     }

@@ -403,17 +403,6 @@ pub(super) struct BoxScores {
     pub values: Vec<f64>,
 }
 
-impl BoxScores {
-    /// The score of the window's cell (col, row).
-    pub fn at(&self, col: usize, row: usize) -> f64 {
-        let b = &self.cells;
-        if col < b.c0 || col >= b.c1 || row < b.r0 || row >= b.r1 {
-            return f64::INFINITY;
-        }
-        self.values[(row - b.r0) * b.width() + col - b.c0]
-    }
-}
-
 /// [`best_of`]'s label of a cell no frame covers.
 pub(super) const NO_FRAME: usize = usize::MAX;
 

@@ -45,10 +45,11 @@ pub(super) fn weights(
     };
     let b = covered_box(scores, win.size, grow)?;
     let bw = b.width();
-    let (mut mine, mut uncovered) = (Vec::new(), Vec::new());
+    let cells = bw * (b.r1 - b.r0);
+    let (mut mine, mut uncovered) = (Vec::with_capacity(cells), Vec::with_capacity(cells));
     for r in b.r0..b.r1 {
         mine.extend(labels[r * ww + b.c0..r * ww + b.c1].iter().map(|&l| l == k));
-        uncovered.extend((b.c0..b.c1).map(|c| !scores.at(c, r).is_finite()));
+        uncovered_row(scores, r, (b.c0, b.c1), &mut uncovered);
     }
     if !mine.contains(&true) {
         return None;
@@ -87,10 +88,11 @@ pub(super) fn weights(
             (0.5 + s / n).clamp(0.0, 1.0) * (d_cov[j] / n).min(1.0)
         }
     };
-    let values = (cells.r0..cells.r1)
-        .flat_map(|r| (cells.c0..cells.c1).map(move |c| (r - b.r0) * bw + c - b.c0))
-        .map(weight)
-        .collect();
+    let mut values = Vec::with_capacity(cells.width() * (cells.r1 - cells.r0));
+    for r in cells.r0..cells.r1 {
+        let j0 = (r - b.r0) * bw + cells.c0 - b.c0;
+        values.extend((j0..j0 + cells.width()).map(weight));
+    }
     Some(Weights {
         cells: CellBox {
             c0: cells.c0 - tc,
@@ -100,6 +102,26 @@ pub(super) fn weights(
         },
         values,
     })
+}
+
+/// Whether the frame leaves uncovered each cell of window row `r`, columns [c0, c1) (those
+/// beyond its scores' box too), appended to `out`.
+fn uncovered_row(scores: &BoxScores, r: usize, (c0, c1): (usize, usize), out: &mut Vec<bool>) {
+    let sb = scores.cells;
+    if r < sb.r0 || r >= sb.r1 {
+        out.extend(std::iter::repeat_n(true, c1 - c0));
+        return;
+    }
+    // The columns the box holds: [lo, hi), within [c0, c1).
+    let lo = c0.max(sb.c0).min(c1);
+    let hi = c1.min(sb.c1).max(lo);
+    out.extend(std::iter::repeat_n(true, lo - c0));
+    if hi > lo {
+        let at = (r - sb.r0) * sb.width();
+        let row = &scores.values[at + lo - sb.c0..at + hi - sb.c0];
+        out.extend(row.iter().map(|v| !v.is_finite()));
+    }
+    out.extend(std::iter::repeat_n(true, c1 - hi));
 }
 
 /// The bounding box of the cells of a grid `width` cells wide (`values` row by row) where
