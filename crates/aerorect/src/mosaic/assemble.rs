@@ -13,25 +13,39 @@ use aerorect_raster::{AnyRaster, Raster, Sample};
 /// A cell adds nothing where its weight is not positive, its alpha is 0 (outside the frame) or
 /// a sample is not finite.
 pub(super) fn accumulate(
+    sums: (&mut [Vec<f32>], &mut [f32]),
+    tw: usize,
+    weights: (CellBox, &Weights),
+    r: &AnyRaster,
+    bands: (usize, bool),
+) {
+    match r {
+        AnyRaster::U8(r) => add_frame(sums, tw, weights, (r, true), bands),
+        AnyRaster::U16(r) => add_frame(sums, tw, weights, (r, true), bands),
+        AnyRaster::F32(r) => add_frame(sums, tw, weights, (r, false), bands),
+    }
+}
+
+/// [`accumulate`] for samples of type `T` (`integer`: every sample is finite).
+fn add_frame<T: Sample>(
     (acc, wsum): (&mut [Vec<f32>], &mut [f32]),
     tw: usize,
     (b, w): (CellBox, &Weights),
-    r: &AnyRaster,
+    (r, integer): (&Raster<T>, bool),
     (bands, alpha): (usize, bool),
 ) {
-    let valid = alpha.then(|| r.plane_f32(bands));
-    let planes: Vec<Vec<f32>> = (0..bands).map(|i| r.plane_f32(i)).collect();
+    let valid = alpha.then(|| r.plane(bands));
+    let planes: Vec<&[T]> = (0..bands).map(|i| r.plane(i)).collect();
     // Integer samples are finite: a cell that adds nothing adds 0 x its sample (+0), which
     // leaves the sums as they were, in one pass the compiler vectorises.
-    let integer = !matches!(r, AnyRaster::F32(_));
     let bw = b.width();
     let cells = (b.r0..b.r1).flat_map(|row| (b.c0..b.c1).map(move |col| (row, col)));
     let weight: Vec<f32> = cells
         .enumerate()
         .map(|(s, (row, col))| {
             let wi = w.at(col, row);
-            let inside = valid.as_ref().is_none_or(|a| a[s] > 0.0);
-            let finite = integer || planes.iter().all(|p| p[s].is_finite());
+            let inside = valid.is_none_or(|a| a[s].to_f32() > 0.0);
+            let finite = integer || planes.iter().all(|p| p[s].to_f32().is_finite());
             if wi > 0.0 && inside && finite {
                 wi
             } else {
@@ -45,11 +59,11 @@ pub(super) fn accumulate(
         for (a, p) in acc.iter_mut().zip(&planes) {
             let cells = a[i0..i0 + bw].iter_mut().zip(&p[s0..s0 + bw]).zip(we);
             if integer {
-                cells.for_each(|((x, &v), &e)| *x += e * v);
+                cells.for_each(|((x, &v), &e)| *x += e * v.to_f32());
             } else {
                 cells
                     .filter(|(_, e)| **e > 0.0)
-                    .for_each(|((x, &v), &e)| *x += e * v);
+                    .for_each(|((x, &v), &e)| *x += e * v.to_f32());
             }
         }
         for (x, &e) in wsum[i0..i0 + bw].iter_mut().zip(we) {
@@ -97,10 +111,13 @@ pub(super) fn assemble(
             })
             .collect();
         if opts.alpha {
-            let a = wsum
-                .iter()
-                .map(|&w| if w > 0.0 { T::OPAQUE } else { T::default() });
-            planes.push(a.collect());
+            let mut a = vec![T::default(); wsum.len()];
+            if !empty {
+                for (o, &w) in a.iter_mut().zip(wsum) {
+                    *o = if w > 0.0 { T::OPAQUE } else { *o };
+                }
+            }
+            planes.push(a);
         }
         Ok(Raster::from_planes(size, planes)?)
     }
