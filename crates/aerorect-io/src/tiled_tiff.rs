@@ -356,43 +356,46 @@ fn encode<W: Write + Seek, K: TiffKind>(
 /// edge), native byte order; integer samples horizontally differenced (TIFF predictor 2).
 fn tile_bytes(t: &AnyRaster, tile: usize) -> Vec<u8> {
     match t {
-        AnyRaster::U8(r) => {
-            let mut v = padded(r, tile);
-            predict(&mut v, r.bands(), tile, u8::wrapping_sub);
-            v
-        }
-        AnyRaster::U16(r) => {
-            let mut v = padded(r, tile);
-            predict(&mut v, r.bands(), tile, u16::wrapping_sub);
-            v.iter().flat_map(|x| x.to_ne_bytes()).collect()
-        }
-        AnyRaster::F32(r) => padded(r, tile)
+        AnyRaster::U8(r) => padded(r, tile, Some(u8::wrapping_sub)),
+        AnyRaster::U16(r) => padded(r, tile, Some(u16::wrapping_sub))
+            .iter()
+            .flat_map(|x| x.to_ne_bytes())
+            .collect(),
+        AnyRaster::F32(r) => padded(r, tile, None)
             .iter()
             .flat_map(|x| x.to_ne_bytes())
             .collect(),
     }
 }
 
-fn padded<T: aerorect_raster::Sample>(r: &aerorect_raster::Raster<T>, tile: usize) -> Vec<T> {
+/// The tile's samples pixel-interleaved and padded with zeros to `tile` x `tile`; with `sub`,
+/// through TIFF's horizontal predictor (each sample minus the same band's sample to its left,
+/// the padding included), made from the planes in the same pass.
+fn padded<T: aerorect_raster::Sample>(
+    r: &aerorect_raster::Raster<T>,
+    tile: usize,
+    sub: Option<fn(T, T) -> T>,
+) -> Vec<T> {
     let (w, b) = (r.width(), r.bands());
     let mut out = vec![T::default(); tile * tile * b];
     for (band, plane) in r.planes().iter().enumerate() {
-        for (y, row) in plane.chunks_exact(w).enumerate() {
-            for (x, &v) in row.iter().enumerate() {
-                out[(y * tile + x) * b + band] = v;
+        for (row, dst) in plane.chunks_exact(w).zip(out.chunks_exact_mut(tile * b)) {
+            let pixels = dst.chunks_exact_mut(b).zip(row);
+            let Some(f) = sub else {
+                pixels.for_each(|(px, &v)| px[band] = v);
+                continue;
+            };
+            let mut left = T::default();
+            for (px, &v) in pixels {
+                px[band] = f(v, left);
+                left = v;
+            }
+            if let Some(pad) = dst.get_mut(w * b + band) {
+                *pad = f(T::default(), left);
             }
         }
     }
     out
-}
-
-/// TIFF's horizontal predictor: each sample minus the same band's sample to its left.
-fn predict<T: Copy>(v: &mut [T], bands: usize, tile: usize, sub: fn(T, T) -> T) {
-    for row in v.chunks_exact_mut(tile * bands) {
-        for i in (bands..row.len()).rev() {
-            row[i] = sub(row[i], row[i - bands]);
-        }
-    }
 }
 
 #[cfg(test)]
