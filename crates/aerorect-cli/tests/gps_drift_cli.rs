@@ -225,3 +225,137 @@ fn without_a_dem_alternating_strips_decide_a_drifting_gps() {
     assert!(median < 2.0 && worst < 3.0, "{median} {worst}");
     assert!(height < 5.0, "{heights:?}");
 }
+
+/// The 8 x 8 fixed wing with its recorded attitudes (5 deg off) and GPS positions, its strips
+/// taken as all flown one way (the odd strips' frames renamed in reverse, so that the names'
+/// order runs west to east along every strip), and no DEM. Fixes climbing `up_m` over that
+/// order rise with the strips, as a tilted block's would: nothing but the attitudes' priors can
+/// tell. Its poses and the report of `batch --adjust`.
+fn one_way_flight(tmp: &std::path::Path, up_m: f64) -> OneWay {
+    let sim = tmp.join("sim");
+    if !sim.exists() {
+        simulate_flight::simulate(8, 8, &sim, 5.0, true);
+    }
+    let one_way = |name: &str| -> String {
+        let (strip, k): (usize, usize) = (name[2..5].parse().unwrap(), name[6..9].parse().unwrap());
+        let k = if strip % 2 == 1 { 7 - k } else { k };
+        format!("f_{strip:03}_{k:03}.png")
+    };
+    let dir = tmp.join(format!("one_way_{up_m}"));
+    std::fs::create_dir_all(dir.join("frames")).unwrap();
+    for f in common::rendered_frames(&sim) {
+        let name = f.file_name().unwrap().to_str().unwrap();
+        std::fs::copy(&f, dir.join("frames").join(one_way(name))).unwrap();
+    }
+    let rename = |t: std::collections::BTreeMap<String, Vec<f64>>| {
+        t.into_iter()
+            .map(|(n, v)| (one_way(&n), v))
+            .collect::<std::collections::BTreeMap<_, _>>()
+    };
+    let truth = rename(common::pose_table(&sim.join("truth.csv")));
+    let pert = rename(common::pose_table(&sim.join("pert.csv")));
+    let mut recorded = PoseTable::new();
+    let mut table = String::from("filename,x,y,z,omega,phi,kappa\n");
+    let last = pert.len() - 1;
+    for (k, (name, p)) in pert.iter().enumerate() {
+        let up = up_m * k as f64 / last as f64;
+        let v = vec![p[0], p[1], p[2] + up, p[3], p[4], p[5]];
+        let cells: Vec<String> = v.iter().map(|x| format!("{x:.6}")).collect();
+        table.push_str(&format!("{name},{}\n", cells.join(",")));
+        recorded.insert(name.clone(), v);
+    }
+    std::fs::write(dir.join("poses.csv"), table).unwrap();
+    std::fs::copy(sim.join("pert.prj"), dir.join("poses.prj")).unwrap();
+    std::fs::copy(sim.join("cam.toml"), dir.join("cam.toml")).unwrap();
+    let out = dir.join("out");
+    let ground = ["--ground-height-m".as_ref(), "25".as_ref()];
+    let extra = ["--attitude-sigma-deg", "5", "--adjust-positions-m", "3"];
+    let frames = common::rendered_frames(&dir);
+    let r = common::batch_adjust_over(
+        &frames,
+        &dir,
+        ["--poses", "poses.csv"],
+        &ground,
+        &extra,
+        &out,
+    );
+    let adjusted = common::pose_table(&out.join("adjusted_poses.csv"));
+    OneWay {
+        truth,
+        recorded,
+        adjusted,
+        report: r,
+    }
+}
+
+type PoseTable = std::collections::BTreeMap<String, Vec<f64>>;
+
+/// A one-way flight's poses (by the renamed frames) and the adjustment's report.
+struct OneWay {
+    truth: PoseTable,
+    /// As given to the adjustment (drift included).
+    recorded: PoseTable,
+    adjusted: PoseTable,
+    report: serde_json::Value,
+}
+
+/// The horizontal part (deg) of the mean turn, in world axes, from the `recorded` attitudes
+/// to the `adjusted` ones (omega-phi-kappa tables): the whole flight's common tilt.
+fn common_tilt_deg(recorded: &PoseTable, adjusted: &PoseTable) -> f64 {
+    let r = |o: &[f64]| {
+        aerorect::core::CameraRotation::omega_phi_kappa(o[0], o[1], o[2])
+            .unwrap()
+            .ground_from_camera()
+            .to_owned()
+    };
+    let mut sum = [0.0; 2];
+    for (name, a) in adjusted {
+        let t = r(&a[3..6]) * r(&recorded[name][3..6]).transpose();
+        // The turn's rotation vector: its axis (from the skew part) times its angle.
+        let angle = ((t.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
+        let scale = angle / (2.0 * angle.sin());
+        let v = [
+            (t[(2, 1)] - t[(1, 2)]) * scale,
+            (t[(0, 2)] - t[(2, 0)]) * scale,
+        ];
+        sum = [sum[0] + v[0], sum[1] + v[1]];
+    }
+    let n = adjusted.len() as f64;
+    (sum[0] / n).hypot(sum[1] / n).to_degrees()
+}
+
+#[test]
+fn strips_flown_one_way_tilted_by_a_drifting_gps_say_so() {
+    let tmp = tempfile::tempdir().unwrap();
+    let warned = |r: &serde_json::Value| -> Option<String> {
+        r["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|w| w.as_str())
+            .find(|w| w.contains("tilt the whole flight"))
+            .map(str::to_string)
+    };
+    // Without a drift the fixes and the attitudes agree: no warning, the frames near the truth.
+    let still = one_way_flight(tmp.path(), 0.0);
+    let (median, _) = errors_deg(&still.truth, &still.adjusted);
+    let w = warned(&still.report);
+    eprintln!("no drift: {median:.3} deg, {w:?}");
+    assert!(median < 1.0 && w.is_none(), "{median} {w:?}");
+    // Climbing 30 m along the one-way order, the fixes tilt the block degrees off the truth;
+    // the warning says by how much against the recorded attitudes, as the pose tables do.
+    let up = one_way_flight(tmp.path(), 30.0);
+    let (median, _) = errors_deg(&up.truth, &up.adjusted);
+    let w = warned(&up.report).unwrap_or_default();
+    eprintln!("30 m of drift: {median:.3} deg, {w}");
+    assert!(median > 2.0, "{median}");
+    let said: f64 = w
+        .split("tilt the whole flight by ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(f64::NAN);
+    let tilt = common_tilt_deg(&up.recorded, &up.adjusted);
+    assert!((said - tilt).abs() < 0.15, "{said} {tilt}: {w}");
+    assert!(w.contains("--dem or --gcps"), "{w}");
+}

@@ -117,6 +117,69 @@ pub(super) fn contradictions(
     out
 }
 
+/// Three sigma of a 2-D vector: two independent N(0, sigma) components have a norm beyond
+/// 3.44 sigma in 0.27 % of cases (chi-square with 2 degrees of freedom at 99.73 %: 11.83).
+pub const THREE_SIGMA_2D: f64 = 3.44;
+
+/// The least tilt (degrees) of a whole block from its recorded attitudes worth a warning,
+/// however many frames pin their mean: above the usual bias of a gimbal's or an autopilot's
+/// level (a degree), below the eBee's camera mounting offset (about 3 degrees against a
+/// reconstruction).
+pub const COMMON_TILT_FLOOR_DEG: f64 = 2.0;
+
+/// The tilt (degrees) the images give the flight's frames in common against their recorded
+/// attitudes (the mean of the turns' horizontal axes, each frame weighed by its prior; frames
+/// started at nadir along their GPS track, which recorded nothing, left out), its standard
+/// deviation from the priors alone, and the frames counted; `None` with fewer than three.
+pub(super) fn common_tilt_deg(
+    frames: &[Frame],
+    adjust_frames: &[AdjustFrame],
+    report: &AdjustReport,
+    flight_sigma_deg: f64,
+) -> Option<(f64, f64, usize)> {
+    let (mut sw, mut sx, mut sy, mut n) = (0.0, 0.0, 0.0, 0);
+    for ((f, a), r) in frames.iter().zip(adjust_frames).zip(&report.frames) {
+        if f.info.attitude.source == crate::photo_source::AttitudeSource::GpsTrack {
+            continue;
+        }
+        let s = a.attitude_sigma_deg.unwrap_or(flight_sigma_deg);
+        let w = 1.0 / (s * s);
+        (sw, sx, sy, n) = (
+            sw + w,
+            sx + w * r.rotation_deg[0],
+            sy + w * r.rotation_deg[1],
+            n + 1,
+        );
+    }
+    (n >= 3 && sw > 0.0).then(|| ((sx / sw).hypot(sy / sw), 1.0 / sw.sqrt(), n))
+}
+
+/// A warning where the images tilt the whole flight from its recorded attitudes beyond what
+/// their priors allow of a mean ([`THREE_SIGMA_2D`] of its sigma) and beyond
+/// [`COMMON_TILT_FLOOR_DEG`]: a camera mounted off the attitudes' axes, or, where `gps_levels`
+/// (nothing but the GPS heights levels the block: no DEM, no ground control, and an order of
+/// the frames that cannot tell a drift from a tilt), a GPS drifting in height.
+pub(super) fn common_tilt_warning(
+    frames: &[Frame],
+    adjust_frames: &[AdjustFrame],
+    report: &AdjustReport,
+    (flight_sigma_deg, gps_levels): (f64, bool),
+) -> Option<String> {
+    let (tilt, sigma, n) = common_tilt_deg(frames, adjust_frames, report, flight_sigma_deg)?;
+    if tilt <= (THREE_SIGMA_2D * sigma).max(COMMON_TILT_FLOOR_DEG) {
+        return None;
+    }
+    let cause = match gps_levels {
+        true => {
+            "a camera mounted off the attitudes' axes (--adjust-boresight solves for it), or GPS heights that drift over the flight, which tilt a block as this one is where its strips were all flown one way (--dem or --gcps tell the two apart)"
+        }
+        false => "a camera mounted off the attitudes' axes (--adjust-boresight solves for it)",
+    };
+    Some(format!(
+        "the images tilt the whole flight by {tilt:.1} deg from its recorded attitudes ({n} frames, whose mean the priors know to {sigma:.2} deg): {cause}"
+    ))
+}
+
 /// One block of a flight that falls apart: frames tied to each other and to no frame of
 /// another block, so nothing but their GPS places the blocks against each other.
 #[derive(Debug, Clone, PartialEq, Serialize)]

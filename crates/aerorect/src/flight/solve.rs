@@ -182,6 +182,15 @@ pub(super) fn match_and_adjust(
         fo,
         &gps,
     ));
+    // Only the GPS heights level the block, and a drift in them would read as a tilt.
+    let gps_levels =
+        !dem && control.is_none() && position_sigma_m.is_some() && plan.gps_drift_times().is_none();
+    warnings.extend(common_tilt_warning(
+        frames,
+        &adjust_frames,
+        &adjusted.report,
+        (fo.attitude_sigma_deg, gps_levels),
+    ));
     let mut round = Round {
         gps,
         accuracy,
