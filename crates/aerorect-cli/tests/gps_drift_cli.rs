@@ -9,7 +9,8 @@
 //! 0.058 deg, and 0.080 deg since the ground, not the fixes, places a drifting block in height
 //! (on the 100-frame fixed wing over its DEM, 110 m of drift: 0.102 deg before, 0.022 after).
 //! Without a DEM, strips flown both ways decide a drift; strips all flown one way cannot, and a
-//! flight they tilt is reported against its recorded attitudes.
+//! flight they tilt is reported against its recorded attitudes, and one with GPS alone is
+//! warned that nothing but the GPS heights level it.
 #![allow(clippy::unwrap_used)]
 
 #[path = "../../aerorect/examples/simulate_flight.rs"]
@@ -226,14 +227,15 @@ fn without_a_dem_alternating_strips_decide_a_drifting_gps() {
     );
     assert!(median < 2.0 && worst < 3.0, "{median} {worst}");
     assert!(height < 5.0, "{heights:?}");
+    // The strips decide the drift: no word that the GPS alone levels the flight.
+    assert!(!unseen_drift_warned(&r), "{}", r["warnings"]);
 }
 
-/// The 8 x 8 fixed wing with its recorded attitudes (5 deg off) and GPS positions, its strips
-/// taken as all flown one way (the odd strips' frames renamed in reverse, so that the names'
-/// order runs west to east along every strip), and no DEM. Fixes climbing `up_m` over that
-/// order rise with the strips, as a tilted block's would: nothing but the attitudes' priors can
-/// tell. Its poses and the report of `batch --adjust`.
-fn one_way_flight(tmp: &std::path::Path, up_m: f64) -> OneWay {
+/// The 8 x 8 fixed wing's frames (rendered once under `tmp/sim`) in `tmp/<tag>/frames`, its
+/// strips taken as all flown one way: the odd strips' frames renamed in reverse, so that the
+/// names' order runs west to east along every strip. The folder, and the truth and the
+/// recorded (5 deg off) poses by the new names.
+fn one_way_frames(tmp: &std::path::Path, tag: &str) -> (std::path::PathBuf, PoseTable, PoseTable) {
     let sim = tmp.join("sim");
     if !sim.exists() {
         simulate_flight::simulate(8, 8, &sim, 5.0, true);
@@ -243,19 +245,26 @@ fn one_way_flight(tmp: &std::path::Path, up_m: f64) -> OneWay {
         let k = if strip % 2 == 1 { 7 - k } else { k };
         format!("f_{strip:03}_{k:03}.png")
     };
-    let dir = tmp.join(format!("one_way_{up_m}"));
+    let dir = tmp.join(tag);
     std::fs::create_dir_all(dir.join("frames")).unwrap();
     for f in common::rendered_frames(&sim) {
         let name = f.file_name().unwrap().to_str().unwrap();
         std::fs::copy(&f, dir.join("frames").join(one_way(name))).unwrap();
     }
-    let rename = |t: std::collections::BTreeMap<String, Vec<f64>>| {
-        t.into_iter()
-            .map(|(n, v)| (one_way(&n), v))
-            .collect::<std::collections::BTreeMap<_, _>>()
-    };
+    std::fs::copy(sim.join("cam.toml"), dir.join("cam.toml")).unwrap();
+    let rename = |t: PoseTable| t.into_iter().map(|(n, v)| (one_way(&n), v)).collect();
     let truth = rename(common::pose_table(&sim.join("truth.csv")));
     let pert = rename(common::pose_table(&sim.join("pert.csv")));
+    std::fs::copy(sim.join("pert.prj"), dir.join("poses.prj")).unwrap();
+    (dir, truth, pert)
+}
+
+/// The one-way 8 x 8 fixed wing ([`one_way_frames`]) with its recorded attitudes (5 deg off)
+/// and GPS positions, and no DEM. Fixes climbing `up_m` over the names' order rise with the
+/// strips, as a tilted block's would: nothing but the attitudes' priors can tell. Its poses
+/// and the report of `batch --adjust`.
+fn one_way_flight(tmp: &std::path::Path, up_m: f64) -> OneWay {
+    let (dir, truth, pert) = one_way_frames(tmp, &format!("one_way_{up_m}"));
     let mut recorded = PoseTable::new();
     let mut table = String::from("filename,x,y,z,omega,phi,kappa\n");
     let last = pert.len() - 1;
@@ -267,8 +276,6 @@ fn one_way_flight(tmp: &std::path::Path, up_m: f64) -> OneWay {
         recorded.insert(name.clone(), v);
     }
     std::fs::write(dir.join("poses.csv"), table).unwrap();
-    std::fs::copy(sim.join("pert.prj"), dir.join("poses.prj")).unwrap();
-    std::fs::copy(sim.join("cam.toml"), dir.join("cam.toml")).unwrap();
     let out = dir.join("out");
     let ground = ["--ground-height-m".as_ref(), "25".as_ref()];
     let extra = ["--attitude-sigma-deg", "5", "--adjust-positions-m", "3"];
@@ -344,6 +351,12 @@ fn strips_flown_one_way_tilted_by_a_drifting_gps_say_so() {
     let w = warned(&still.report);
     eprintln!("no drift: {median:.3} deg, {w:?}");
     assert!(median < 1.0 && w.is_none(), "{median} {w:?}");
+    // Recorded attitudes level it as well as the GPS.
+    assert!(
+        !unseen_drift_warned(&still.report),
+        "{}",
+        still.report["warnings"]
+    );
     // Climbing 30 m along the one-way order, the fixes tilt the block degrees off the truth;
     // the warning says by how much against the recorded attitudes, as the pose tables do.
     let up = one_way_flight(tmp.path(), 30.0);
@@ -360,4 +373,38 @@ fn strips_flown_one_way_tilted_by_a_drifting_gps_say_so() {
     let tilt = common_tilt_deg(&up.recorded, &up.adjusted);
     assert!((said - tilt).abs() < 0.15, "{said} {tilt}: {w}");
     assert!(w.contains("--dem or --gcps"), "{w}");
+}
+
+/// Whether `r` carries the warning that nothing but the GPS heights level the flight.
+fn unseen_drift_warned(r: &serde_json::Value) -> bool {
+    r["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|w| w.as_str())
+        .any(|w| w.contains("nothing but the GPS heights levels this flight"))
+}
+
+/// The one-way 8 x 8 fixed wing ([`one_way_frames`]) given GPS alone (nadir along the track
+/// to start), its fixes climbing [`DRIFT_UP_M`] over the names' order, and no DEM: nothing
+/// tells the drift from a tilt, and the block ends degrees off the truth. That cannot be
+/// measured, but it can be said: the flight could be tilted unseen.
+#[test]
+fn gps_only_strips_flown_one_way_say_the_gps_alone_levels_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (dir, truth, _) = one_way_frames(tmp.path(), "one_way_gps");
+    let geo = drifting_geo(truth.iter().map(|(n, t)| (n.as_str(), t)));
+    std::fs::write(dir.join("geo.txt"), geo).unwrap();
+    let out = dir.join("out");
+    let ground = ["--ground-height-m".as_ref(), "25".as_ref()];
+    let frames = common::rendered_frames(&dir);
+    let r = common::batch_adjust_over(&frames, &dir, ["--geo", "geo.txt"], &ground, &[], &out);
+    let adjusted = common::pose_table(&out.join("adjusted_poses.csv"));
+    let (median, worst) = errors_deg(&truth, &adjusted);
+    eprintln!(
+        "one way, GPS only: {median:.3} / {worst:.3} deg, warnings {}",
+        r["warnings"]
+    );
+    assert!(median > 2.0, "{median}");
+    assert!(unseen_drift_warned(&r), "{}", r["warnings"]);
 }

@@ -180,6 +180,23 @@ pub(super) fn common_tilt_warning(
     ))
 }
 
+/// A warning where nothing but the GPS heights levels a flight with no recorded attitudes
+/// (`gps_levels`: no DEM, no ground control, a block its GPS frees, a block spread enough for
+/// a drift whose frames' order cannot tell one from a tilt): a GPS whose height drifts over
+/// the flight would tilt it unseen. With recorded attitudes, [`common_tilt_warning`] measures
+/// such a tilt instead.
+pub(super) fn unseen_drift_warning(
+    frames: &[Frame],
+    adjust_frames: &[AdjustFrame],
+    report: &AdjustReport,
+    (flight_sigma_deg, gps_levels): (f64, bool),
+) -> Option<String> {
+    let recorded = common_tilt_deg(frames, adjust_frames, report, flight_sigma_deg).is_some();
+    (gps_levels && !recorded).then(|| {
+        "nothing but the GPS heights levels this flight (no DEM, no ground control, no recorded attitudes), and the order its photos were taken in cannot tell a drift in those heights from a tilt (strips all flown one way): a GPS whose height drifts over the flight would tilt it unseen; --dem or --gcps would tell".to_string()
+    })
+}
+
 /// One block of a flight that falls apart: frames tied to each other and to no frame of
 /// another block, so nothing but their GPS places the blocks against each other.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -52,6 +52,31 @@ impl Round {
     }
 }
 
+/// The whole flight's tilt from its recorded attitudes ([`common_tilt_warning`]), or, with
+/// none recorded, that nothing but the GPS heights level a block spread enough for a drift
+/// to tilt it ([`unseen_drift_warning`]); `gps_levels`: only the GPS heights level the block
+/// its GPS frees, and the frames' order cannot tell a drift in them from a tilt.
+fn tilt_warnings(
+    plan: &FlightPlan,
+    adjust_frames: &[AdjustFrame],
+    report: &AdjustReport,
+    gps_levels: bool,
+) -> Vec<String> {
+    let sigma = plan.fo.attitude_sigma_deg;
+    let frames = &plan.frames;
+    let centres: Vec<[f64; 3]> = plan.rec.poses.iter().map(|p| p.centre).collect();
+    let spread = gps_levels && drift::drift_decided(&centres);
+    common_tilt_warning(frames, adjust_frames, report, (sigma, gps_levels))
+        .into_iter()
+        .chain(unseen_drift_warning(
+            frames,
+            adjust_frames,
+            report,
+            (sigma, spread),
+        ))
+        .collect()
+}
+
 /// Adjusts the recorded orientation to the tie points of the matched pairs (each with its
 /// frames' names; `all`: their spare ties too, see [`PairMatch::solve_ties`]; `dem`: the
 /// ground is a DEM; `posed`: the frames come from a pose table), the solve starting from
@@ -182,14 +207,18 @@ pub(super) fn match_and_adjust(
         fo,
         &gps,
     ));
-    // Only the GPS heights level the block, and a drift in them would read as a tilt.
-    let gps_levels =
-        !dem && control.is_none() && position_sigma_m.is_some() && plan.gps_drift_times().is_none();
-    warnings.extend(common_tilt_warning(
-        frames,
+    // Only the GPS heights level a block its GPS frees, and the frames' order cannot tell a
+    // drift in them from a tilt.
+    let gps_levels = !dem
+        && control.is_none()
+        && position_sigma_m.is_some()
+        && plan.gps_drift_times().is_none()
+        && relief.as_ref().is_some_and(|r| !r.freed.is_empty());
+    warnings.extend(tilt_warnings(
+        plan,
         &adjust_frames,
         &adjusted.report,
-        (fo.attitude_sigma_deg, gps_levels),
+        gps_levels,
     ));
     let mut round = Round {
         gps,
