@@ -322,7 +322,11 @@ fn common_tilt_deg(recorded: &PoseTable, adjusted: &PoseTable) -> f64 {
         let t = r(&a[3..6]) * r(&recorded[name][3..6]).transpose();
         // The turn's rotation vector: its axis (from the skew part) times its angle.
         let angle = ((t.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
-        let scale = angle / (2.0 * angle.sin());
+        // angle / (2 sin angle), 1/2 in the limit of no turn.
+        let scale = match angle > 1e-12 {
+            true => angle / (2.0 * angle.sin()),
+            false => 0.5,
+        };
         let v = [
             (t[(2, 1)] - t[(1, 2)]) * scale,
             (t[(0, 2)] - t[(2, 0)]) * scale,
@@ -336,15 +340,7 @@ fn common_tilt_deg(recorded: &PoseTable, adjusted: &PoseTable) -> f64 {
 #[test]
 fn strips_flown_one_way_tilted_by_a_drifting_gps_say_so() {
     let tmp = tempfile::tempdir().unwrap();
-    let warned = |r: &serde_json::Value| -> Option<String> {
-        r["warnings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .filter_map(|w| w.as_str())
-            .find(|w| w.contains("tilt the whole flight"))
-            .map(str::to_string)
-    };
+    let warned = |r| warning_with(r, "tilt the whole flight").map(str::to_string);
     // Without a drift the fixes and the attitudes agree: no warning, the frames near the truth.
     let still = one_way_flight(tmp.path(), 0.0);
     let (median, _) = errors_deg(&still.truth, &still.adjusted);
@@ -375,14 +371,19 @@ fn strips_flown_one_way_tilted_by_a_drifting_gps_say_so() {
     assert!(w.contains("--dem or --gcps"), "{w}");
 }
 
-/// Whether `r` carries the warning that nothing but the GPS heights level the flight.
-fn unseen_drift_warned(r: &serde_json::Value) -> bool {
+/// The warning of an adjustment's report `r` that says `phrase`, if any.
+fn warning_with<'a>(r: &'a serde_json::Value, phrase: &str) -> Option<&'a str> {
     r["warnings"]
         .as_array()
         .unwrap()
         .iter()
         .filter_map(|w| w.as_str())
-        .any(|w| w.contains("nothing but the GPS heights levels this flight"))
+        .find(|w| w.contains(phrase))
+}
+
+/// Whether `r` carries the warning that nothing but the GPS heights level the flight.
+fn unseen_drift_warned(r: &serde_json::Value) -> bool {
+    warning_with(r, "nothing but the GPS heights levels this flight").is_some()
 }
 
 /// The one-way 8 x 8 fixed wing ([`one_way_frames`]) given GPS alone (nadir along the track

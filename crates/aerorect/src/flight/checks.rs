@@ -154,18 +154,16 @@ pub(super) fn common_tilt_deg(
     (n >= 3 && sw > 0.0).then(|| ((sx / sw).hypot(sy / sw), 1.0 / sw.sqrt(), n))
 }
 
-/// A warning where the images tilt the whole flight from its recorded attitudes beyond what
-/// their priors allow of a mean ([`THREE_SIGMA_2D`] of its sigma) and beyond
-/// [`COMMON_TILT_FLOOR_DEG`]: a camera mounted off the attitudes' axes, or, where `gps_levels`
-/// (nothing but the GPS heights levels the block: no DEM, no ground control, and an order of
-/// the frames that cannot tell a drift from a tilt), a GPS drifting in height.
+/// A warning where the images tilt the whole flight from its recorded attitudes
+/// ([`common_tilt_deg`]'s tilt, sigma and frames) beyond what their priors allow of a mean
+/// ([`THREE_SIGMA_2D`] of its sigma) and beyond [`COMMON_TILT_FLOOR_DEG`]: a camera mounted
+/// off the attitudes' axes, or, where `gps_levels` (nothing but the GPS heights levels the
+/// block: no DEM, no ground control, and an order of the frames that cannot tell a drift from
+/// a tilt), a GPS drifting in height.
 pub(super) fn common_tilt_warning(
-    frames: &[Frame],
-    adjust_frames: &[AdjustFrame],
-    report: &AdjustReport,
-    (flight_sigma_deg, gps_levels): (f64, bool),
+    (tilt, sigma, n): (f64, f64, usize),
+    gps_levels: bool,
 ) -> Option<String> {
-    let (tilt, sigma, n) = common_tilt_deg(frames, adjust_frames, report, flight_sigma_deg)?;
     if tilt <= (THREE_SIGMA_2D * sigma).max(COMMON_TILT_FLOOR_DEG) {
         return None;
     }
@@ -180,21 +178,13 @@ pub(super) fn common_tilt_warning(
     ))
 }
 
-/// A warning where nothing but the GPS heights levels a flight with no recorded attitudes
-/// (`gps_levels`: no DEM, no ground control, a block its GPS frees, a block spread enough for
-/// a drift whose frames' order cannot tell one from a tilt): a GPS whose height drifts over
-/// the flight would tilt it unseen. With recorded attitudes, [`common_tilt_warning`] measures
-/// such a tilt instead.
-pub(super) fn unseen_drift_warning(
-    frames: &[Frame],
-    adjust_frames: &[AdjustFrame],
-    report: &AdjustReport,
-    (flight_sigma_deg, gps_levels): (f64, bool),
-) -> Option<String> {
-    let recorded = common_tilt_deg(frames, adjust_frames, report, flight_sigma_deg).is_some();
-    (gps_levels && !recorded).then(|| {
-        "nothing but the GPS heights levels this flight (no DEM, no ground control, no recorded attitudes), and the order its photos were taken in cannot tell a drift in those heights from a tilt (strips all flown one way): a GPS whose height drifts over the flight would tilt it unseen; --dem or --gcps would tell".to_string()
-    })
+/// The warning for a flight with no recorded attitudes that nothing but the GPS heights
+/// levels (no DEM, no ground control, a block its GPS frees and spread enough for a drift
+/// whose frames' order cannot tell one from a tilt): a GPS whose height drifts over the flight
+/// would tilt it unseen. With recorded attitudes, [`common_tilt_warning`] measures such a tilt
+/// instead.
+pub(super) fn unseen_drift_warning() -> String {
+    "nothing but the GPS heights levels this flight (no DEM, no ground control, no recorded attitudes), and the order its photos were taken in cannot tell a drift in those heights from a tilt (strips all flown one way): a GPS whose height drifts over the flight would tilt it unseen; --dem or --gcps would tell".to_string()
 }
 
 /// One block of a flight that falls apart: frames tied to each other and to no frame of

@@ -56,25 +56,20 @@ impl Round {
 /// none recorded, that nothing but the GPS heights level a block spread enough for a drift
 /// to tilt it ([`unseen_drift_warning`]); `gps_levels`: only the GPS heights level the block
 /// its GPS frees, and the frames' order cannot tell a drift in them from a tilt.
-fn tilt_warnings(
+fn tilt_warning(
     plan: &FlightPlan,
     adjust_frames: &[AdjustFrame],
     report: &AdjustReport,
     gps_levels: bool,
-) -> Vec<String> {
+) -> Option<String> {
     let sigma = plan.fo.attitude_sigma_deg;
-    let frames = &plan.frames;
-    let centres: Vec<[f64; 3]> = plan.rec.poses.iter().map(|p| p.centre).collect();
-    let spread = gps_levels && drift::drift_decided(&centres);
-    common_tilt_warning(frames, adjust_frames, report, (sigma, gps_levels))
-        .into_iter()
-        .chain(unseen_drift_warning(
-            frames,
-            adjust_frames,
-            report,
-            (sigma, spread),
-        ))
-        .collect()
+    match common_tilt_deg(&plan.frames, adjust_frames, report, sigma) {
+        Some(tilt) => common_tilt_warning(tilt, gps_levels),
+        None => {
+            let centres: Vec<[f64; 3]> = plan.rec.poses.iter().map(|p| p.centre).collect();
+            (gps_levels && drift::drift_decided(&centres)).then(unseen_drift_warning)
+        }
+    }
 }
 
 /// Adjusts the recorded orientation to the tie points of the matched pairs (each with its
@@ -214,7 +209,7 @@ pub(super) fn match_and_adjust(
         && position_sigma_m.is_some()
         && plan.gps_drift_times().is_none()
         && relief.as_ref().is_some_and(|r| !r.freed.is_empty());
-    warnings.extend(tilt_warnings(
+    warnings.extend(tilt_warning(
         plan,
         &adjust_frames,
         &adjusted.report,
