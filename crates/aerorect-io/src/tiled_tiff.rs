@@ -8,6 +8,7 @@
 
 use crate::error::{CodecError, IoError};
 use crate::geotiff::GeoReference;
+use crate::strip_tiff::StripSample;
 use aerorect_core::ImageSize;
 use aerorect_raster::AnyRaster;
 use rayon::prelude::*;
@@ -356,42 +357,33 @@ fn encode<W: Write + Seek, K: TiffKind>(
 /// edge), native byte order; integer samples horizontally differenced (TIFF predictor 2).
 fn tile_bytes(t: &AnyRaster, tile: usize) -> Vec<u8> {
     match t {
-        AnyRaster::U8(r) => padded(r, tile, Some(u8::wrapping_sub)),
-        AnyRaster::U16(r) => padded(r, tile, Some(u16::wrapping_sub))
+        AnyRaster::U8(r) => padded(r, tile),
+        AnyRaster::U16(r) => padded(r, tile)
             .iter()
             .flat_map(|x| x.to_ne_bytes())
             .collect(),
-        AnyRaster::F32(r) => padded(r, tile, None)
+        AnyRaster::F32(r) => padded(r, tile)
             .iter()
             .flat_map(|x| x.to_ne_bytes())
             .collect(),
     }
 }
 
-/// The tile's samples pixel-interleaved and padded with zeros to `tile` x `tile`; with `sub`,
-/// through TIFF's horizontal predictor (each sample minus the same band's sample to its left,
-/// the padding included), made from the planes in the same pass.
-fn padded<T: aerorect_raster::Sample>(
-    r: &aerorect_raster::Raster<T>,
-    tile: usize,
-    sub: Option<fn(T, T) -> T>,
-) -> Vec<T> {
+/// The tile's samples pixel-interleaved and padded with zeros to `tile` x `tile`, through the
+/// sample type's predictor ([`StripSample::delta`], the strips' too: integer samples minus the
+/// same band's sample to their left, the padding included), made from the planes in one pass.
+fn padded<T: StripSample>(r: &aerorect_raster::Raster<T>, tile: usize) -> Vec<T> {
     let (w, b) = (r.width(), r.bands());
     let mut out = vec![T::default(); tile * tile * b];
     for (band, plane) in r.planes().iter().enumerate() {
         for (row, dst) in plane.chunks_exact(w).zip(out.chunks_exact_mut(tile * b)) {
-            let pixels = dst.chunks_exact_mut(b).zip(row);
-            let Some(f) = sub else {
-                pixels.for_each(|(px, &v)| px[band] = v);
-                continue;
-            };
             let mut left = T::default();
-            for (px, &v) in pixels {
-                px[band] = f(v, left);
+            for (px, &v) in dst.chunks_exact_mut(b).zip(row) {
+                px[band] = v.delta(left);
                 left = v;
             }
             if let Some(pad) = dst.get_mut(w * b + band) {
-                *pad = f(T::default(), left);
+                *pad = T::default().delta(left);
             }
         }
     }

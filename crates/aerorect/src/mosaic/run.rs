@@ -115,7 +115,7 @@ where
                 &img,
                 (tile.col0 + b.c0) as i64 - off[0],
                 (tile.row0 + b.r0) as i64 - off[1],
-                ImageSize::new(b.width(), b.r1 - b.r0),
+                ImageSize::new(b.width(), b.height()),
             )?;
             let sums = (acc.as_mut_slice(), wsum.as_mut_slice());
             accumulate(sums, tw, (b, &w), &r, (format.bands, f.plan.warp.alpha));

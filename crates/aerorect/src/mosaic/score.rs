@@ -180,8 +180,7 @@ impl MosaicPlan {
     pub fn scores(&self, k: usize, w: Window) -> Vec<f64> {
         let mut out = vec![f64::INFINITY; w.size.pixels()];
         if let Some(s) = self.scores_in(k, w) {
-            for (r, row) in s.values.chunks_exact(s.cells.width()).enumerate() {
-                let at = (s.cells.r0 + r) * w.size.width + s.cells.c0;
+            for (at, row) in s.rows_in(w.size.width) {
                 out[at..at + row.len()].copy_from_slice(row);
             }
         }
@@ -212,7 +211,7 @@ impl MosaicPlan {
             r1: r0 + rows.1 - rows.0,
         };
         let bw = cells.width();
-        let mut values = vec![f64::INFINITY; bw * (rows.1 - rows.0)];
+        let mut values = vec![f64::INFINITY; bw * cells.height()];
         let (ncols, nrows) = (node_lines(cols, s.width), node_lines(rows, s.height));
         let nodes: Vec<Node> = nrows
             .par_iter()
@@ -385,6 +384,10 @@ impl CellBox {
         self.c1 - self.c0
     }
 
+    pub fn height(&self) -> usize {
+        self.r1 - self.r0
+    }
+
     /// `inner`, a box given from this box's first cell, in the coordinates this box is in.
     pub fn shifted(&self, inner: CellBox) -> CellBox {
         CellBox {
@@ -403,6 +406,15 @@ pub(super) struct BoxScores {
     pub values: Vec<f64>,
 }
 
+impl BoxScores {
+    /// Each row of the scores, with the index of its first cell in a window `ww` cells wide.
+    pub fn rows_in(&self, ww: usize) -> impl Iterator<Item = (usize, &[f64])> {
+        let b = self.cells;
+        let rows = self.values.chunks_exact(b.width()).enumerate();
+        rows.map(move |(r, row)| ((b.r0 + r) * ww + b.c0, row))
+    }
+}
+
 /// [`best_of`]'s label of a cell no frame covers.
 pub(super) const NO_FRAME: usize = usize::MAX;
 
@@ -416,8 +428,7 @@ pub(super) fn best_of(
     let (n, ww) = (size.pixels(), size.width);
     let (mut best, mut labels) = (vec![f64::INFINITY; n], vec![NO_FRAME; n]);
     for (&k, s) in cands.iter().zip(scores) {
-        for (r, row) in s.values.chunks_exact(s.cells.width()).enumerate() {
-            let at = (s.cells.r0 + r) * ww + s.cells.c0;
+        for (at, row) in s.rows_in(ww) {
             let cells = best[at..at + row.len()]
                 .iter_mut()
                 .zip(&mut labels[at..at + row.len()]);

@@ -45,7 +45,7 @@ pub(super) fn weights(
     };
     let b = covered_box(scores, win.size, grow)?;
     let bw = b.width();
-    let cells = bw * (b.r1 - b.r0);
+    let cells = bw * b.height();
     let (mut mine, mut uncovered) = (Vec::with_capacity(cells), Vec::with_capacity(cells));
     for r in b.r0..b.r1 {
         mine.extend(labels[r * ww + b.c0..r * ww + b.c1].iter().map(|&l| l == k));
@@ -88,7 +88,7 @@ pub(super) fn weights(
             (0.5 + s / n).clamp(0.0, 1.0) * (d_cov[j] / n).min(1.0)
         }
     };
-    let mut values = Vec::with_capacity(cells.width() * (cells.r1 - cells.r0));
+    let mut values = Vec::with_capacity(cells.width() * cells.height());
     for r in cells.r0..cells.r1 {
         let j0 = (r - b.r0) * bw + cells.c0 - b.c0;
         values.extend((j0..j0 + cells.width()).map(weight));
