@@ -142,6 +142,11 @@ pub(super) fn drift_seen(
     den > 0.0 && f64::abs(num / den.sqrt()) > DRIFT_SEEN_SIGMAS
 }
 
+/// Whether the solve of `report` took a GPS drift.
+pub(super) fn drift_solved(report: &aerorect_solve::adjust::AdjustReport) -> bool {
+    report.datum.as_ref().is_some_and(|d| d.drift.is_some())
+}
+
 /// The warning that names a solved drift (over the flight, first photo to last), where the
 /// solve took one.
 pub(super) fn drift_warning(report: &aerorect_solve::adjust::AdjustReport) -> Option<String> {

@@ -181,7 +181,7 @@ impl FlightProgress {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     #[test]
@@ -258,8 +258,9 @@ mod tests {
         assert!(back.surface.is_none());
     }
 
-    #[test]
-    fn progress_gives_back_its_tie_surface_to_the_bit() {
+    /// A 4 x 3 tie surface whose heights and extent need every bit of their floats, and its
+    /// heights.
+    pub(in crate::flight) fn bit_surface() -> (TieSurface, Vec<f32>) {
         let crs = Crs::from_epsg(32633).unwrap();
         let values: Vec<f32> = (0..12).map(|k| 160.0 + 0.1 * k as f32 / 3.0).collect();
         let report = SurfaceReport {
@@ -280,20 +281,35 @@ mod tests {
             cell_size: [2.0, 2.0],
             crs,
         };
+        let surface = TieSurface {
+            dem: std::sync::Arc::new(dem),
+            report,
+        };
+        (surface, values)
+    }
+
+    /// `back` is `surface` (of [`bit_surface`], whose heights are `values`) to the bit.
+    pub(in crate::flight) fn assert_same_surface(
+        back: &TieSurface,
+        (surface, values): &(TieSurface, Vec<f32>),
+    ) {
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back.dem.values), bits(values));
+        assert_eq!(back.report, surface.report);
+        let e = surface.report.extent;
+        assert_eq!(back.dem.top_left, [e[0], e[3]]);
+        assert!(back.dem.crs.same_as(&Crs::from_epsg(32633).unwrap()));
+    }
+
+    #[test]
+    fn progress_gives_back_its_tie_surface_to_the_bit() {
+        let sample = bit_surface();
         let p = FlightProgress {
             done: true,
-            surface: Some(TieSurface {
-                dem: std::sync::Arc::new(dem),
-                report: report.clone(),
-            }),
+            surface: Some(sample.0.clone()),
             ..FlightProgress::default()
         };
         let back = FlightProgress::from_json(&p.to_json().unwrap()).unwrap();
-        let s = back.surface.unwrap();
-        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&s.dem.values), bits(&values));
-        assert_eq!(s.report, report);
-        assert_eq!(s.dem.top_left, [report.extent[0], report.extent[3]]);
-        assert!(s.dem.crs.same_as(&Crs::from_epsg(32633).unwrap()));
+        assert_same_surface(&back.surface.unwrap(), &sample);
     }
 }

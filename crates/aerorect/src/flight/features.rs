@@ -18,7 +18,8 @@ pub enum TieSource {
     /// Features first (no attitude needed), then correlation of the rendered frames refines
     /// in later rounds: where it ties a pair its matches replace the pair's features in the
     /// rounds' solves, which hold the pairs it cannot tie. Over a DEM the solve that ends the
-    /// rounds takes both, each weighed by its own agreement ([`super::SourceWeights`]).
+    /// rounds takes both, each weighed by its own agreement ([`super::SourceWeights`]); where
+    /// the features agree at least as well, no correlation round is run.
     #[default]
     Both,
     /// Features only: one round (they do not depend on the orientation).

@@ -87,12 +87,20 @@ pub(super) fn ground_fn(
     world: &Crs,
 ) -> Box<dyn Fn(f64, f64) -> f64 + Send + Sync> {
     if let Some(dem) = &opts.dem {
-        let mid = dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1));
-        let height_at = aerorect_geo::Dem::heights_in(std::sync::Arc::clone(dem), world);
-        return Box::new(move |x, y| height_at(x, y).unwrap_or(mid));
+        return dem_ground(std::sync::Arc::clone(dem), world);
     }
     let z = opts.ground_height_m.unwrap_or(0.0);
     Box::new(move |_, _| z)
+}
+
+/// The ground `dem` describes, at (x, y) in `world`: its middle height off it.
+pub(super) fn dem_ground(
+    dem: std::sync::Arc<aerorect_geo::Dem>,
+    world: &Crs,
+) -> Box<dyn Fn(f64, f64) -> f64 + Send + Sync> {
+    let mid = dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1));
+    let height_at = aerorect_geo::Dem::heights_in(dem, world);
+    Box::new(move |x, y| height_at(x, y).unwrap_or(mid))
 }
 
 /// Every frame planned on the matching grid: at `gsd`, or coarser until every frame's ortho

@@ -139,7 +139,7 @@ impl FlightPlan {
             .sum::<f64>()
             .sqrt();
         let shift_m = GUIDE_SIGMAS * std::f64::consts::SQRT_2 * pos_i.max(pos_j)
-            + GUIDE_SIGMAS * terrain_sigma_m(self.opts.dem.is_some()) * baseline / height;
+            + GUIDE_SIGMAS * self.basis_terrain_sigma_m(basis, i, j) * baseline / height;
         Some(f * turn.tan() * (1.0 + (corner / f).powi(2)) + f * shift_m / height)
     }
 }

@@ -7,7 +7,8 @@
 //! directions); RANSAC keeps the matches one homography explains, each becomes a tie point
 //! (its frame pixels through each frame's own ortho map), and where correlation ties a pair
 //! its ties replace the pair's features in the rounds; over a DEM the solve that ends them
-//! takes both, each weighed by its own agreement.
+//! takes both, each weighed by its own agreement. Where the features round's ties agree at
+//! least as well as correlation's on a sample of its pairs, no correlation round is run.
 //!
 //! One file per stage: `frames` (the photos and their first orientation), `features` (the
 //! first round's tie points from SIFT features, which need no attitude; `guide` narrows each
@@ -341,8 +342,9 @@ pub struct RoundSummary {
     /// [`FlightOptions::final_all_ties`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub final_solve: Option<FinalSolve>,
-    /// Over a DEM, in a round with correlation ties: how well each source's ties agree and
-    /// the features' weight beside correlation's in the solve that ends the rounds.
+    /// How well each source's ties agree and the features' weight beside correlation's in the
+    /// solve that ends the rounds: over a DEM in a round with correlation ties; in the
+    /// features round, on a correlated sample of its pairs (with or without a DEM).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sources: Option<SourceWeights>,
     /// Whether this round ended the rounds because the features agree at least as well as

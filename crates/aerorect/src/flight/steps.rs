@@ -8,13 +8,18 @@
 //! A pair the solve guides wrongly is matched again in full, as any guided pair
 //! ([`GUIDE_RETRY_OVERLAP`]).
 //!
-//! Without a DEM the level ground's 10 m ([`RELIEF_SIGMA_M`]) of parallax leaves most
-//! second-step windows too wide, and those pairs are matched in full. Putting the second
-//! step's keypoints on the surface the first step's ties describe (`tie_surface` through its
-//! solve) at 2 m halved the 1,000-frame fixed wing's feature stage (GPS only, no DEM: 93.7 ->
-//! 45.3 s wall) but not the flight (232.5 -> 206.7 s, the later solves longer) and left it
-//! further from the truth (0.068 / 0.476 -> 0.096 / 0.852 deg, median / max; at 4 m, 221.0 s
-//! and 0.102 / 0.679): not taken.
+//! Without a DEM the level ground's 10 m ([`RELIEF_SIGMA_M`]) of parallax would leave most
+//! second-step windows too wide (matched in full: 17,366 pairs, 132 s of CPU on the
+//! 1,000-frame fixed wing, GPS only). So the first step's solve also gives the ground its ties
+//! describe ([`tie_surface`], [`StepGuide::surface`]): a placed frame's keypoints go on it,
+//! and a pair of placed frames allows for the ground's height about it by the surface's own
+//! spread, at least a DEM's 1 m ([`FlightPlan::basis_terrain_sigma_m`]). On that flight, whose
+//! features hold without a correlation round (see `sources`): 3,002 pairs matched in full
+//! instead of 17,366, features round 103.3 -> 41.1 s wall, matched and adjusted 126.5 ->
+//! 65.7 s, 0.072 / 0.196 -> 0.099 / 0.228 deg from the truth (median / max; the block's common
+//! turn 0.026 deg, so the frames' own: their tilt trades with their 0.2 m of position where
+//! no DEM holds their heights); at a 2 m floor, 0.100 / 0.229. Tried while correlation rounds
+//! still followed, the surface saved less (232.5 -> 206.7 s) and ended 0.096 / 0.852.
 
 use super::*;
 use crate::features::FrameFeatures;
@@ -45,6 +50,10 @@ pub struct StepGuide {
     /// The solve's corrections: where the first round's solve starts
     /// ([`FlightPlan::first_progress`]).
     pub start: Corrections,
+    /// Without a DEM, the ground the first step's ties describe through its solve
+    /// ([`tie_surface`]): the second step's keypoints are put on it, and its windows allow
+    /// for the ground's height about it instead of the level ground's relief.
+    pub surface: Option<TieSurface>,
 }
 
 /// The orientation a pair's window is predicted from.
@@ -119,11 +128,24 @@ impl FlightPlan {
             match_and_adjust((&pairs, false), self, mode, None, false)
         })
         .ok()?;
+        let surface = match self.opts.dem.is_none() && self.fo.tie_surface {
+            true => timing::time("features: first step's surface", || {
+                let ties: Vec<TiePoint> = first
+                    .iter()
+                    .flat_map(|m| m.solve_ties(true).map(|t| t.tie_point(m.a, m.b)))
+                    .collect();
+                tie_surface(&ties, round.adjusted.oriented(), &self.crs)
+            })
+            .ok()
+            .flatten(),
+            false => None,
+        };
         let (poses, cameras) = round.orientation(&self.rec);
         Some(StepGuide {
             orientation: Orientation { poses, cameras },
             placed,
             start: round.adjusted.corrections,
+            surface,
         })
     }
 
@@ -158,14 +180,35 @@ impl FlightPlan {
         f: &FrameFeatures,
     ) -> Vec<Option<[f64; 3]>> {
         let (pose, camera) = self.basis_view(basis, k);
+        let surface = match basis {
+            Basis::Stepped(g) if g.placed[k] => g.surface.as_ref(),
+            _ => None,
+        }
+        .map(|s| dem_ground(self.flight_dem(&s.dem), &self.crs));
+        let ground = surface
+            .as_ref()
+            .map_or(self.ground.as_ref(), |g| g.as_ref());
         f.features
             .keypoints
             .iter()
             .map(|kp| {
                 let px = aerorect_raster::features::full_from_reduced(f.factor, [kp.x, kp.y]);
-                on_ground(pose, camera, px, self.ground.as_ref())
+                on_ground(pose, camera, px, ground)
             })
             .collect()
+    }
+
+    /// The standard deviation (m) of the ground's height under pair (`i`, `j`)'s ties in
+    /// `basis`: about the first step's surface where it placed both frames (the surface's own
+    /// spread, at least a DEM's), else [`terrain_sigma_m`].
+    pub(super) fn basis_terrain_sigma_m(&self, basis: Basis<'_>, i: usize, j: usize) -> f64 {
+        match basis {
+            Basis::Stepped(g) if g.placed[i] && g.placed[j] => g.surface.as_ref(),
+            _ => None,
+        }
+        .map_or(terrain_sigma_m(self.opts.dem.is_some()), |s| {
+            s.report.spread_m.max(terrain_sigma_m(true))
+        })
     }
 
     /// Frame `k`'s pose and camera in `basis`.
@@ -215,6 +258,7 @@ impl StepGuide {
         let progress = FlightProgress {
             orientation: Some(self.orientation.clone()),
             start: Some(self.start.clone()),
+            surface: self.surface.clone(),
             ..Default::default()
         };
         exact_json(&StepGuideFile {
@@ -237,6 +281,7 @@ impl StepGuide {
                     orientation: o,
                     placed: f.placed,
                     start,
+                    surface: p.surface,
                 })
             }
             _ => Err(Error::Invalid(format!(
@@ -301,12 +346,22 @@ mod tests {
             placed: vec![true, false],
             start: Corrections::from_values(2, 1, &vec![0.1 + 0.2; Corrections::value_count(2, 1)])
                 .unwrap(),
+            surface: None,
         };
         let text = g.to_json().unwrap();
         let back = StepGuide::from_json(&text, 2).unwrap();
         assert_eq!(back.orientation, g.orientation);
         assert_eq!(back.placed, g.placed);
         assert_eq!(back.start, g.start);
+        assert!(back.surface.is_none());
+        // The first step's tie surface (a flight without a DEM) travels with it.
+        let sample = crate::flight::exchange::tests::bit_surface();
+        let surfaced = StepGuide {
+            surface: Some(sample.0.clone()),
+            ..g.clone()
+        };
+        let back = StepGuide::from_json(&surfaced.to_json().unwrap(), 2).unwrap();
+        crate::flight::exchange::tests::assert_same_surface(&back.surface.unwrap(), &sample);
         let e = StepGuide::from_json(&text, 3).unwrap_err().to_string();
         assert!(e.contains("3 frames"), "{e}");
     }

@@ -117,6 +117,22 @@ pub(super) fn tie_gap(
     Some([pa[0] - pb[0], pa[1] - pb[1]])
 }
 
+/// How far apart (m) the two frames' rays of a two-frame tie pass (the length of their
+/// common perpendicular): its disagreement without a ground, wherever its point is. The part
+/// of an error along the pair's base moves the point's height instead, and is not seen.
+pub(super) fn ray_gap(t: &TiePoint, poses: &[Pose], cameras: &[&Camera]) -> Option<f64> {
+    let [a, b] = [t.observations.first()?, t.observations.get(1)?];
+    let ray = |o: &Observation| -> Option<aerorect_core::Vec3> {
+        let d = cameras[o.frame].ray_from_pixel(o.pixel[0], o.pixel[1])?;
+        Some(poses[o.frame].world_direction(d).normalize())
+    };
+    let normal = ray(a)?.cross(&ray(b)?);
+    let sine = normal.norm();
+    let [ca, cb] = [poses[a.frame].centre, poses[b.frame].centre];
+    let base = aerorect_core::Vec3::new(cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]);
+    (sine > 1e-9).then(|| base.dot(&normal).abs() / sine)
+}
+
 /// Where the ray of `pixel` meets the ground (three steps of the height under it).
 pub(super) fn on_ground(
     pose: &Pose,
@@ -208,6 +224,51 @@ pub(super) fn split_kept<T>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two nadir frames 100 m up and 30 m apart along x (f = 1000 px): a tie's error along
+    /// the base moves its point's height and leaves the rays meeting (gap 0); one of e px
+    /// across it (frame b's ray moved e / 10 m sideways at the ground, through the pair's
+    /// midpoint) leaves them the length of the common perpendicular of the two lines apart,
+    /// written out here for the directions (15, 0, -100) and (-15, e / 10, -100).
+    #[test]
+    fn rays_gap_across_the_base_and_meet_along_it() {
+        let camera = Camera::new(
+            aerorect_core::Intrinsics::new(1000.0, 1000.0, 500.0, 500.0).unwrap(),
+            None,
+            ImageSize::new(1000, 1000),
+        );
+        let cameras = [&camera, &camera];
+        let at = |x: f64| Pose::new([x, 0.0, 100.0], &aerorect_core::Mat3::identity());
+        let poses = [at(0.0), at(30.0)];
+        let tie = |b: [f64; 2]| {
+            PairTie {
+                ground: [15.0, 0.0, 0.0],
+                pixel_a: [650.0, 500.0],
+                pixel_b: b,
+                weight: 1.0,
+            }
+            .tie_point(0, 1)
+        };
+        let exact = ray_gap(&tie([350.0, 500.0]), &poses, &cameras).unwrap();
+        assert!(exact < 1e-9, "{exact}");
+        let along = ray_gap(&tie([357.0, 500.0]), &poses, &cameras).unwrap();
+        assert!(along < 1e-9, "{along}");
+        for e in [0.3, 2.0, 25.0] {
+            let got = ray_gap(&tie([350.0, 500.0 - e]), &poses, &cameras).unwrap();
+            // |base . (da x db)| / |da x db| with base (30, 0, 0), da (15, 0, -100),
+            // db (-15, s, -100), s = e / 10: da x db = (100 s, 3000, 15 s).
+            let s = e / 10.0;
+            let want = 30.0 * 100.0 * s
+                / ((100.0 * s).powi(2) + 3000f64.powi(2) + (15.0 * s).powi(2)).sqrt();
+            assert!(
+                (got - want).abs() < 1e-9 * want.max(1.0),
+                "{e}: {got} vs {want}"
+            );
+            assert!((got / s - 1.0).abs() < 0.01 || e > 10.0, "{e}: {got}");
+        }
+        // Parallel rays (both frames at one point) have no common perpendicular.
+        assert!(ray_gap(&tie([650.0, 500.0]), &[poses[0], poses[0]], &cameras).is_none());
+    }
 
     #[test]
     fn split_kept_is_a_filter_by_index_and_its_complement() {
