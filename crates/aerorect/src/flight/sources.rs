@@ -174,9 +174,23 @@ impl FlightPlan {
         let step = reliable.len().div_ceil(SOURCE_SAMPLE_PAIRS).max(1);
         let sample: Vec<&PairMatch> = reliable.into_iter().step_by(step).collect();
         let correlated: Vec<PairMatch> = timing::time("sources: correlated sample (wall)", || {
+            // Each frame rendered once for every sampled pair it is in (the senseFly photos'
+            // 11 frames: 1.55 s of sample rendering them per pair).
+            let frames: std::collections::BTreeSet<usize> =
+                sample.iter().flat_map(|m| [m.a, m.b]).collect();
+            let rendered: std::collections::BTreeMap<usize, Rendered> = frames
+                .into_par_iter()
+                .map(|k| Ok((k, self.render(k, Some(orientation))?)))
+                .collect::<Result<_, Error>>()?;
             sample
                 .par_iter()
-                .map(|m| self.pair_match(m.a, m.b, Some(orientation)))
+                .map(|m| match (rendered.get(&m.a), rendered.get(&m.b)) {
+                    (Some(a), Some(b)) => self.match_rendered((m.a, a), (m.b, b)),
+                    _ => Err(Error::Invalid(format!(
+                        "pair ({}, {}) not rendered",
+                        m.a, m.b
+                    ))),
+                })
                 .collect::<Result<_, Error>>()
         })?;
         let mut both: Vec<PairMatch> = sample.iter().map(|m| (*m).clone()).collect();
