@@ -148,6 +148,8 @@ pub struct FlightOptions {
     /// [`SURFACE_MAX_RESIDUAL_PX`]. On by
     /// default: on the senseFly photos over hills the level ground left consecutive frames
     /// 1.5-2.3 px apart by their relief's parallax. A DEM, when given, is always the ground.
+    /// In a flight matched in two steps it also guides the second step over the surface of
+    /// the first step's ties ([`StepGuide::surface`]).
     pub tie_surface: bool,
     /// Once the rounds are done (settled, at [`FlightOptions::passes`], or features alone),
     /// solve once more, from the last round's solution and on the last round's matches, with
