@@ -98,7 +98,18 @@ pub(super) fn dem_ground(
     dem: std::sync::Arc<aerorect_geo::Dem>,
     world: &Crs,
 ) -> Box<dyn Fn(f64, f64) -> f64 + Send + Sync> {
-    let mid = dem.range().map_or(0.0, |r| 0.5 * (r.0 + r.1));
+    let range = dem.range();
+    dem_ground_within(dem, world, range)
+}
+
+/// [`dem_ground`] of a DEM whose lowest and highest heights are known (`range`: its
+/// [`aerorect_geo::Dem::range`]), without a pass over its cells for them.
+pub(super) fn dem_ground_within(
+    dem: std::sync::Arc<aerorect_geo::Dem>,
+    world: &Crs,
+    range: Option<(f64, f64)>,
+) -> Box<dyn Fn(f64, f64) -> f64 + Send + Sync> {
+    let mid = range.map_or(0.0, |r| 0.5 * (r.0 + r.1));
     let height_at = aerorect_geo::Dem::heights_in(dem, world);
     Box::new(move |x, y| height_at(x, y).unwrap_or(mid))
 }

@@ -184,7 +184,12 @@ impl FlightPlan {
             Basis::Stepped(g) if g.placed[k] => g.surface.as_ref(),
             _ => None,
         }
-        .map(|s| dem_ground(self.flight_dem(&s.dem), &self.crs));
+        .map(|s| {
+            // The report's heights are the surface's range: no pass over its cells per frame.
+            let [lo, hi] = s.report.heights_m;
+            let range = (lo <= hi).then_some((lo, hi));
+            dem_ground_within(self.flight_dem(&s.dem), &self.crs, range)
+        });
         let ground = surface
             .as_ref()
             .map_or(self.ground.as_ref(), |g| g.as_ref());
