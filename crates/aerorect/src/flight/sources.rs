@@ -81,8 +81,7 @@ fn median_gap(
                 .iter()
                 .filter_map(|t| ray_gap(t, poses, cameras))
                 .collect();
-            d.sort_by(f64::total_cmp);
-            d.get(d.len() / 2).copied().unwrap_or(f64::NAN)
+            median(&mut d).unwrap_or(f64::NAN)
         }
     };
     gap.is_finite().then_some(gap)

@@ -160,15 +160,6 @@ fn without_far_heights(points: Vec<[f64; 3]>) -> Vec<[f64; 3]> {
         .collect()
 }
 
-fn median(v: &mut [f64]) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    let k = v.len() / 2;
-    let (_, m, _) = v.select_nth_unstable_by(k, f64::total_cmp);
-    Some(*m)
-}
-
 /// [xmin, ymin, xmax, ymax] of the points and of every frame's footprint on the level of the
 /// points' median height (the image corners' rays), a tenth wider on each side.
 fn surface_extent(points: &[[f64; 3]], frames: OrientedFrames<'_>) -> [f64; 4] {

@@ -87,8 +87,17 @@ pub(super) fn misalignment(
         .iter()
         .filter_map(|t| tie_gap(t, poses, cameras, ground).map(|g| g[0].hypot(g[1])))
         .collect();
-    d.sort_by(f64::total_cmp);
-    d.get(d.len() / 2).copied().unwrap_or(f64::NAN)
+    median(&mut d).unwrap_or(f64::NAN)
+}
+
+/// The median of `v` (the upper one of an even count), reordering it; none when empty.
+pub(super) fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    let k = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(k, f64::total_cmp);
+    Some(*m)
 }
 
 /// A tie point on the ground and how far apart its two frames put it (frame b's ground point
@@ -123,12 +132,14 @@ pub(super) fn tie_gap(
 pub(super) fn ray_gap(t: &TiePoint, poses: &[Pose], cameras: &[&Camera]) -> Option<f64> {
     let [a, b] = [t.observations.first()?, t.observations.get(1)?];
     let ray = |o: &Observation| -> Option<aerorect_core::Vec3> {
-        let d = cameras[o.frame].ray_from_pixel(o.pixel[0], o.pixel[1])?;
-        Some(poses[o.frame].world_direction(d).normalize())
+        let d = cameras
+            .get(o.frame)?
+            .ray_from_pixel(o.pixel[0], o.pixel[1])?;
+        Some(poses.get(o.frame)?.world_direction(d).normalize())
     };
     let normal = ray(a)?.cross(&ray(b)?);
     let sine = normal.norm();
-    let [ca, cb] = [poses[a.frame].centre, poses[b.frame].centre];
+    let [ca, cb] = [poses.get(a.frame)?.centre, poses.get(b.frame)?.centre];
     let base = aerorect_core::Vec3::new(cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]);
     (sine > 1e-9).then(|| base.dot(&normal).abs() / sine)
 }
