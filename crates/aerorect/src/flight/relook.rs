@@ -117,11 +117,7 @@ impl<'p> Relook<'p> {
 
     /// Whether `adjusted`, solved without a drift, left the fixes drifting.
     fn drift_seen(&self, adjusted: &Adjusted, checks: &[GpsCheck]) -> bool {
-        let solved = adjusted
-            .report
-            .datum
-            .as_ref()
-            .is_some_and(|d| d.drift.is_some());
+        let solved = drift::drift_solved(&adjusted.report);
         let Some(times) = self.plan.gps_drift_times().filter(|_| !solved) else {
             return false;
         };

@@ -69,6 +69,16 @@ pub enum Basis<'a> {
     Stepped(&'a StepGuide),
 }
 
+impl<'a> Basis<'a> {
+    /// The first step's solve, where this basis is it and it placed every one of `frames`.
+    fn placing(self, frames: &[usize]) -> Option<&'a StepGuide> {
+        match self {
+            Basis::Stepped(g) if frames.iter().all(|&k| g.placed.get(k) == Some(&true)) => Some(g),
+            _ => None,
+        }
+    }
+}
+
 /// Keypoints per frame (the strongest by response) a first-step pair the priors cannot guide
 /// is matched on ([`Basis::FirstStep`]). Brute-force matching is quadratic in them: on the
 /// 1,000-frame fixed wing (1,051 keypoints a frame) its 3,002 first-step pairs took 17.8 s of
@@ -167,7 +177,7 @@ impl FlightPlan {
     /// placed the frame (`guide`), its keypoints on the ground by its solved pose; else as
     /// they were (by the recorded pose).
     pub fn step_features(&self, guide: &StepGuide, k: usize, f: &mut FrameFeatures) {
-        if guide.placed.get(k).copied().unwrap_or(false) {
+        if Basis::Stepped(guide).placing(&[k]).is_some() {
             f.ground = self.step_ground(Basis::Stepped(guide), k, f);
         }
     }
@@ -180,16 +190,15 @@ impl FlightPlan {
         f: &FrameFeatures,
     ) -> Vec<Option<[f64; 3]>> {
         let (pose, camera) = self.basis_view(basis, k);
-        let surface = match basis {
-            Basis::Stepped(g) if g.placed[k] => g.surface.as_ref(),
-            _ => None,
-        }
-        .map(|s| {
-            // The report's heights are the surface's range: no pass over its cells per frame.
-            let [lo, hi] = s.report.heights_m;
-            let range = (lo <= hi).then_some((lo, hi));
-            dem_ground_within(self.flight_dem(&s.dem), &self.crs, range)
-        });
+        let surface = basis
+            .placing(&[k])
+            .and_then(|g| g.surface.as_ref())
+            .map(|s| {
+                // The report's heights are the surface's range: no pass over its cells per frame.
+                let [lo, hi] = s.report.heights_m;
+                let range = (lo <= hi).then_some((lo, hi));
+                dem_ground_within(self.flight_dem(&s.dem), &self.crs, range)
+            });
         let ground = surface
             .as_ref()
             .map_or(self.ground.as_ref(), |g| g.as_ref());
@@ -207,22 +216,19 @@ impl FlightPlan {
     /// `basis`: about the first step's surface where it placed both frames (the surface's own
     /// spread, at least a DEM's), else [`terrain_sigma_m`].
     pub(super) fn basis_terrain_sigma_m(&self, basis: Basis<'_>, i: usize, j: usize) -> f64 {
-        match basis {
-            Basis::Stepped(g) if g.placed[i] && g.placed[j] => g.surface.as_ref(),
-            _ => None,
-        }
-        .map_or(terrain_sigma_m(self.opts.dem.is_some()), |s| {
-            s.report.spread_m.max(terrain_sigma_m(true))
-        })
+        basis
+            .placing(&[i, j])
+            .and_then(|g| g.surface.as_ref())
+            .map_or(terrain_sigma_m(self.opts.dem.is_some()), |s| {
+                s.report.spread_m.max(terrain_sigma_m(true))
+            })
     }
 
     /// Frame `k`'s pose and camera in `basis`.
     pub(super) fn basis_view<'a>(&'a self, basis: Basis<'a>, k: usize) -> (&'a Pose, &'a Camera) {
-        match basis {
-            Basis::Stepped(g) if g.placed[k] => {
-                (&g.orientation.poses[k], &g.orientation.cameras[k])
-            }
-            _ => (&self.rec.poses[k], &self.rec.cameras[self.rec.camera_of[k]]),
+        match basis.placing(&[k]) {
+            Some(g) => (&g.orientation.poses[k], &g.orientation.cameras[k]),
+            None => (&self.rec.poses[k], &self.rec.cameras[self.rec.camera_of[k]]),
         }
     }
 
@@ -231,12 +237,12 @@ impl FlightPlan {
     pub(super) fn basis_sigmas(&self, basis: Basis<'_>, k: usize) -> (f64, f64) {
         let attitude = self.frames[k].attitude_sigma_deg(self.fo.attitude_sigma_deg);
         let position = self.frame_position_sigma_m(k).unwrap_or(0.0);
-        match basis {
-            Basis::Stepped(g) if g.placed[k] => (
+        match basis.placing(&[k]) {
+            Some(_) => (
                 attitude.min(STEPPED_ATTITUDE_SIGMA_DEG),
                 position.min(STEPPED_POSITION_SIGMA_M),
             ),
-            _ => (attitude, position),
+            None => (attitude, position),
         }
     }
 
