@@ -382,6 +382,7 @@ pub fn adjust(
         iterations: 0,
         termination: Termination::MaxIterations,
     };
+    let mut storage = solve::Storage::default();
     for (stage, huber) in huber_stages(opts.huber, rms_start / opts.pixel_sigma)
         .into_iter()
         .enumerate()
@@ -390,8 +391,7 @@ pub fn adjust(
         let mut solver = solve::Solver {
             problem: &p,
             start: start.clone(),
-            linear: None,
-            inverses: Vec::new(),
+            storage,
             // A later stage starts at the last one's minimum, near its own.
             settled: opts.settled.filter(|_| warm || stage > 0),
         };
@@ -405,12 +405,13 @@ pub fn adjust(
         if out.termination == Termination::Failed {
             return Err(SolveError::Degenerate);
         }
+        storage = solver.storage;
     }
     let fit = report::Fit {
         before,
         after: p.rms(&out.state),
         sigmas: match opts.standard_deviations {
-            true => report::standard_deviations(&p, &out.state),
+            true => report::standard_deviations(&p, &out.state, storage),
             false => report::unknown_deviations(&p),
         },
         iterations: out.iterations,

@@ -2,13 +2,12 @@
 
 use super::blocks::{CameraParam, DatumParam, FrameParam, Param, State};
 use super::residuals::{Problem, world_from_camera};
-use super::schur::factor;
+use super::schur::inverse_diagonal;
+use super::solve::Storage;
 use super::{
     AdjustFrame, AdjustReport, Adjusted, CameraAdjustment, Datum, DatumAdjustment, FrameAdjustment,
     GaugeHold, GpsDrift, Termination,
 };
-use faer::linalg::solvers::Solve;
-use rayon::prelude::*;
 
 /// Residual RMS per frame (with counts and outliers) and overall.
 pub(super) type Rms = (Vec<(f64, usize, usize)>, f64);
@@ -28,33 +27,29 @@ pub(super) struct Fit {
 }
 
 /// Standard deviations of the free parameters: the diagonal of the reduced system's inverse
-/// (Gauss-Newton, undamped), scaled by the a-posteriori variance factor.
-pub(super) fn standard_deviations(p: &Problem<'_>, s: &State) -> Vec<(Param, f64)> {
+/// (Gauss-Newton, undamped), scaled by the a-posteriori variance factor. The normal
+/// equations are formed in the solve's `storage`.
+pub(super) fn standard_deviations(
+    p: &Problem<'_>,
+    s: &State,
+    storage: Storage,
+) -> Vec<(Param, f64)> {
     let free: Vec<(usize, Param)> = p.layout.free().collect();
     let nan = || free.iter().map(|&(_, q)| (q, f64::NAN)).collect();
-    let Some(lin) = p.linear(s, None) else {
+    let Some(lin) = p.linear(s, storage.linear) else {
         return nan();
     };
-    let (entries, _) = lin.reduced(0.0, &mut Vec::new());
+    let mut inverses = storage.inverses;
+    let (entries, _) = lin.reduced(0.0, &mut inverses);
     let n = p.layout.len();
-    let Some(llt) = factor(n, &entries) else {
+    let Some(variances) = inverse_diagonal(n, &entries) else {
         return nan();
     };
     let (_, rms_all) = p.rms(s);
     let scale = (rms_all / p.opts.pixel_sigma).max(1.0);
-    // Columns of the identity, solved many at a time (the factor's blocked solve), the
-    // blocks in parallel.
-    let starts: Vec<usize> = (0..n).step_by(256).collect();
-    let diag: Vec<f64> = starts
-        .par_iter()
-        .flat_map_iter(|&start| {
-            let cols = 256.min(n - start);
-            let b = faer::Mat::<f64>::from_fn(n, cols, |i, j| f64::from(u8::from(i == start + j)));
-            let x = llt.solve(&b);
-            (0..cols)
-                .map(|j| x[(start + j, j)].max(0.0).sqrt() * scale)
-                .collect::<Vec<f64>>()
-        })
+    let diag: Vec<f64> = variances
+        .iter()
+        .map(|v| v.max(0.0).sqrt() * scale)
         .collect();
     free.into_iter().map(|(i, q)| (q, diag[i])).collect()
 }

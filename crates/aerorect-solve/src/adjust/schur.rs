@@ -95,18 +95,104 @@ impl SchurWork {
     }
 }
 
-/// Factorises a symmetric system given by its entries (both triangles).
-pub(super) fn factor(
-    n: usize,
-    entries: &SymBlocks,
-) -> Option<faer::sparse::linalg::solvers::Llt<usize, f64>> {
+/// The lower triangle of a symmetric system given by its entries (both triangles).
+fn lower(n: usize, entries: &SymBlocks) -> Option<SparseColMat<usize, f64>> {
     let triplets: Vec<Triplet<usize, usize, f64>> = entries
         .lower_triplets()
         .into_iter()
         .map(|(i, j, v)| Triplet::new(i, j, v))
         .collect();
-    let m = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).ok()?;
-    m.sp_cholesky(faer::Side::Lower).ok()
+    SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).ok()
+}
+
+/// Factorises a symmetric system given by its entries (both triangles).
+pub(super) fn factor(
+    n: usize,
+    entries: &SymBlocks,
+) -> Option<faer::sparse::linalg::solvers::Llt<usize, f64>> {
+    lower(n, entries)?.sp_cholesky(faer::Side::Lower).ok()
+}
+
+/// Columns of the identity solved at a time by [`inverse_diagonal`] (the factor's blocked
+/// solve), the blocks in parallel.
+const INVERSE_BLOCK: usize = 256;
+
+/// The diagonal of the inverse of a symmetric positive definite system given by its entries
+/// (both triangles); none where it does not factorise. With the system permuted as
+/// P A P^T = L L^T, entry k is the squared norm of L^-1 e_m for m = P k: one triangular
+/// solve per column instead of the two of a solve with A. On the 1,000-frame fixed wing
+/// (6,000 parameters, 1.6 M tie points) its standard deviations agree with those of a solve
+/// with A to 3e-15 (relative), and its final solve, with [`super::solve::Storage`] kept for
+/// them too, took 13.7 / 15.0 / 13.9 s against 18.1 / 18.0 / 15.9 / 16.1 s, runs alternating.
+pub(super) fn inverse_diagonal(n: usize, entries: &SymBlocks) -> Option<Vec<f64>> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::sparse::linalg::cholesky::{
+        SymbolicCholeskyRaw, factorize_symbolic_cholesky, supernodal,
+    };
+    use faer::{Conj, Par};
+    let m = lower(n, entries)?;
+    let side = faer::Side::Lower;
+    let symbolic =
+        factorize_symbolic_cholesky(m.symbolic(), side, Default::default(), Default::default())
+            .ok()?;
+    let mut values = vec![0.0; symbolic.len_val()];
+    let scratch = symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
+    let mut mem = MemBuffer::try_new(scratch).ok()?;
+    symbolic
+        .factorize_numeric_llt(
+            &mut values,
+            m.as_ref(),
+            side,
+            Default::default(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )
+        .ok()?;
+    // L^-1 applied to columns `start..` of the identity, in place.
+    let l_solve = |start: usize, cols: usize| -> Option<faer::Mat<f64>> {
+        let mut x = faer::Mat::<f64>::from_fn(n, cols, |i, j| f64::from(u8::from(i == start + j)));
+        match symbolic.raw() {
+            SymbolicCholeskyRaw::Simplicial(s) => {
+                let l = faer::sparse::SparseColMatRef::new(s.factor(), &values);
+                faer::sparse::linalg::triangular_solve::solve_lower_triangular_in_place(
+                    l,
+                    Conj::No,
+                    x.as_mut(),
+                    Par::Seq,
+                );
+            }
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                let scratch = s.solve_in_place_scratch::<f64>(cols, Par::Seq);
+                let mut mem = MemBuffer::try_new(scratch).ok()?;
+                supernodal::SupernodalLltRef::new(s, &values).l_solve_with_conj(
+                    Conj::No,
+                    x.as_mut(),
+                    Par::Seq,
+                    MemStack::new(&mut mem),
+                );
+            }
+        }
+        Some(x)
+    };
+    let starts: Vec<usize> = (0..n).step_by(INVERSE_BLOCK).collect();
+    let permuted: Vec<f64> = starts
+        .par_iter()
+        .map(|&start| {
+            let cols = INVERSE_BLOCK.min(n - start);
+            let x = l_solve(start, cols)?;
+            Some(
+                (0..cols)
+                    .map(|j| x.col(j).squared_norm_l2())
+                    .collect::<Vec<f64>>(),
+            )
+        })
+        .collect::<Option<Vec<Vec<f64>>>>()?
+        .concat();
+    Some(match symbolic.perm() {
+        Some(p) => p.arrays().1.iter().map(|&m| permuted[m]).collect(),
+        None => permuted,
+    })
 }
 
 pub(super) fn solve_with(
@@ -116,4 +202,92 @@ pub(super) fn solve_with(
     let b = faer::Mat::<f64>::from_fn(rhs.len(), 1, |i, _| rhs[i]);
     let x = llt.solve(&b);
     (0..rhs.len()).map(|i| x[(i, 0)]).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::super::normal::Blocks;
+    use super::*;
+    use faer::sparse::linalg::cholesky::{SymbolicCholeskyRaw, factorize_symbolic_cholesky};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use std::sync::Arc;
+
+    /// A symmetric positive definite system of `blocks` blocks of `len` parameters, each
+    /// block coupled with the `reach` blocks after it (a strip of frames), as block storage
+    /// and as a dense matrix.
+    fn banded(
+        blocks: usize,
+        len: usize,
+        reach: usize,
+        seed: u64,
+    ) -> (SymBlocks, nalgebra::DMatrix<f64>) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let n = blocks * len;
+        let mut dense = nalgebra::DMatrix::<f64>::zeros(n, n);
+        for i in 0..n {
+            for j in 0..i {
+                if (i / len).abs_diff(j / len) <= reach {
+                    let v = rng.random_range(-1.0..1.0);
+                    dense[(i, j)] = v;
+                    dense[(j, i)] = v;
+                }
+            }
+        }
+        // Diagonally dominant: positive definite.
+        for i in 0..n {
+            let row: f64 = dense.row(i).iter().map(|v| v.abs()).sum();
+            dense[(i, i)] = row + rng.random_range(0.5..2.0);
+        }
+        let mut sym = SymBlocks::new(Arc::new(Blocks::new(vec![len; blocks])));
+        for i in 0..n {
+            for j in 0..n {
+                if dense[(i, j)] != 0.0 {
+                    *sym.entry(i, j) += dense[(i, j)];
+                }
+            }
+        }
+        (sym, dense)
+    }
+
+    /// The inverse's diagonal from one triangular solve per column equals the dense
+    /// inverse's, for a system faer factorises simplicially (scalar blocks, a narrow band)
+    /// and one it factorises in supernodes (frame-sized blocks, a wide band), more columns
+    /// than one block of solves.
+    #[test]
+    fn the_inverse_diagonal_is_the_dense_inverses() {
+        for (blocks, len, reach, supernodal) in [(300, 1, 1, false), (40, 12, 8, true)] {
+            let (sym, dense) = banded(blocks, len, reach, blocks as u64);
+            let n = blocks * len;
+            let m = lower(n, &sym).unwrap();
+            let raw = factorize_symbolic_cholesky(
+                m.symbolic(),
+                faer::Side::Lower,
+                Default::default(),
+                Default::default(),
+            )
+            .unwrap();
+            assert_eq!(
+                matches!(raw.raw(), SymbolicCholeskyRaw::Supernodal(_)),
+                supernodal,
+                "{blocks} blocks of {len}"
+            );
+            let got = inverse_diagonal(n, &sym).unwrap();
+            let inv = dense.try_inverse().unwrap();
+            assert!(n > INVERSE_BLOCK);
+            for (k, g) in got.iter().enumerate() {
+                let want = inv[(k, k)];
+                assert!((g - want).abs() <= 1e-12 * want.abs(), "{k}: {g} vs {want}");
+            }
+        }
+    }
+
+    /// A system that is not positive definite has no such diagonal.
+    #[test]
+    fn an_indefinite_system_has_no_inverse_diagonal() {
+        let (mut sym, _) = banded(10, 3, 1, 1);
+        *sym.entry(4, 4) = -100.0;
+        assert!(inverse_diagonal(30, &sym).is_none());
+    }
 }
