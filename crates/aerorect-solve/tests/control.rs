@@ -366,3 +366,48 @@ fn a_gps_drift_in_time_is_solved_where_the_strips_alternate() {
     // With the drift taken out, no fix is left contradicted.
     assert!(with.report.frames.iter().all(|f| f.position_weight == 1.0));
 }
+
+/// Two marks' rays meet at the point they were projected from; rays a few pixels apart pass
+/// closest at the midpoint, equally far from each, where the intersection started far off
+/// ends too; a ray with itself (parallel) meets nowhere.
+#[test]
+fn two_rays_meet_at_their_point_or_halfway_between_them() {
+    let s = scene(9);
+    let cameras = [camera(800.0)];
+    let truth = OrientedFrames {
+        frames: &s.truth,
+        cameras: &cameras,
+    };
+    let (g, obs) = &s.gcps[0];
+    let exact: Vec<Observation> = obs
+        .iter()
+        .map(|o| Observation {
+            pixel: truth.pixel_of(o.frame, [g.x, g.y, g.z]).unwrap(),
+            ..*o
+        })
+        .collect();
+    let x = truth.rays_meet(&exact[0], &exact[1]).unwrap();
+    assert!((Vec3::from(x) - g).norm() < 1e-6, "{x:?} {g}");
+    let off = Observation {
+        pixel: [exact[1].pixel[0] + 3.0, exact[1].pixel[1] - 2.0],
+        ..exact[1]
+    };
+    let m = Vec3::from(truth.rays_meet(&exact[0], &off).unwrap());
+    // Distance from m to each ray (centre c, direction through the pixel's world point).
+    let gap = |o: &Observation| {
+        let f = &s.truth[o.frame];
+        let c = Vec3::from(f.centre);
+        let through = Vec3::from(truth.ray_at_height(o.frame, o.pixel, g.z - 50.0).unwrap());
+        let d = (through - c).normalize();
+        ((m - c) - d * (m - c).dot(&d)).norm()
+    };
+    let (ga, gb) = (gap(&exact[0]), gap(&off));
+    assert!(ga > 1e-3 && (ga - gb).abs() < 1e-6 * ga, "{ga} {gb}");
+    let pair = [exact[0], off];
+    let from_mid = truth.intersect(&pair, m.into()).unwrap();
+    let from_far = truth
+        .intersect(&pair, [g.x + 5.0, g.y - 5.0, g.z + 10.0])
+        .unwrap();
+    assert!((Vec3::from(from_mid) - Vec3::from(from_far)).norm() < 1e-5);
+    assert!(truth.rays_meet(&exact[0], &exact[0]).is_none());
+}

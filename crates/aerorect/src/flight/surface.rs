@@ -81,10 +81,12 @@ pub fn tie_surface(
         .iter()
         .filter(|t| t.control.is_none() && t.observations.len() >= 2)
         .collect();
-    let points: Vec<[f64; 3]> = candidates
-        .par_iter()
-        .filter_map(|t| ground_point(t, frames))
-        .collect();
+    let points: Vec<[f64; 3]> = timing::time("tie surface: points", || {
+        candidates
+            .par_iter()
+            .filter_map(|t| ground_point(t, frames))
+            .collect()
+    });
     let points = without_far_heights(points);
     if points.len() < MIN_SURFACE_POINTS
         || (points.len() as f64) < MIN_SURFACE_KEPT * candidates.len() as f64
@@ -97,8 +99,8 @@ pub fn tie_surface(
     let (w, h) = grid_size(extent, cell);
     let fixed = cell_medians(&points, extent, cell, (w, h));
     let mut values = fixed.clone();
-    fill_outwards(&mut values, (w, h));
-    let values = relaxed(values, &fixed, (w, h));
+    timing::time("tie surface: fill", || fill_outwards(&mut values, (w, h)));
+    let values = timing::time("tie surface: relax", || relaxed(values, &fixed, (w, h)));
     let dem = Dem {
         name: SURFACE_NAME.into(),
         values,
@@ -134,7 +136,11 @@ pub fn tie_surface(
 /// Tie `t`'s point through the frames, if its rays meet within
 /// [`SURFACE_MAX_RESIDUAL_PX`] of every view (rms).
 fn ground_point(t: &TiePoint, frames: OrientedFrames<'_>) -> Option<[f64; 3]> {
-    let x = frames.intersect(&t.observations, t.ground)?;
+    let start = match &t.observations[..] {
+        [a, b, ..] => frames.rays_meet(a, b),
+        _ => None,
+    };
+    let x = frames.intersect(&t.observations, start.unwrap_or(t.ground))?;
     let mut sum = 0.0;
     for o in &t.observations {
         let p = frames.pixel_of(o.frame, x)?;
