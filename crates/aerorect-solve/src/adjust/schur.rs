@@ -5,8 +5,13 @@
 use super::linear::{CHUNK, Linear, PART, Partial, PointLin};
 use super::normal::SymBlocks;
 use aerorect_core::Vec3;
+use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::cholesky::{
+    SymbolicCholesky, SymbolicCholeskyRaw, factorize_symbolic_cholesky, supernodal,
+};
 use faer::sparse::{SparseColMat, Triplet};
+use faer::{Conj, Par};
 use nalgebra::Matrix3;
 use rayon::prelude::*;
 
@@ -125,11 +130,30 @@ const INVERSE_BLOCK: usize = 256;
 /// with A to 3e-15 (relative), and its final solve, with [`super::solve::Storage`] kept for
 /// them too, took 13.7 / 15.0 / 13.9 s against 18.1 / 18.0 / 15.9 / 16.1 s, runs alternating.
 pub(super) fn inverse_diagonal(n: usize, entries: &SymBlocks) -> Option<Vec<f64>> {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::sparse::linalg::cholesky::{
-        SymbolicCholeskyRaw, factorize_symbolic_cholesky, supernodal,
-    };
-    use faer::{Conj, Par};
+    let (symbolic, values) = factor_parts(n, entries)?;
+    let starts: Vec<usize> = (0..n).step_by(INVERSE_BLOCK).collect();
+    let permuted: Vec<f64> = starts
+        .par_iter()
+        .map(|&start| {
+            let cols = INVERSE_BLOCK.min(n - start);
+            let x = l_inverse_columns((&symbolic, &values), start, cols)?;
+            Some(
+                (0..cols)
+                    .map(|j| x.col(j).squared_norm_l2())
+                    .collect::<Vec<f64>>(),
+            )
+        })
+        .collect::<Option<Vec<Vec<f64>>>>()?
+        .concat();
+    Some(match symbolic.perm() {
+        Some(p) => p.arrays().1.iter().map(|&m| permuted[m]).collect(),
+        None => permuted,
+    })
+}
+
+/// The sparse Cholesky factor of a symmetric system given by its entries: its structure
+/// (with the fill-reducing permutation) and values.
+fn factor_parts(n: usize, entries: &SymBlocks) -> Option<(SymbolicCholesky<usize>, Vec<f64>)> {
     let m = lower(n, entries)?;
     let side = faer::Side::Lower;
     let symbolic =
@@ -149,50 +173,39 @@ pub(super) fn inverse_diagonal(n: usize, entries: &SymBlocks) -> Option<Vec<f64>
             Default::default(),
         )
         .ok()?;
-    // L^-1 applied to columns `start..` of the identity, in place.
-    let l_solve = |start: usize, cols: usize| -> Option<faer::Mat<f64>> {
-        let mut x = faer::Mat::<f64>::from_fn(n, cols, |i, j| f64::from(u8::from(i == start + j)));
-        match symbolic.raw() {
-            SymbolicCholeskyRaw::Simplicial(s) => {
-                let l = faer::sparse::SparseColMatRef::new(s.factor(), &values);
-                faer::sparse::linalg::triangular_solve::solve_lower_triangular_in_place(
-                    l,
-                    Conj::No,
-                    x.as_mut(),
-                    Par::Seq,
-                );
-            }
-            SymbolicCholeskyRaw::Supernodal(s) => {
-                let scratch = s.solve_in_place_scratch::<f64>(cols, Par::Seq);
-                let mut mem = MemBuffer::try_new(scratch).ok()?;
-                supernodal::SupernodalLltRef::new(s, &values).l_solve_with_conj(
-                    Conj::No,
-                    x.as_mut(),
-                    Par::Seq,
-                    MemStack::new(&mut mem),
-                );
-            }
+    Some((symbolic, values))
+}
+
+/// L^-1 applied to columns `start..start + cols` of the identity (in the permuted order).
+fn l_inverse_columns(
+    (symbolic, values): (&SymbolicCholesky<usize>, &[f64]),
+    start: usize,
+    cols: usize,
+) -> Option<faer::Mat<f64>> {
+    let n = symbolic.nrows();
+    let mut x = faer::Mat::<f64>::from_fn(n, cols, |i, j| f64::from(u8::from(i == start + j)));
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Simplicial(s) => {
+            let l = faer::sparse::SparseColMatRef::new(s.factor(), values);
+            faer::sparse::linalg::triangular_solve::solve_lower_triangular_in_place(
+                l,
+                Conj::No,
+                x.as_mut(),
+                Par::Seq,
+            );
         }
-        Some(x)
-    };
-    let starts: Vec<usize> = (0..n).step_by(INVERSE_BLOCK).collect();
-    let permuted: Vec<f64> = starts
-        .par_iter()
-        .map(|&start| {
-            let cols = INVERSE_BLOCK.min(n - start);
-            let x = l_solve(start, cols)?;
-            Some(
-                (0..cols)
-                    .map(|j| x.col(j).squared_norm_l2())
-                    .collect::<Vec<f64>>(),
-            )
-        })
-        .collect::<Option<Vec<Vec<f64>>>>()?
-        .concat();
-    Some(match symbolic.perm() {
-        Some(p) => p.arrays().1.iter().map(|&m| permuted[m]).collect(),
-        None => permuted,
-    })
+        SymbolicCholeskyRaw::Supernodal(s) => {
+            let scratch = s.solve_in_place_scratch::<f64>(cols, Par::Seq);
+            let mut mem = MemBuffer::try_new(scratch).ok()?;
+            supernodal::SupernodalLltRef::new(s, values).l_solve_with_conj(
+                Conj::No,
+                x.as_mut(),
+                Par::Seq,
+                MemStack::new(&mut mem),
+            );
+        }
+    }
+    Some(x)
 }
 
 pub(super) fn solve_with(
@@ -209,7 +222,6 @@ mod tests {
     #![allow(clippy::unwrap_used)]
     use super::super::normal::Blocks;
     use super::*;
-    use faer::sparse::linalg::cholesky::{SymbolicCholeskyRaw, factorize_symbolic_cholesky};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
     use std::sync::Arc;
