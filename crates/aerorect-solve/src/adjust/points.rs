@@ -75,11 +75,9 @@ impl OrientedFrames<'_> {
     /// its 1.6 M tie points). `None` for rays within about a millionth of a radian of
     /// parallel, or a frame that is not there.
     pub fn rays_meet(&self, a: &Observation, b: &Observation) -> Option<[f64; 3]> {
-        let ray = |o: &Observation| -> Option<(Vec3, Vec3)> {
-            let fr = self.frames.get(o.frame)?;
-            let cam = self.cameras.get(fr.camera)?;
-            let d = fr.world_from_camera * cam.ray_from_pixel(o.pixel[0], o.pixel[1])?;
-            Some((Vec3::from(fr.centre), d.normalize()))
+        let ray = |o: &Observation| {
+            let (c, d) = self.world_ray(o.frame, o.pixel)?;
+            Some((c, d.normalize()))
         };
         let ((ca, da), (cb, db)) = (ray(a)?, ray(b)?);
         // Closest points ca + s da and cb + u db: (ca - cb + s da - u db) is normal to both.
@@ -97,10 +95,17 @@ impl OrientedFrames<'_> {
     /// Where the ray of `pixel` in frame `f` meets the level `z` (`None` when it does not
     /// descend to it).
     pub fn ray_at_height(&self, f: usize, pixel: [f64; 2], z: f64) -> Option<[f64; 3]> {
+        let (centre, ray) = self.world_ray(f, pixel)?;
+        let t = (z - centre.z) / ray.z;
+        (t.is_finite() && t > 0.0).then(|| (centre + ray * t).into())
+    }
+
+    /// Frame `f`'s centre and the world direction (not normalised) of its ray through
+    /// `pixel`; `None` for a frame that is not there or a pixel beyond the lens's domain.
+    fn world_ray(&self, f: usize, pixel: [f64; 2]) -> Option<(Vec3, Vec3)> {
         let fr = self.frames.get(f)?;
         let cam = self.cameras.get(fr.camera)?;
-        let ray = fr.world_from_camera * cam.ray_from_pixel(pixel[0], pixel[1])?;
-        let t = (z - fr.centre[2]) / ray.z;
-        (t.is_finite() && t > 0.0).then(|| (Vec3::from(fr.centre) + ray * t).into())
+        let d = fr.world_from_camera * cam.ray_from_pixel(pixel[0], pixel[1])?;
+        Some((Vec3::from(fr.centre), d))
     }
 }
