@@ -333,14 +333,30 @@ impl Problem<'_> {
     pub fn rms(&self, s: &State) -> (Vec<(f64, usize, usize)>, f64) {
         let posed = self.posed(s);
         let mut per = vec![(0.0, 0usize, 0usize); self.frames.len()];
-        for (tie, x) in self.ties.iter().zip(&s.points) {
-            for o in &tie.observations {
-                if let Some(r) = self.residual(&posed, o, x) {
-                    let e = (r * self.opts.pixel_sigma).norm_squared();
-                    per[o.frame].0 += e;
-                    per[o.frame].1 += 1;
-                    per[o.frame].2 += usize::from(r.norm() > self.opts.huber);
-                }
+        // The residuals in parallel, a run of ties at a time; their sums in the observations'
+        // order.
+        let (chunk, run) = (65536, 1024);
+        for (ties, xs) in self.ties.chunks(chunk).zip(s.points.chunks(chunk)) {
+            let terms: Vec<Vec<(usize, f64, bool)>> = ties
+                .par_chunks(run)
+                .zip(xs.par_chunks(run))
+                .map(|(ties, xs)| {
+                    let mut terms = Vec::with_capacity(2 * ties.len());
+                    for (tie, x) in ties.iter().zip(xs) {
+                        for o in &tie.observations {
+                            if let Some(r) = self.residual(&posed, o, x) {
+                                let e = (r * self.opts.pixel_sigma).norm_squared();
+                                terms.push((o.frame, e, r.norm() > self.opts.huber));
+                            }
+                        }
+                    }
+                    terms
+                })
+                .collect();
+            for (frame, e, out) in terms.into_iter().flatten() {
+                per[frame].0 += e;
+                per[frame].1 += 1;
+                per[frame].2 += usize::from(out);
             }
         }
         let (sum, count) = per.iter().fold((0.0, 0), |a, f| (a.0 + f.0, a.1 + f.1));

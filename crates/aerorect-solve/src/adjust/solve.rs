@@ -5,9 +5,10 @@
 use super::blocks::State;
 use super::linear::Linear;
 use super::residuals::Problem;
-use super::schur::{factor, solve_with};
+use super::schur::{Factoriser, solve_with};
 use aerorect_core::Vec3;
 use nalgebra::Matrix3;
+use rayon::prelude::*;
 
 /// The last linearisation and each point's damped H_pp^-1 at the last step, kept for their
 /// storage from step to step, from one Huber stage to the next and for the standard
@@ -19,6 +20,10 @@ use nalgebra::Matrix3;
 pub(super) struct Storage {
     pub linear: Option<Linear>,
     pub inverses: Vec<Option<Matrix3<f64>>>,
+    /// Each point's back-substituted step at the last step (zero where it has none).
+    pub point_steps: Vec<Vec3>,
+    /// The reduced system's symbolic factorisation, shared by the steps.
+    pub factoriser: Factoriser,
 }
 
 /// The adjustment as the loop's model: the problem, its starting points (the parameter
@@ -91,21 +96,30 @@ impl crate::lm::Model for Solver<'_, '_> {
         let lin = self.storage.linear.as_ref()?;
         let mut inverses = std::mem::take(&mut self.storage.inverses);
         let (entries, rhs) = lin.reduced(lambda, &mut inverses);
-        let llt = factor(rhs.len(), &entries)?;
+        let llt = self.storage.factoriser.factor(rhs.len(), &entries)?;
         let dc = solve_with(&llt, &rhs);
         let mut next = self.problem.layout.moved(s, &dc);
         let mut step2: f64 = dc.iter().map(|d| d * d).sum();
-        for ((x, p), inv) in next.points.iter_mut().zip(&lin.points).zip(&inverses) {
-            if let Some(inv) = inv {
-                let hd = lin
-                    .hpc(p)
-                    .iter()
-                    .fold(Vec3::zeros(), |a, (i, v)| a + v * dc[*i]);
-                let dx = inv * (p.bp - hd);
-                step2 += dx.norm_squared();
-                *x += dx;
-            }
-        }
+        // The points back-substituted in parallel; the step's norm summed in their order (a
+        // point without one adds zero).
+        let mut steps = std::mem::take(&mut self.storage.point_steps);
+        steps.resize(next.points.len(), Vec3::zeros());
+        (next.points.par_iter_mut(), steps.par_iter_mut())
+            .into_par_iter()
+            .zip(lin.points.par_iter().zip(inverses.par_iter()))
+            .for_each(|((x, dx), (p, inv))| {
+                *dx = Vec3::zeros();
+                if let Some(inv) = inv {
+                    let hd = lin
+                        .hpc(p)
+                        .iter()
+                        .fold(Vec3::zeros(), |a, (i, v)| a + v * dc[*i]);
+                    *dx = inv * (p.bp - hd);
+                    *x += *dx;
+                }
+            });
+        step2 = steps.iter().fold(step2, |a, dx| a + dx.norm_squared());
+        self.storage.point_steps = steps;
         self.storage.inverses = inverses;
         if !step2.is_finite() {
             return None;
