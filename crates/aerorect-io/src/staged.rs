@@ -197,6 +197,13 @@ impl StagedOutputs {
         })
     }
 
+    /// Takes over `other`'s staged files, after this one's: outputs staged apart (one per
+    /// frame, frames in parallel) land together.
+    pub fn append(&mut self, other: StagedOutputs) {
+        let mut other = other;
+        self.files.append(&mut other.files);
+    }
+
     /// The targets staged so far, in order.
     pub fn targets(&self) -> impl Iterator<Item = &Path> {
         self.files.iter().map(|f| f.path.as_path())
@@ -289,6 +296,27 @@ mod tests {
         s.commit().expect("commit");
         assert_eq!(names(dir.path()), ["a.txt", "b.txt"]);
         assert_eq!(std::fs::read_to_string(&b).expect("b"), "B");
+    }
+
+    /// Files staged apart and appended land with the rest at the commit; those of a stage
+    /// dropped instead (a frame that failed) never land and leave no temporary file.
+    #[test]
+    fn appended_stages_land_together_and_dropped_ones_leave_nothing() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = |n: &str| dir.path().join(n);
+        let mut all = StagedOutputs::new();
+        all.text(&path("a.txt"), "A").expect("a");
+        let mut own = StagedOutputs::new();
+        own.text(&path("b.txt"), "B").expect("b");
+        let mut failed = StagedOutputs::new();
+        failed.text(&path("c.txt"), "C").expect("c");
+        all.append(own);
+        drop(failed);
+        assert_eq!(names(dir.path()).len(), 2, "a's and b's temporary files");
+        assert_eq!(all.targets().count(), 2);
+        all.commit().expect("commit");
+        assert_eq!(names(dir.path()), ["a.txt", "b.txt"]);
+        assert_eq!(std::fs::read_to_string(path("b.txt")).expect("b"), "B");
     }
 
     #[cfg(unix)]

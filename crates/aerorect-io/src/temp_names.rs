@@ -59,20 +59,43 @@ fn writer_of(file: &str, name: &str) -> Option<u32> {
 
 /// Removes the temporary files in `dir` for `path`'s name whose process has ended, except those
 /// in `registered` (this process's own, still being written). Returns how many were removed.
+///
+/// A folder is listed once per process ([`temporary_files`]): a batch of a thousand frames
+/// listed its output folder, thousands of files, once per output. A file a killed process
+/// leaves there after that listing is removed by the next run instead.
 pub(crate) fn remove_stale(dir: &Path, path: &Path, registered: &[PathBuf]) -> usize {
     let name = target_name(path);
-    let Ok(entries) = std::fs::read_dir(dir) else {
+    let Ok(mut listed) = LISTED.lock() else {
         return 0;
     };
+    let files = listed
+        .entry(dir.to_path_buf())
+        .or_insert_with(|| temporary_files(dir));
+    let mut removed = 0;
+    files.retain(|file| {
+        let stale = writer_of(file, &name).is_some_and(process_gone)
+            && !registered.contains(&dir.join(file));
+        let gone = stale && std::fs::remove_file(dir.join(file)).is_ok();
+        removed += usize::from(gone);
+        !gone
+    });
+    removed
+}
+
+/// Each folder's temporary files (of any target) when [`remove_stale`] first listed it.
+static LISTED: std::sync::Mutex<std::collections::BTreeMap<PathBuf, Vec<String>>> =
+    std::sync::Mutex::new(std::collections::BTreeMap::new());
+
+/// The names in `dir` of the form of a temporary file (see the module); none when it cannot
+/// be read.
+fn temporary_files(dir: &Path) -> Vec<String> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
     entries
-        .filter_map(|e| e.ok())
-        .filter(|e| {
-            let file = e.file_name();
-            let writer = file.to_str().and_then(|f| writer_of(f, &name));
-            writer.is_some_and(process_gone) && !registered.contains(&e.path())
-        })
-        .filter(|e| std::fs::remove_file(e.path()).is_ok())
-        .count()
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|f| f.starts_with(".aerorect-") && f.ends_with(".tmp"))
+        .collect()
 }
 
 #[cfg(test)]

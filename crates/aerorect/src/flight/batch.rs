@@ -45,16 +45,31 @@ impl AdjustedFlight {
         }
         let mut done = Vec::with_capacity(outputs.len());
         let mut failed = Vec::new();
-        for (k, out) in outputs.iter().enumerate() {
-            let r = self.write_frame_staged(k, out, opts, staged);
-            each(k, &r);
-            match r {
-                Ok(p) => done.push(p),
-                Err(e) => failed.push(format!(
-                    "{}: {}",
-                    self.frames[k].input.display(),
-                    e.full_message()
-                )),
+        // A few frames at a time in parallel, each staged apart; their results and staged
+        // files are taken in frame order.
+        let frames: Vec<usize> = (0..outputs.len()).collect();
+        for chunk in frames.chunks(FRAMES_AT_ONCE) {
+            let written: Vec<_> = chunk
+                .par_iter()
+                .map(|&k| {
+                    let mut own = StagedOutputs::new();
+                    let r = self.write_frame_staged(k, &outputs[k], opts, &mut own);
+                    (r, own)
+                })
+                .collect();
+            for (&k, (r, own)) in chunk.iter().zip(written) {
+                each(k, &r);
+                match r {
+                    Ok(p) => {
+                        done.push(p);
+                        staged.append(own);
+                    }
+                    Err(e) => failed.push(format!(
+                        "{}: {}",
+                        self.frames[k].input.display(),
+                        e.full_message()
+                    )),
+                }
             }
         }
         if !failed.is_empty() {
@@ -76,6 +91,10 @@ impl AdjustedFlight {
         Ok(done)
     }
 }
+
+/// Frames rendered and encoded at once by [`AdjustedFlight::stage_batch`]: enough to keep
+/// every core busy, few enough that their rasters stay small beside the flight's.
+const FRAMES_AT_ONCE: usize = 16;
 
 /// A report as pretty JSON.
 fn pretty<T: Serialize>(v: &T) -> Result<String, Error> {
