@@ -251,7 +251,10 @@ pub fn run_adjusted_batch(
     let flight = adjust_flight_for(inputs, opts, flight_opts, report_html.is_some())?;
     adjusted(&flight);
     let mut staged = StagedOutputs::new();
+    let started = std::time::Instant::now();
     let done = flight.stage_batch(outputs, out_dir, opts, &mut staged, each)?;
+    // The frames are written several at a time: their own seconds add up to more than this.
+    let frames_seconds = started.elapsed().as_secs_f64();
     if let Some(p) = report_html {
         let overview = flight.overview()?;
         let section = FlightSection {
@@ -264,7 +267,7 @@ pub fn run_adjusted_batch(
             )?),
         };
         let done: Vec<&PhotoResult> = done.iter().collect();
-        let seconds = flight.report.seconds + done.iter().map(|d| d.seconds).sum::<f64>();
+        let seconds = flight.report.seconds + frames_seconds;
         let html = render(&done, &[], &[], seconds, Some(&section));
         staged.text(p, &html)?;
     }
