@@ -180,8 +180,47 @@ impl SymBlocks {
         }
     }
 
+    /// The lower triangle (i >= j) of every stored block pair in compressed columns: each
+    /// column's first entry (one more, the count), the entries' rows (ascending within a
+    /// column) and values. Built column block by column block from the block pairs, with no
+    /// sort of the entries: on the 1,000-frame flight, sorting some 700 k triplets twice per
+    /// step (ours by row, faer's by column) was a tenth of a solve's single-threaded time.
+    pub fn lower_columns(&self) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+        let count = self.blocks.start.len() - 1;
+        // Per column block, the row blocks that meet it at or below the diagonal, ascending.
+        let mut below: Vec<Vec<(u32, usize)>> = vec![Vec::new(); count];
+        for (&(a, b), &base) in &self.base {
+            if a >= b {
+                below[b as usize].push((a, base));
+            }
+        }
+        let n = self.blocks.block.len();
+        let (mut col_ptr, mut rows, mut values) =
+            (Vec::with_capacity(n + 1), Vec::new(), Vec::new());
+        col_ptr.push(0);
+        for (b, pairs) in below.iter_mut().enumerate() {
+            pairs.sort_unstable();
+            let (sb, cols) = (self.blocks.start[b], self.blocks.len(b as u32));
+            for oj in 0..cols {
+                let j = sb + oj;
+                for &(a, base) in pairs.iter() {
+                    let sa = self.blocks.start[a as usize];
+                    for oi in 0..self.blocks.len(a) {
+                        if sa + oi >= j {
+                            rows.push(sa + oi);
+                            values.push(self.values[base + oi * cols + oj]);
+                        }
+                    }
+                }
+                col_ptr.push(rows.len());
+            }
+        }
+        (col_ptr, rows, values)
+    }
+
     /// The entries of the lower triangle (i >= j) of every stored block pair, ordered by
     /// (i, j).
+    #[cfg(test)]
     pub fn lower_triplets(&self) -> Vec<(usize, usize, f64)> {
         let mut out = Vec::new();
         for (&(a, b), &base) in &self.base {

@@ -11,7 +11,7 @@ use faer::sparse::linalg::cholesky::{
     SymbolicCholesky, SymbolicCholeskyRaw, factorize_symbolic_cholesky, supernodal,
 };
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{SparseColMat, Triplet};
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Conj, Par};
 use nalgebra::Matrix3;
 use rayon::prelude::*;
@@ -103,12 +103,12 @@ impl SchurWork {
 
 /// The lower triangle of a symmetric system given by its entries (both triangles).
 fn lower(n: usize, entries: &SymBlocks) -> Option<SparseColMat<usize, f64>> {
-    let triplets: Vec<Triplet<usize, usize, f64>> = entries
-        .lower_triplets()
-        .into_iter()
-        .map(|(i, j, v)| Triplet::new(i, j, v))
-        .collect();
-    SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).ok()
+    let (col_ptr, rows, values) = entries.lower_columns();
+    if col_ptr.len() != n + 1 {
+        return None;
+    }
+    let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows);
+    Some(SparseColMat::new(pattern, values))
 }
 
 /// Factorises symmetric systems given by their entries (both triangles), keeping the last
@@ -334,6 +334,41 @@ mod tests {
                     want[i]
                 );
             }
+        }
+    }
+
+    /// The compressed columns built block by block are faer's own assembly of the sorted
+    /// lower-triangle triplets, bit for bit: scalar blocks, frame-sized ones, and blocks of
+    /// mixed lengths met in any order.
+    #[test]
+    fn the_lower_columns_are_faers_assembly_of_the_triplets() {
+        let mixed = {
+            let blocks = Arc::new(Blocks::new([6, 1, 9, 3, 6]));
+            let mut sym = SymBlocks::new(blocks);
+            for (i, j) in [(20, 2), (0, 0), (7, 15), (12, 3), (24, 24), (8, 7), (3, 20)] {
+                *sym.entry(i, j) += (i * 31 + j) as f64 + 0.5;
+                *sym.entry(j, i) += (i * 31 + j) as f64 + 0.5;
+            }
+            (sym, 25)
+        };
+        for (sym, n) in [
+            (banded(40, 1, 2, 3).0, 40),
+            (banded(12, 6, 3, 4).0, 72),
+            mixed,
+        ] {
+            let got = lower(n, &sym).unwrap();
+            let triplets: Vec<_> = sym
+                .lower_triplets()
+                .into_iter()
+                .map(|(i, j, v)| faer::sparse::Triplet::new(i, j, v))
+                .collect();
+            let want = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).unwrap();
+            assert_eq!(got.symbolic().col_ptr(), want.symbolic().col_ptr());
+            assert_eq!(got.symbolic().row_idx(), want.symbolic().row_idx());
+            let bits = |m: &SparseColMat<usize, f64>| -> Vec<u64> {
+                m.val().iter().map(|v| v.to_bits()).collect()
+            };
+            assert_eq!(bits(&got), bits(&want));
         }
     }
 
