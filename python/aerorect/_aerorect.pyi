@@ -130,6 +130,7 @@ def write_adjusted_batch(
     out_paths: Sequence[_Path],
     out_dir: _Path,
     opts: Optional[Mapping[str, Any]] = None,
+    jobs: int = 2,
 ) -> Dict[str, Any]: ...
 def mosaic(
     paths: Sequence[_Path],

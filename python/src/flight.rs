@@ -361,13 +361,14 @@ impl FlightPlan {
 /// adjusted orientation to `out_paths` and `aerorect::flight::adjustment_files` to
 /// `out_dir`, all landing together (none when a frame fails). Returns the adjustment report.
 #[pyfunction]
-#[pyo3(signature = (paths, out_paths, out_dir, opts=None))]
+#[pyo3(signature = (paths, out_paths, out_dir, opts=None, jobs=2))]
 pub fn write_adjusted_batch<'py>(
     py: Python<'py>,
     paths: Vec<PathBuf>,
     out_paths: Vec<PathBuf>,
     out_dir: PathBuf,
     opts: Option<&Bound<'py, PyDict>>,
+    jobs: usize,
 ) -> PyResult<Bound<'py, PyAny>> {
     let args = PhotoArgs::from_dict(opts)?;
     if paths.len() != out_paths.len() {
@@ -384,7 +385,7 @@ pub fn write_adjusted_batch<'py>(
             let flight = run_adjusted_batch(
                 &paths,
                 &out_paths,
-                (&out_dir, None),
+                (&out_dir, None, jobs),
                 (&o, &fo),
                 |_| {},
                 |_, _| {},

@@ -226,7 +226,7 @@ fn batch_adjusted(a: &BatchArgs, req: &BatchRequest, opts: &DroneOptions) -> Res
     run_adjusted_batch(
         &a.inputs,
         &outputs,
-        (&req.out_dir, req.report_html.as_deref()),
+        (&req.out_dir, req.report_html.as_deref(), req.jobs),
         (opts, &fo),
         |flight| print_adjustment(&flight.report),
         |k, res| match res {

@@ -25,13 +25,14 @@ pub fn adjustment_files(out_dir: &Path, control: bool) -> Vec<PathBuf> {
 }
 
 impl AdjustedFlight {
-    /// Stages every frame `k` to `outputs[k]` and the adjustment's files in `out_dir`;
-    /// `each` sees every frame's result as it comes. A frame that fails fails the batch
-    /// (naming every failed frame), and nothing of it is staged to land.
+    /// Stages every frame `k` to `outputs[k]` and the adjustment's files in `out_dir`, `jobs`
+    /// frames at once (at most that many of their rasters in memory; each frame's warp also
+    /// uses every thread); `each` sees every frame's result in frame order. A frame that fails
+    /// fails the batch (naming every failed frame), and nothing of it is staged to land.
     pub fn stage_batch(
         &self,
         outputs: &[PathBuf],
-        out_dir: &Path,
+        (out_dir, jobs): (&Path, usize),
         opts: &DroneOptions,
         staged: &mut StagedOutputs,
         mut each: impl FnMut(usize, &Result<PhotoResult, Error>),
@@ -45,10 +46,10 @@ impl AdjustedFlight {
         }
         let mut done = Vec::with_capacity(outputs.len());
         let mut failed = Vec::new();
-        // A few frames at a time in parallel, each staged apart; their results and staged
+        // `jobs` frames at a time in parallel, each staged apart; their results and staged
         // files are taken in frame order.
         let frames: Vec<usize> = (0..outputs.len()).collect();
-        for chunk in frames.chunks(FRAMES_AT_ONCE) {
+        for chunk in frames.chunks(jobs.max(1)) {
             let written: Vec<_> = chunk
                 .par_iter()
                 .map(|&k| {
@@ -91,10 +92,6 @@ impl AdjustedFlight {
         Ok(done)
     }
 }
-
-/// Frames rendered and encoded at once by [`AdjustedFlight::stage_batch`]: enough to keep
-/// every core busy, few enough that their rasters stay small beside the flight's.
-const FRAMES_AT_ONCE: usize = 16;
 
 /// A report as pretty JSON.
 fn pretty<T: Serialize>(v: &T) -> Result<String, Error> {

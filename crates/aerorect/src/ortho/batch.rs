@@ -238,11 +238,12 @@ impl BatchSummary {
 /// An adjusted batch: the flight adjusted once (`adjusted` sees its report before any frame
 /// is written), then every frame `k` written to `outputs[k]` with its adjusted orientation,
 /// the adjustment's files in `out_dir` and, if asked, the HTML report, all landing together
-/// (none when a frame fails). `each` sees every frame's result as it comes.
+/// (none when a frame fails), `jobs` frames at once. `each` sees every frame's result in
+/// frame order.
 pub fn run_adjusted_batch(
     inputs: &[PathBuf],
     outputs: &[PathBuf],
-    (out_dir, report_html): (&Path, Option<&Path>),
+    (out_dir, report_html, jobs): (&Path, Option<&Path>, usize),
     (opts, flight_opts): (&DroneOptions, &FlightOptions),
     adjusted: impl FnOnce(&AdjustedFlight),
     each: impl FnMut(usize, &Result<PhotoResult, Error>),
@@ -252,7 +253,7 @@ pub fn run_adjusted_batch(
     adjusted(&flight);
     let mut staged = StagedOutputs::new();
     let started = std::time::Instant::now();
-    let done = flight.stage_batch(outputs, out_dir, opts, &mut staged, each)?;
+    let done = flight.stage_batch(outputs, (out_dir, jobs), opts, &mut staged, each)?;
     // The frames are written several at a time: their own seconds add up to more than this.
     let frames_seconds = started.elapsed().as_secs_f64();
     if let Some(p) = report_html {
