@@ -2,7 +2,6 @@
 
 use super::blocks::{CameraParam, DatumParam, FrameParam, Param, State};
 use super::residuals::{Problem, world_from_camera};
-use super::schur::inverse_diagonal;
 use super::solve::Storage;
 use super::{
     AdjustFrame, AdjustReport, Adjusted, CameraAdjustment, Datum, DatumAdjustment, FrameAdjustment,
@@ -28,7 +27,7 @@ pub(super) struct Fit {
 
 /// Standard deviations of the free parameters: the diagonal of the reduced system's inverse
 /// (Gauss-Newton, undamped), scaled by the a-posteriori variance factor. The normal
-/// equations are formed in the solve's `storage`.
+/// equations are formed in the solve's `storage`, and factorised with its symbolic factor.
 pub(super) fn standard_deviations(
     p: &Problem<'_>,
     s: &State,
@@ -41,8 +40,9 @@ pub(super) fn standard_deviations(
     };
     let mut inverses = storage.inverses;
     let (entries, _) = lin.reduced(0.0, &mut inverses);
-    let n = p.layout.len();
-    let Some(variances) = inverse_diagonal(n, &entries) else {
+    let mut factoriser = storage.factoriser;
+    let factor = factoriser.factor(p.layout.len(), &entries, faer::Par::Seq);
+    let Some(variances) = factor.and_then(|f| f.inverse_diagonal()) else {
         return nan();
     };
     let (_, rms_all) = p.rms(s);

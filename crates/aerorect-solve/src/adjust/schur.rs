@@ -6,15 +6,14 @@ use super::linear::{CHUNK, Linear, PART, Partial, PointLin};
 use super::normal::SymBlocks;
 use aerorect_core::Vec3;
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::cholesky::{
-    SymbolicCholesky, SymbolicCholeskyRaw, factorize_symbolic_cholesky, supernodal,
+    LltRef, SymbolicCholesky, SymbolicCholeskyRaw, factorize_symbolic_cholesky, supernodal,
 };
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use faer::{Conj, Par};
+use faer::sparse::{SparseColMat, SymbolicSparseColMat, SymbolicSparseColMatRef};
+use faer::{Conj, Par, Side};
 use nalgebra::Matrix3;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// The damped reduced system and its right-hand side.
 pub(super) type Reduced = (SymBlocks, Vec<f64>);
@@ -114,130 +113,146 @@ fn lower(n: usize, entries: &SymBlocks) -> Option<SparseColMat<usize, f64>> {
 
 /// Factorises symmetric systems given by their entries (both triangles), keeping the last
 /// one's symbolic factorisation (its fill-reducing ordering and elimination tree) for the
-/// next system of the same pattern: the steps of one solve share theirs. On the 1,000-frame
-/// fixed wing the symbolic part (its ordering, then its elimination tree) was about a third of
-/// each step's factorisation in a profile, all of it on one thread.
+/// next system of the same pattern: the steps of one solve share theirs, and so do the
+/// standard deviations after them. On the 1,000-frame fixed wing the symbolic part (its
+/// ordering, then its elimination tree) was about a third of each step's factorisation in a
+/// profile, all of it on one thread.
 #[derive(Default)]
 pub(super) struct Factoriser {
-    /// The lower triangle's pattern (column starts, row indices) and its symbolic factor.
-    last: Option<(Vec<usize>, Vec<usize>, SymbolicLlt<usize>)>,
+    /// The lower triangle's pattern and its symbolic factor.
+    last: Option<(Pattern, Arc<SymbolicCholesky<usize>>)>,
+}
+
+/// A lower triangle's pattern: its column starts and row indices.
+type Pattern = (Vec<usize>, Vec<usize>);
+
+/// A system's Cholesky factor P A P^T = L L^T: its structure (with the fill-reducing
+/// permutation P) and L's values.
+pub(super) struct Factor {
+    symbolic: Arc<SymbolicCholesky<usize>>,
+    values: Vec<f64>,
 }
 
 impl Factoriser {
-    /// The Cholesky factor of the system; none where it is not positive definite.
-    pub fn factor(&mut self, n: usize, entries: &SymBlocks) -> Option<Llt<usize, f64>> {
+    /// The Cholesky factor of the system, its numeric part computed with `par`; none where
+    /// the system is not positive definite.
+    pub fn factor(&mut self, n: usize, entries: &SymBlocks, par: Par) -> Option<Factor> {
         let m = lower(n, entries)?;
-        let pattern = m.symbolic();
-        let symbolic = match &self.last {
-            Some((cols, rows, s)) if cols == pattern.col_ptr() && rows == pattern.row_idx() => {
-                s.clone()
-            }
-            _ => {
-                let s = SymbolicLlt::try_new(pattern, faer::Side::Lower).ok()?;
-                let (cols, rows) = (pattern.col_ptr().to_vec(), pattern.row_idx().to_vec());
-                self.last = Some((cols, rows, s.clone()));
-                s
-            }
-        };
-        Llt::try_new_with_symbolic(symbolic, m.as_ref(), faer::Side::Lower).ok()
-    }
-}
-
-/// Columns of the identity solved at a time by [`inverse_diagonal`] (the factor's blocked
-/// solve), the blocks in parallel.
-const INVERSE_BLOCK: usize = 256;
-
-/// The diagonal of the inverse of a symmetric positive definite system given by its entries
-/// (both triangles); none where it does not factorise. With the system permuted as
-/// P A P^T = L L^T, entry k is the squared norm of L^-1 e_m for m = P k: one triangular
-/// solve per column instead of the two of a solve with A. On the 1,000-frame fixed wing
-/// (6,000 parameters, 1.6 M tie points) its standard deviations agree with those of a solve
-/// with A to 3e-15 (relative), and its final solve, with [`super::solve::Storage`] kept for
-/// them too, took 13.7 / 15.0 / 13.9 s against 18.1 / 18.0 / 15.9 / 16.1 s, runs alternating.
-pub(super) fn inverse_diagonal(n: usize, entries: &SymBlocks) -> Option<Vec<f64>> {
-    let (symbolic, values) = factor_parts(n, entries)?;
-    let starts: Vec<usize> = (0..n).step_by(INVERSE_BLOCK).collect();
-    let permuted: Vec<f64> = starts
-        .par_iter()
-        .map(|&start| {
-            let cols = INVERSE_BLOCK.min(n - start);
-            let x = l_inverse_columns((&symbolic, &values), start, cols)?;
-            Some(
-                (0..cols)
-                    .map(|j| x.col(j).squared_norm_l2())
-                    .collect::<Vec<f64>>(),
-            )
-        })
-        .collect::<Option<Vec<Vec<f64>>>>()?
-        .concat();
-    Some(match symbolic.perm() {
-        Some(p) => p.arrays().1.iter().map(|&m| permuted[m]).collect(),
-        None => permuted,
-    })
-}
-
-/// The sparse Cholesky factor of a symmetric system given by its entries: its structure
-/// (with the fill-reducing permutation) and values.
-fn factor_parts(n: usize, entries: &SymBlocks) -> Option<(SymbolicCholesky<usize>, Vec<f64>)> {
-    let m = lower(n, entries)?;
-    let side = faer::Side::Lower;
-    let symbolic =
-        factorize_symbolic_cholesky(m.symbolic(), side, Default::default(), Default::default())
-            .ok()?;
-    let mut values = vec![0.0; symbolic.len_val()];
-    let scratch = symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
-    let mut mem = MemBuffer::try_new(scratch).ok()?;
-    symbolic
-        .factorize_numeric_llt(
-            &mut values,
-            m.as_ref(),
-            side,
-            Default::default(),
-            Par::Seq,
-            MemStack::new(&mut mem),
-            Default::default(),
-        )
-        .ok()?;
-    Some((symbolic, values))
-}
-
-/// L^-1 applied to columns `start..start + cols` of the identity (in the permuted order).
-fn l_inverse_columns(
-    (symbolic, values): (&SymbolicCholesky<usize>, &[f64]),
-    start: usize,
-    cols: usize,
-) -> Option<faer::Mat<f64>> {
-    let n = symbolic.nrows();
-    let mut x = faer::Mat::<f64>::from_fn(n, cols, |i, j| f64::from(u8::from(i == start + j)));
-    match symbolic.raw() {
-        SymbolicCholeskyRaw::Simplicial(s) => {
-            let l = faer::sparse::SparseColMatRef::new(s.factor(), values);
-            faer::sparse::linalg::triangular_solve::solve_lower_triangular_in_place(
-                l,
-                Conj::No,
-                x.as_mut(),
-                Par::Seq,
-            );
-        }
-        SymbolicCholeskyRaw::Supernodal(s) => {
-            let scratch = s.solve_in_place_scratch::<f64>(cols, Par::Seq);
-            let mut mem = MemBuffer::try_new(scratch).ok()?;
-            supernodal::SupernodalLltRef::new(s, values).l_solve_with_conj(
-                Conj::No,
-                x.as_mut(),
-                Par::Seq,
+        let symbolic = self.symbolic(m.symbolic())?;
+        let mut values = vec![0.0; symbolic.len_val()];
+        let scratch = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+        let mut mem = MemBuffer::try_new(scratch).ok()?;
+        symbolic
+            .factorize_numeric_llt(
+                &mut values,
+                m.as_ref(),
+                Side::Lower,
+                Default::default(),
+                par,
                 MemStack::new(&mut mem),
-            );
-        }
+                Default::default(),
+            )
+            .ok()?;
+        Some(Factor { symbolic, values })
     }
-    Some(x)
+
+    /// The symbolic factor of a lower triangle of this `pattern`: the last one's when the
+    /// pattern is the last one's.
+    fn symbolic(
+        &mut self,
+        pattern: SymbolicSparseColMatRef<'_, usize>,
+    ) -> Option<Arc<SymbolicCholesky<usize>>> {
+        if let Some(((cols, rows), s)) = &self.last
+            && cols == pattern.col_ptr()
+            && rows == pattern.row_idx()
+        {
+            return Some(Arc::clone(s));
+        }
+        let options = (Default::default(), Default::default());
+        let s =
+            Arc::new(factorize_symbolic_cholesky(pattern, Side::Lower, options.0, options.1).ok()?);
+        let kept = (pattern.col_ptr().to_vec(), pattern.row_idx().to_vec());
+        self.last = Some((kept, Arc::clone(&s)));
+        Some(s)
+    }
 }
 
-pub(super) fn solve_with(llt: &Llt<usize, f64>, rhs: &[f64]) -> Vec<f64> {
-    let b = faer::Mat::<f64>::from_fn(rhs.len(), 1, |i, _| rhs[i]);
-    let x = llt.solve(&b);
-    (0..rhs.len()).map(|i| x[(i, 0)]).collect()
+impl Factor {
+    /// The solution x of A x = `rhs`.
+    pub fn solve(&self, rhs: &[f64]) -> Option<Vec<f64>> {
+        let par = faer::get_global_parallelism();
+        let mut x = faer::Mat::<f64>::from_fn(rhs.len(), 1, |i, _| rhs[i]);
+        let scratch = self.symbolic.solve_in_place_scratch::<f64>(1, par);
+        let mut mem = MemBuffer::try_new(scratch).ok()?;
+        LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
+            Conj::No,
+            x.as_mut(),
+            par,
+            MemStack::new(&mut mem),
+        );
+        Some((0..rhs.len()).map(|i| x[(i, 0)]).collect())
+    }
+
+    /// The diagonal of A's inverse. Entry k is the squared norm of L^-1 e_m for m = P k: one
+    /// triangular solve per column instead of the two of a solve with A. On the 1,000-frame
+    /// fixed wing (6,000 parameters, 1.6 M tie points) its standard deviations agree with those
+    /// of a solve with A to 3e-15 (relative), and its final solve, with
+    /// [`super::solve::Storage`] kept for them too, took 13.7 / 15.0 / 13.9 s against 18.1 /
+    /// 18.0 / 15.9 / 16.1 s, runs alternating.
+    pub fn inverse_diagonal(&self) -> Option<Vec<f64>> {
+        let n = self.symbolic.nrows();
+        let starts: Vec<usize> = (0..n).step_by(INVERSE_BLOCK).collect();
+        let permuted: Vec<f64> = starts
+            .par_iter()
+            .map(|&start| {
+                let cols = INVERSE_BLOCK.min(n - start);
+                let x = self.l_inverse_columns(start, cols)?;
+                Some(
+                    (0..cols)
+                        .map(|j| x.col(j).squared_norm_l2())
+                        .collect::<Vec<f64>>(),
+                )
+            })
+            .collect::<Option<Vec<Vec<f64>>>>()?
+            .concat();
+        Some(match self.symbolic.perm() {
+            Some(p) => p.arrays().1.iter().map(|&m| permuted[m]).collect(),
+            None => permuted,
+        })
+    }
+
+    /// L^-1 applied to columns `start..start + cols` of the identity (in the permuted order).
+    fn l_inverse_columns(&self, start: usize, cols: usize) -> Option<faer::Mat<f64>> {
+        let n = self.symbolic.nrows();
+        let mut x = faer::Mat::<f64>::from_fn(n, cols, |i, j| f64::from(u8::from(i == start + j)));
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Simplicial(s) => {
+                let l = faer::sparse::SparseColMatRef::new(s.factor(), &self.values);
+                faer::sparse::linalg::triangular_solve::solve_lower_triangular_in_place(
+                    l,
+                    Conj::No,
+                    x.as_mut(),
+                    Par::Seq,
+                );
+            }
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                let scratch = s.solve_in_place_scratch::<f64>(cols, Par::Seq);
+                let mut mem = MemBuffer::try_new(scratch).ok()?;
+                supernodal::SupernodalLltRef::new(s, &self.values).l_solve_with_conj(
+                    Conj::No,
+                    x.as_mut(),
+                    Par::Seq,
+                    MemStack::new(&mut mem),
+                );
+            }
+        }
+        Some(x)
+    }
 }
+
+/// Columns of the identity solved at a time by [`Factor::inverse_diagonal`] (the factor's
+/// blocked solve), the blocks in parallel.
+const INVERSE_BLOCK: usize = 256;
 
 #[cfg(test)]
 mod tests {
@@ -294,20 +309,13 @@ mod tests {
         for (blocks, len, reach, supernodal) in [(300, 1, 1, false), (40, 12, 8, true)] {
             let (sym, dense) = banded(blocks, len, reach, blocks as u64);
             let n = blocks * len;
-            let m = lower(n, &sym).unwrap();
-            let raw = factorize_symbolic_cholesky(
-                m.symbolic(),
-                faer::Side::Lower,
-                Default::default(),
-                Default::default(),
-            )
-            .unwrap();
+            let factor = Factoriser::default().factor(n, &sym, Par::Seq).unwrap();
             assert_eq!(
-                matches!(raw.raw(), SymbolicCholeskyRaw::Supernodal(_)),
+                matches!(factor.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)),
                 supernodal,
                 "{blocks} blocks of {len}"
             );
-            let got = inverse_diagonal(n, &sym).unwrap();
+            let got = factor.inverse_diagonal().unwrap();
             let inv = dense.try_inverse().unwrap();
             assert!(n > INVERSE_BLOCK);
             for (k, g) in got.iter().enumerate() {
@@ -317,9 +325,10 @@ mod tests {
         }
     }
 
-    /// The factoriser solves each system of a sequence like the dense inverse does: new
-    /// values on the pattern it holds (the symbolic factor reused), then a wider pattern
-    /// and a narrower one (each needs its own), then the first again.
+    /// The factoriser solves each system of a sequence, and gives its inverse's diagonal, as
+    /// the dense inverse does: new values on the pattern it holds (the symbolic factor
+    /// reused), then a wider pattern and a narrower one (each needs its own), then the first
+    /// again; the numeric factor in parallel or not.
     #[test]
     fn a_kept_symbolic_factor_serves_only_its_own_pattern() {
         let mut f = Factoriser::default();
@@ -327,14 +336,21 @@ mod tests {
             let (sym, dense) = banded(30, 6, reach, 7 + k as u64);
             let n = 180;
             let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
-            let got = solve_with(&f.factor(n, &sym).unwrap(), &rhs);
-            let want = dense.try_inverse().unwrap() * nalgebra::DVector::from_vec(rhs);
+            let par = [Par::Seq, faer::get_global_parallelism()][k % 2];
+            let factor = f.factor(n, &sym, par).unwrap();
+            let got = factor.solve(&rhs).unwrap();
+            let inverse = dense.try_inverse().unwrap();
+            let want = &inverse * nalgebra::DVector::from_vec(rhs);
             for (i, g) in got.iter().enumerate() {
                 assert!(
                     (g - want[i]).abs() <= 1e-10,
                     "system {k}, {i}: {g} vs {}",
                     want[i]
                 );
+            }
+            for (i, g) in factor.inverse_diagonal().unwrap().iter().enumerate() {
+                let want = inverse[(i, i)];
+                assert!((g - want).abs() <= 1e-12 * want.abs(), "system {k}, {i}");
             }
         }
     }
@@ -374,11 +390,11 @@ mod tests {
         }
     }
 
-    /// A system that is not positive definite has no such diagonal.
+    /// A system that is not positive definite has no factor, so no such diagonal.
     #[test]
     fn an_indefinite_system_has_no_inverse_diagonal() {
         let (mut sym, _) = banded(10, 3, 1, 1);
         *sym.entry(4, 4) = -100.0;
-        assert!(inverse_diagonal(30, &sym).is_none());
+        assert!(Factoriser::default().factor(30, &sym, Par::Seq).is_none());
     }
 }

@@ -5,7 +5,7 @@
 use super::blocks::State;
 use super::linear::Linear;
 use super::residuals::Problem;
-use super::schur::{Factoriser, solve_with};
+use super::schur::Factoriser;
 use aerorect_core::Vec3;
 use nalgebra::Matrix3;
 use rayon::prelude::*;
@@ -22,7 +22,8 @@ pub(super) struct Storage {
     pub inverses: Vec<Option<Matrix3<f64>>>,
     /// Each point's back-substituted step at the last step (zero where it has none).
     pub point_steps: Vec<Vec3>,
-    /// The reduced system's symbolic factorisation, shared by the steps.
+    /// The reduced system's symbolic factorisation, shared by the steps and the standard
+    /// deviations.
     pub factoriser: Factoriser,
 }
 
@@ -96,8 +97,12 @@ impl crate::lm::Model for Solver<'_, '_> {
         let lin = self.storage.linear.as_ref()?;
         let mut inverses = std::mem::take(&mut self.storage.inverses);
         let (entries, rhs) = lin.reduced(lambda, &mut inverses);
-        let llt = self.storage.factoriser.factor(rhs.len(), &entries)?;
-        let dc = solve_with(&llt, &rhs);
+        let par = faer::get_global_parallelism();
+        let dc = self
+            .storage
+            .factoriser
+            .factor(rhs.len(), &entries, par)?
+            .solve(&rhs)?;
         let mut next = self.problem.layout.moved(s, &dc);
         let mut step2: f64 = dc.iter().map(|d| d * d).sum();
         // The points back-substituted in parallel; the step's norm summed in their order (a
