@@ -1,18 +1,21 @@
 //! Descriptor matching speed: one pair of frames' SIFT-like descriptors (1,000 and 2,000 a
 //! frame, the 1,000-frame simulation's 1,051 on average), half of them noisy copies of the
 //! other frame's, by `match_float` (ratio test and mutual check), and guided within a window
-//! around each query's predicted position (`match_float_within`).
+//! around each query's predicted position (`match_float_within`), the same as bytes
+//! (`match_bytes_within`).
 #![allow(clippy::unwrap_used)]
 
-use aerorect_solve::matching::{MatchOptions, Window, match_float, match_float_within};
+use aerorect_solve::matching::{
+    MatchOptions, Window, bytes_of_whole, match_bytes_within, match_float, match_float_within,
+};
 use criterion::{Criterion, criterion_group, criterion_main};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 const DIM: usize = 128;
 
-/// `n` descriptors of two frames: non-negative values, each row normalised to 512 as SIFT's
-/// are; the second frame's first half are the first frame's with noise.
+/// `n` descriptors of two frames: non-negative whole numbers, each row normalised to 512 and
+/// saturated to 255 as SIFT's are; the second frame's first half are the first frame's with noise.
 fn pair(n: usize, seed: u64) -> (Vec<f32>, Vec<f32>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut row = |base: Option<&[f32]>| -> Vec<f32> {
@@ -23,7 +26,9 @@ fn pair(n: usize, seed: u64) -> (Vec<f32>, Vec<f32>) {
             })
             .collect();
         let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-6);
-        v.iter_mut().for_each(|x| *x *= 512.0 / norm);
+        // Rounded and saturated to whole numbers in 0..=255, as SIFT's are.
+        v.iter_mut()
+            .for_each(|x| *x = (*x * 512.0 / norm).round_ties_even().min(255.0));
         v
     };
     let a: Vec<f32> = (0..n).flat_map(|_| row(None)).collect();
@@ -77,6 +82,12 @@ fn bench(c: &mut Criterion) {
         assert!(found.len() > n / 4, "{} guided matches of {n}", found.len());
         c.bench_function(&format!("match_float_within {n} x {n}, radius 70"), |bch| {
             bch.iter(|| match_float_within(&a, &b, DIM, &w, &opts))
+        });
+        // The same descriptors held as bytes (the same matches).
+        let (ab, bb) = (bytes_of_whole(&a).unwrap(), bytes_of_whole(&b).unwrap());
+        assert_eq!(match_bytes_within(&ab, &bb, DIM, &w, &opts).unwrap(), found);
+        c.bench_function(&format!("match_bytes_within {n} x {n}, radius 70"), |bch| {
+            bch.iter(|| match_bytes_within(&ab, &bb, DIM, &w, &opts))
         });
     }
 }

@@ -13,7 +13,7 @@
 use thiserror::Error;
 
 mod within;
-pub use within::{Window, match_float_within};
+pub use within::{Element, Window, bytes_of_whole, match_bytes_within, match_float_within};
 
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum MatchError {
@@ -109,6 +109,23 @@ pub fn l2_squared(a: &[f32], b: &[f32]) -> f32 {
     }
     let tail: f32 = ra.iter().zip(rb).map(|(x, y)| (x - y) * (x - y)).sum();
     acc.iter().sum::<f32>() + tail
+}
+
+/// Squared Euclidean distance of byte rows, exact for rows of up to 66,051 values; sixteen
+/// running sums of whole numbers so the loop vectorises (twice the values per instruction of
+/// [`l2_squared`], a quarter of its memory per row).
+pub fn l2_squared_bytes(a: &[u8], b: &[u8]) -> u32 {
+    let mut acc = [0u32; 16];
+    let (ca, cb) = (a.chunks_exact(16), b.chunks_exact(16));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..16 {
+            let d = i32::from(i16::from(x[k]) - i16::from(y[k]));
+            acc[k] += (d * d) as u32;
+        }
+    }
+    let tail = ra.iter().zip(rb).map(|(&x, &y)| x.abs_diff(y) as u32);
+    acc.iter().sum::<u32>() + tail.map(|d| d * d).sum::<u32>()
 }
 
 /// Number of differing bits.
@@ -471,6 +488,34 @@ mod tests {
             let got: Vec<(usize, usize)> = got.iter().map(|m| (m.query, m.train)).collect();
             assert_eq!(got, oracle(&q, &t, &opts));
             assert!(got.len() >= 60, "{} matches", got.len());
+        }
+    }
+
+    /// Byte rows' squared distances are the float distances of the same whole numbers, bit
+    /// for bit, and an independent sum's, at every length around the sixteen running sums.
+    #[test]
+    fn byte_distances_are_the_float_distances_of_the_same_whole_numbers() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for dim in [1, 15, 16, 17, 128, 131, 258] {
+            for extreme in [false, true] {
+                let row = |rng: &mut ChaCha8Rng, v: u8| -> Vec<u8> {
+                    (0..dim)
+                        .map(|_| if extreme { v } else { rng.random() })
+                        .collect()
+                };
+                let (a, b) = (row(&mut rng, 255), row(&mut rng, 0));
+                let oracle: i64 = a
+                    .iter()
+                    .zip(&b)
+                    .map(|(&x, &y)| (x as i64 - y as i64).pow(2))
+                    .sum();
+                let float = |r: &[u8]| -> Vec<f32> { r.iter().map(|&v| v as f32).collect() };
+                assert_eq!(l2_squared_bytes(&a, &b) as i64, oracle, "dim {dim}");
+                assert_eq!(
+                    l2_squared_bytes(&a, &b) as f32,
+                    l2_squared(&float(&a), &float(&b))
+                );
+            }
         }
     }
 

@@ -310,6 +310,7 @@ fn strongest(f: &FrameFeatures, k: usize) -> std::borrow::Cow<'_, FrameFeatures>
         size: f.size,
         factor: f.factor,
         seconds: f.seconds,
+        bytes: Default::default(),
     })
 }
 
