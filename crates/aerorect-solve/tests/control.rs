@@ -219,6 +219,16 @@ fn a_control_point_projects_where_it_was_marked_and_marks_intersect_at_it() {
             .intersect(obs, [g.x + 5.0, g.y - 5.0, g.z + 10.0])
             .unwrap();
         assert!((Vec3::from(x) - g).norm() < 0.3, "{x:?} {g}");
+        // The frames posed once give the same numbers, bit for bit.
+        let posed = truth.posed();
+        assert_eq!(
+            posed.intersect(obs, [g.x + 5.0, g.y - 5.0, g.z + 10.0]),
+            Some(x)
+        );
+        for o in obs {
+            assert_eq!(posed.pixel_of(o.frame, x), truth.pixel_of(o.frame, x));
+        }
+        assert_eq!(posed.pixel_of(s.truth.len(), x), None);
         // The ray of a mark meets the surveyed height near the point.
         let r = truth
             .ray_at_height(obs[0].frame, obs[0].pixel, g.z)
@@ -227,6 +237,12 @@ fn a_control_point_projects_where_it_was_marked_and_marks_intersect_at_it() {
     }
     // One mark gives no intersection.
     assert!(truth.intersect(&s.gcps[0].1[..1], [0.0; 3]).is_none());
+    assert!(
+        truth
+            .posed()
+            .intersect(&s.gcps[0].1[..1], [0.0; 3])
+            .is_none()
+    );
 }
 
 #[test]

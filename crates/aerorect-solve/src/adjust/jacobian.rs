@@ -155,7 +155,9 @@ impl<'a> Posed<'a> {
     }
 }
 
-/// The pixel of `x` in `frame` and its Jacobians (`None` where `project` gives none).
+/// The pixel of `x` in `frame` and its Jacobians (`None` where `project` gives none): the
+/// numeric oracle's entry (the library poses each frame once, [`Posed`]).
+#[cfg(test)]
 pub(super) fn pixel_jacobian(
     frame: &AdjustFrame,
     camera: &Camera,

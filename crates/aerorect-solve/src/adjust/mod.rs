@@ -45,7 +45,7 @@ mod solve;
 pub use crate::lm::{Termination, Tolerances};
 pub use corrections::Corrections;
 pub use gauge::{GaugeHold, ONE_POINT_RATIO, connected, connected_by};
-pub use points::OrientedFrames;
+pub use points::{OrientedFrames, PosedFrames};
 pub use residuals::radial_refinable;
 
 use crate::SolveError;

@@ -29,7 +29,9 @@ pub(super) fn distorted(camera: &Camera, cb: &CameraBlock, n: [f64; 2]) -> Optio
     Some([q[0] + n[0] * radial, q[1] + n[1] * radial])
 }
 
-/// The pixel of `x` in `frame` for these blocks (`None` behind the camera or beyond the lens).
+/// The pixel of `x` in `frame` for these blocks (`None` behind the camera or beyond the lens):
+/// the numeric oracle's entry (the library poses each frame once, [`Posed`]).
+#[cfg(test)]
 pub(super) fn project(
     frame: &AdjustFrame,
     camera: &Camera,

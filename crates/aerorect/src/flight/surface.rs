@@ -11,7 +11,7 @@
 use super::*;
 use crate::georef::bounds_of;
 use aerorect_geo::Dem;
-use aerorect_solve::adjust::OrientedFrames;
+use aerorect_solve::adjust::{OrientedFrames, PosedFrames};
 use std::sync::Arc;
 
 /// A tie point whose intersection misses its observations by more than this (px, rms over
@@ -82,9 +82,10 @@ pub fn tie_surface(
         .filter(|t| t.control.is_none() && t.observations.len() >= 2)
         .collect();
     let points: Vec<[f64; 3]> = timing::time("tie surface: points", || {
+        let posed = frames.posed();
         candidates
             .par_iter()
-            .filter_map(|t| ground_point(t, frames))
+            .filter_map(|t| ground_point(t, frames, &posed))
             .collect()
     });
     let points = without_far_heights(points);
@@ -134,16 +135,20 @@ pub fn tie_surface(
 }
 
 /// Tie `t`'s point through the frames, if its rays meet within
-/// [`SURFACE_MAX_RESIDUAL_PX`] of every view (rms).
-fn ground_point(t: &TiePoint, frames: OrientedFrames<'_>) -> Option<[f64; 3]> {
+/// [`SURFACE_MAX_RESIDUAL_PX`] of every view (rms); `posed`: the same frames posed once.
+fn ground_point(
+    t: &TiePoint,
+    frames: OrientedFrames<'_>,
+    posed: &PosedFrames<'_>,
+) -> Option<[f64; 3]> {
     let start = match &t.observations[..] {
         [a, b, ..] => frames.rays_meet(a, b),
         _ => None,
     };
-    let x = frames.intersect(&t.observations, start.unwrap_or(t.ground))?;
+    let x = posed.intersect(&t.observations, start.unwrap_or(t.ground))?;
     let mut sum = 0.0;
     for o in &t.observations {
-        let p = frames.pixel_of(o.frame, x)?;
+        let p = posed.pixel_of(o.frame, x)?;
         sum += (p[0] - o.pixel[0]).powi(2) + (p[1] - o.pixel[1]).powi(2);
     }
     let rms = (sum / t.observations.len() as f64).sqrt();
