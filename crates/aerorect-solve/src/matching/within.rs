@@ -217,16 +217,18 @@ fn search(
         for k in near.iter().map(|&k| k as usize) {
             let (d, j) = (distance(i, k), grid.rows[k] as usize);
             // Candidates come cell by cell, not in row order: equal distances go to the
-            // lower row, as in a scan in row order.
-            if d < best.0 || (d == best.0 && j < best.1) {
+            // lower row, as in a scan in row order (which takes only distances below
+            // infinity).
+            if d < best.0 || (d == best.0 && j < best.1 && best.1 != usize::MAX) {
                 second = best.0;
                 best = (d, j);
             } else if d < second {
                 second = d;
             }
-            // Queries come cell by cell too: equal distances go to the lower query.
+            // Queries come cell by cell too: equal distances go to the lower query (a row
+            // that has none yet takes only a distance below infinity, as in a scan in order).
             let col = &mut column[j];
-            if d < col.1 || (d == col.1 && i < col.0) {
+            if d < col.1 || (d == col.1 && i < col.0 && col.0 != usize::MAX) {
                 *col = (i, d);
             }
         }
@@ -463,6 +465,25 @@ mod tests {
         let got = match_float_within(&q, &t, dim, &w, &opts).expect("guided");
         assert_eq!(got, match_float(&q, &t, dim, &opts).expect("brute force"));
         assert_eq!(got.len(), 100);
+        // Distances beyond f32's range (infinite) are no one's best, as in brute force.
+        let huge: Vec<f32> = (0..2 * dim)
+            .map(|k| if k < dim { 1e20 } else { -1e20 })
+            .collect();
+        for mutual in [true, false] {
+            let w2 = Window {
+                train_at: &train_at[..1],
+                query_at: &query_at[..1],
+                ..w
+            };
+            let two = MatchOptions { ratio: 1.0, mutual };
+            let (q1, t1) = (&huge[..dim], &huge[dim..]);
+            let brute = match_float(q1, t1, dim, &two).expect("brute force");
+            assert_eq!(
+                match_float_within(q1, t1, dim, &w2, &two).expect("guided"),
+                brute
+            );
+            assert!(brute.is_empty());
+        }
         // Predicted far beyond every row (a ray near the horizon): no candidate, no match.
         let far = vec![Some([1e300, -1e300]); 100];
         let w = Window {
