@@ -168,9 +168,13 @@ impl Factoriser {
         {
             return Some(Arc::clone(s));
         }
-        let options = (Default::default(), Default::default());
-        let s =
-            Arc::new(factorize_symbolic_cholesky(pattern, Side::Lower, options.0, options.1).ok()?);
+        let s = factorize_symbolic_cholesky(
+            pattern,
+            Side::Lower,
+            Default::default(),
+            Default::default(),
+        );
+        let s = Arc::new(s.ok()?);
         let kept = (pattern.col_ptr().to_vec(), pattern.row_idx().to_vec());
         self.last = Some((kept, Arc::clone(&s)));
         Some(s)
