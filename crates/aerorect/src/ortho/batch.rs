@@ -64,10 +64,7 @@ impl BatchRequest {
             let why = Error::Invalid("expected tif or png".into());
             return Err(OptionError::value("format", format!("'{}'", self.format), why).into());
         }
-        if self.jobs == 0 {
-            let why = Error::Invalid("at least one frame must be in flight".into());
-            return Err(OptionError::value("jobs", 0, why).into());
-        }
+        check_jobs(self.jobs)?;
         if cog && self.format != "tif" {
             return Err(Error::advice(format!(
                 "`cog` writes cloud-optimised GeoTIFFs: it needs `format` tif, not '{}'",
@@ -235,6 +232,15 @@ impl BatchSummary {
     }
 }
 
+/// Refuses no jobs: at least one frame must be in flight.
+fn check_jobs(jobs: usize) -> Result<(), Error> {
+    if jobs == 0 {
+        let why = Error::Invalid("at least one frame must be in flight".into());
+        return Err(crate::options::OptionError::value("jobs", 0, why).into());
+    }
+    Ok(())
+}
+
 /// An adjusted batch: the flight adjusted once (`adjusted` sees its report before any frame
 /// is written), then every frame `k` written to `outputs[k]` with its adjusted orientation,
 /// the adjustment's files in `out_dir` and, if asked, the HTML report, all landing together
@@ -248,6 +254,7 @@ pub fn run_adjusted_batch(
     adjusted: impl FnOnce(&AdjustedFlight),
     each: impl FnMut(usize, &Result<PhotoResult, Error>),
 ) -> Result<AdjustedFlight, Error> {
+    check_jobs(jobs)?;
     create_dir(out_dir)?;
     let flight = adjust_flight_for(inputs, opts, flight_opts, report_html.is_some())?;
     adjusted(&flight);
@@ -274,4 +281,40 @@ pub fn run_adjusted_batch(
     }
     staged.commit()?;
     Ok(flight)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// No jobs is refused as plain `batch` refuses it, naming the option, before any photo is
+    /// read or any folder made (the photo here does not exist).
+    #[test]
+    fn an_adjusted_batch_with_no_jobs_is_refused_before_anything_is_done() {
+        let dir = tempfile::tempdir().expect("temporary folder");
+        let out = dir.path().join("out");
+        let photos = [dir.path().join("missing.jpg")];
+        let opts = (&DroneOptions::default(), &FlightOptions::default());
+        let got = run_adjusted_batch(
+            &photos,
+            &[out.join("a.tif")],
+            (&out, None, 0),
+            opts,
+            |_| {},
+            |_, _| {},
+        );
+        let Err(e) = got else {
+            panic!("no jobs was accepted");
+        };
+        let plain = BatchRequest {
+            jobs: 0,
+            ..BatchRequest::default()
+        };
+        let want = plain
+            .validate(false)
+            .expect_err("plain batch refuses no jobs");
+        assert_eq!(e.to_string(), want.to_string());
+        assert!(e.to_string().contains("jobs"), "{e}");
+        assert!(!out.exists());
+    }
 }
