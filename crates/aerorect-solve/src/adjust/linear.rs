@@ -4,7 +4,7 @@
 
 use super::blocks::{LOCAL, State};
 use super::jacobian::Posed;
-use super::normal::SymBlocks;
+use super::normal::{Gathered, SymBlocks};
 use super::residuals::Problem;
 use super::{Observation, TiePoint};
 use aerorect_core::Vec3;
@@ -44,9 +44,10 @@ struct Lin {
     idx: [Option<usize>; LOCAL],
 }
 
-/// One part's sums: its matrix and right-hand side.
+/// One part's sums: its matrix (with the additions gathered for it) and right-hand side.
 pub(super) struct Partial {
     pub entries: SymBlocks,
+    pub gathered: Gathered,
     pub rhs: Vec<f64>,
 }
 
@@ -55,12 +56,14 @@ impl Partial {
     pub(super) fn new(like: &SymBlocks, n: usize) -> Self {
         Self {
             entries: like.empty_like(),
+            gathered: Gathered::default(),
             rhs: vec![0.0; n],
         }
     }
 
     /// Adds the part's sums to the whole's.
-    pub(super) fn add_to(&self, entries: &mut SymBlocks, rhs: &mut [f64]) {
+    pub(super) fn add_to(mut self, entries: &mut SymBlocks, rhs: &mut [f64]) {
+        self.gathered.flush(&mut self.entries);
         entries.add_matrix(&self.entries);
         for (r, v) in rhs.iter_mut().zip(&self.rhs) {
             *r += v;
@@ -80,19 +83,16 @@ impl Partial {
                 n += 1;
             }
         }
-        let mut m = [0.0; LOCAL * LOCAL];
+        let m = self.gathered.sum_at(&mut self.entries, &idx[..n]);
         for (ra, &a) in cols[..n].iter().enumerate() {
             let (j0, j1) = (l.w * l.local[(0, a)], l.w * l.local[(1, a)]);
             for (rb, &b) in cols[..=ra].iter().enumerate() {
-                let v = j0 * l.local[(0, b)] + j1 * l.local[(1, b)];
-                m[ra * n + rb] = v;
-                m[rb * n + ra] = v;
+                m[ra * n + rb] += j0 * l.local[(0, b)] + j1 * l.local[(1, b)];
             }
             self.rhs[idx[ra]] -= j0 * l.r[0] + j1 * l.r[1];
             let row = l.point.row(0).transpose() * j0 + l.point.row(1).transpose() * j1;
             hpc.push((idx[ra], row));
         }
-        self.entries.add_dense(&idx[..n], &m[..n * n]);
     }
 }
 

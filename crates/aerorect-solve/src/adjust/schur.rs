@@ -60,7 +60,6 @@ struct SchurWork {
     /// H_pp^-1 H_pc, by column.
     t: Vec<Vec3>,
     idx: Vec<usize>,
-    outer: Vec<f64>,
 }
 
 impl SchurWork {
@@ -83,19 +82,17 @@ impl SchurWork {
         self.t.extend(hpc.iter().map(|(_, v)| inv * v));
         let ib = inv * p.bp;
         let n = hpc.len();
-        self.outer.clear();
-        self.outer.resize(n * n, 0.0);
-        for (a, (i, va)) in hpc.iter().enumerate() {
-            for (b, tb) in self.t[..=a].iter().enumerate() {
-                let v = -va.dot(tb);
-                self.outer[a * n + b] = v;
-                self.outer[b * n + a] = v;
-            }
-            sum.rhs[*i] -= va.dot(&ib);
-        }
         self.idx.clear();
         self.idx.extend(hpc.iter().map(|(i, _)| *i));
-        sum.entries.add_dense(&self.idx, &self.outer);
+        let outer = sum.gathered.sum_at(&mut sum.entries, &self.idx);
+        for (a, (_, va)) in hpc.iter().enumerate() {
+            for (b, tb) in self.t[..=a].iter().enumerate() {
+                outer[a * n + b] -= va.dot(tb);
+            }
+        }
+        for (i, va) in hpc {
+            sum.rhs[*i] -= va.dot(&ib);
+        }
         Some(inv)
     }
 }
