@@ -18,11 +18,26 @@ pub(super) struct PointLin {
     pub hpp: Matrix3<f64>,
     /// -J_p^T W r.
     pub bp: Vec3,
-    /// Its rows of H_cp, by reduced index in index order: a range of [`Linear::hpc`] (a
-    /// vector per point cost an allocation per point and linearisation).
+    /// Its rows of H_cp, by reduced index in index order: a range of its part's
+    /// [`PointsPart::hpc`] (a vector per point cost an allocation per point and linearisation).
     hpc: Range<usize>,
     /// Whether an observation is in Huber's linear arm (the point is polished after a step).
     pub robust: bool,
+}
+
+/// The blocks of [`PART`] consecutive tie points (fewer in the last part).
+#[derive(Default)]
+pub(super) struct PointsPart {
+    pub points: Vec<PointLin>,
+    /// Every point's rows of H_cp, (reduced index, row), one point after another.
+    hpc: Vec<(usize, Vec3)>,
+}
+
+impl PointsPart {
+    /// Point `p`'s rows of H_cp (`p` one of this part's points).
+    pub fn hpc(&self, p: &PointLin) -> &[(usize, Vec3)] {
+        &self.hpc[p.hpc.clone()]
+    }
 }
 
 /// The undamped normal equations at one state: the frame-and-camera block (data and
@@ -30,9 +45,11 @@ pub(super) struct PointLin {
 pub(super) struct Linear {
     pub entries: SymBlocks,
     pub rhs: Vec<f64>,
-    pub points: Vec<PointLin>,
-    /// Every point's rows of H_cp, (reduced index, row), one point after another.
-    hpc: Vec<(usize, Vec3)>,
+    /// The points' blocks part by part, in tie order. Each part is filled, and its memory
+    /// first touched, by the worker that linearises it: copied into one vector on the calling
+    /// thread, the 1,000-frame flight's gigabyte of points' blocks kept the other core idle
+    /// for a second or more per solve, most of it in the kernel's page clearing.
+    pub parts: Vec<PointsPart>,
 }
 
 /// One observation's residual, weight and Jacobians (local columns and point).
@@ -113,7 +130,7 @@ impl Problem<'_> {
 
     /// One tie point's blocks: its observations' frame-camera products go into `sum`, its
     /// rows of H_cp onto the end of `hpc`.
-    fn point_part(
+    fn point_lin(
         &self,
         posed: &[Posed<'_>],
         (tie, x): (&TiePoint, &Vec3),
@@ -191,48 +208,33 @@ impl Problem<'_> {
     /// The undamped normal equations at `s`. The tie points are taken [`PART`] at a time in
     /// parallel, each part summing its points' products into its own matrix, and the parts
     /// are added in tie order: the same sums whatever the number of threads. `reuse`: an
-    /// earlier linearisation whose storage is taken over (fresh, its gigabyte of points' blocks
-    /// on a large flight went to the kernel's page clearing at every step).
+    /// earlier linearisation whose parts' storage is taken over (fresh, its gigabyte of
+    /// points' blocks on a large flight went to the kernel's page clearing at every step).
     pub fn linear(&self, s: &State, reuse: Option<Linear>) -> Option<Linear> {
         let posed = self.posed(s);
-        let (mut points, mut hpc) = reuse.map_or_else(
-            || (Vec::with_capacity(self.ties.len()), Vec::new()),
-            |l| (l.points, l.hpc),
-        );
-        points.clear();
-        hpc.clear();
+        let mut spare = reuse.map(|l| l.parts).unwrap_or_default().into_iter();
         let mut lin = Linear {
             entries: SymBlocks::new(Arc::new(self.layout.blocks())),
             rhs: vec![0.0; self.layout.len()],
-            points,
-            hpc,
+            parts: Vec::with_capacity(self.ties.len().div_ceil(PART)),
         };
         for (ties, xs) in self.ties.chunks(CHUNK).zip(s.points.chunks(CHUNK)) {
-            type Part = (Partial, Vec<PointLin>, Vec<(usize, Vec3)>);
-            let parts: Vec<Option<Part>> = ties
+            let mut store: Vec<PointsPart> = spare.by_ref().take(CHUNK / PART).collect();
+            store.resize_with(ties.len().div_ceil(PART), PointsPart::default);
+            let parts: Vec<Option<Partial>> = ties
                 .par_chunks(PART)
                 .zip(xs.par_chunks(PART))
-                .map(|(ties, xs)| {
+                .zip(store.par_iter_mut())
+                .map(|((ties, xs), part)| {
                     let mut sum = Partial::new(&lin.entries, lin.rhs.len());
-                    let mut hpc = Vec::new();
-                    let points = ties
-                        .iter()
-                        .zip(xs)
-                        .map(|t| self.point_part(&posed, t, &mut sum, &mut hpc))
-                        .collect::<Option<Vec<_>>>()?;
-                    Some((sum, points, hpc))
+                    self.part_lin(&posed, (ties, xs), &mut sum, part)?;
+                    Some(sum)
                 })
                 .collect();
-            for part in parts {
-                let (sum, points, hpc) = part?;
-                sum.add_to(&mut lin.entries, &mut lin.rhs);
-                let at = lin.hpc.len();
-                lin.points.extend(points.into_iter().map(|p| PointLin {
-                    hpc: p.hpc.start + at..p.hpc.end + at,
-                    ..p
-                }));
-                lin.hpc.extend(hpc);
+            for sum in parts {
+                sum?.add_to(&mut lin.entries, &mut lin.rhs);
             }
+            lin.parts.append(&mut store);
         }
         for row in self.prior_rows(s) {
             let w = row.weight / (row.sigma * row.sigma);
@@ -244,6 +246,24 @@ impl Problem<'_> {
             }
         }
         Some(lin)
+    }
+
+    /// One part's points linearised into `part` (its earlier contents dropped, its memory
+    /// kept), their frame-camera products summed into `sum`.
+    fn part_lin(
+        &self,
+        posed: &[Posed<'_>],
+        (ties, xs): (&[TiePoint], &[Vec3]),
+        sum: &mut Partial,
+        part: &mut PointsPart,
+    ) -> Option<()> {
+        part.points.clear();
+        part.hpc.clear();
+        for t in ties.iter().zip(xs) {
+            let p = self.point_lin(posed, t, sum, &mut part.hpc)?;
+            part.points.push(p);
+        }
+        Some(())
     }
 }
 
@@ -267,19 +287,19 @@ pub(super) fn summed_by_index(rows: &mut Vec<(usize, Vec3)>, first: usize) {
 
 /// Points per chunk of [`Problem::linear`] and [`Linear::reduced`]: a chunk's parts
 /// ([`PART`]) are summed in parallel and held until they are added, each with a right-hand
-/// side over every parameter.
-pub(super) const CHUNK: usize = 4096;
+/// side over every parameter. A whole number of parts.
+pub(super) const CHUNK: usize = 16 * PART;
 
 impl Linear {
-    /// Point `p`'s rows of H_cp.
-    pub fn hpc(&self, p: &PointLin) -> &[(usize, Vec3)] {
-        &self.hpc[p.hpc.clone()]
+    /// Every point's blocks, in tie order.
+    pub fn points(&self) -> impl Iterator<Item = &PointLin> {
+        self.parts.iter().flat_map(|part| &part.points)
     }
 
     /// The gradient's largest entry (frames, cameras and points).
     pub fn gradient_max_norm(&self) -> f64 {
         let c = self.rhs.iter().fold(0.0, |a: f64, v| a.max(v.abs()));
-        self.points.iter().fold(c, |a, p| a.max(p.bp.amax()))
+        self.points().fold(c, |a, p| a.max(p.bp.amax()))
     }
 }
 

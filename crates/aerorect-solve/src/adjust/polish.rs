@@ -25,7 +25,7 @@
 use super::TiePoint;
 use super::blocks::State;
 use super::jacobian::Posed;
-use super::linear::Linear;
+use super::linear::{Linear, PART};
 use super::residuals::Problem;
 use aerorect_core::Vec3;
 use nalgebra::{Matrix3, SVector};
@@ -139,12 +139,12 @@ impl Problem<'_> {
     /// moves.
     pub(super) fn polish(&self, lin: &Linear, s: &mut State) -> f64 {
         let posed = self.posed(s);
-        let moved: Vec<(usize, Vec3)> = lin
-            .points
-            .par_iter()
-            .enumerate()
-            .filter(|(_, p)| p.robust)
-            .map(|(i, _)| (i, self.polished(&posed, &self.ties[i], s.points[i])))
+        let moved: Vec<(usize, Vec3)> = (lin.parts.par_iter().enumerate())
+            .flat_map_iter(|(k, part)| {
+                let robust = part.points.iter().enumerate().filter(|(_, p)| p.robust);
+                robust.map(move |(j, _)| k * PART + j)
+            })
+            .map(|i| (i, self.polished(&posed, &self.ties[i], s.points[i])))
             .collect();
         moved.into_iter().fold(0.0, |sum, (i, x)| {
             let d = (x - s.points[i]).norm_squared();

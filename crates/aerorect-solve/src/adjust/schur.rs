@@ -18,36 +18,45 @@ use std::sync::Arc;
 /// The damped reduced system and its right-hand side.
 pub(super) type Reduced = (SymBlocks, Vec<f64>);
 
+/// Each point's damped H_pp^-1 (none where it is singular), part by part as
+/// [`Linear::parts`].
+pub(super) type Inverses = Vec<Vec<Option<Matrix3<f64>>>>;
+
 impl Linear {
     /// The damped reduced system (points eliminated) and its right-hand side; each point's
-    /// damped H_pp^-1 (none where it is singular) in `inverses`, which is cleared first. The
-    /// points' Schur blocks are taken [`PART`] at a time in parallel, each part summed into its
-    /// own matrix, and the parts are added in point order: the same sums whatever the number
-    /// of threads.
-    pub fn reduced(&self, lambda: f64, inverses: &mut Vec<Option<Matrix3<f64>>>) -> Reduced {
+    /// damped H_pp^-1 in `inverses`, whose earlier contents are dropped (their memory kept).
+    /// The parts' Schur blocks are taken in parallel, each part summed into its own matrix,
+    /// and the parts are added in point order: the same sums whatever the number of threads.
+    pub fn reduced(&self, lambda: f64, inverses: &mut Inverses) -> Reduced {
         let mut entries = self.entries.clone();
         for i in 0..self.rhs.len() {
             let d = entries.entry(i, i);
             *d += lambda * d.max(1e-9);
         }
         let mut rhs = self.rhs.clone();
-        inverses.clear();
-        for points in self.points.chunks(CHUNK) {
-            let parts: Vec<(Partial, Vec<Option<Matrix3<f64>>>)> = points
-                .par_chunks(PART)
-                .map(|points| {
+        inverses.resize_with(self.parts.len(), Vec::new);
+        let per_chunk = CHUNK / PART;
+        for (parts, invs) in self
+            .parts
+            .chunks(per_chunk)
+            .zip(inverses.chunks_mut(per_chunk))
+        {
+            let sums: Vec<Partial> = parts
+                .par_iter()
+                .zip(invs.par_iter_mut())
+                .map(|(part, inverses)| {
                     let mut sum = Partial::new(&entries, rhs.len());
                     let mut work = SchurWork::default();
-                    let inverses = points
-                        .iter()
-                        .map(|p| work.eliminate(p, self.hpc(p), lambda, &mut sum))
-                        .collect();
-                    (sum, inverses)
+                    inverses.clear();
+                    inverses.extend(
+                        (part.points.iter())
+                            .map(|p| work.eliminate(p, part.hpc(p), lambda, &mut sum)),
+                    );
+                    sum
                 })
                 .collect();
-            for (sum, part) in parts {
+            for sum in sums {
                 sum.add_to(&mut entries, &mut rhs);
-                inverses.extend(part);
             }
         }
         (entries, rhs)

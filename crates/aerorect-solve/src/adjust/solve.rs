@@ -3,11 +3,10 @@
 //! through the reduced system ([`super::schur`]), the points back-substituted.
 
 use super::blocks::State;
-use super::linear::Linear;
+use super::linear::{Linear, PART};
 use super::residuals::Problem;
-use super::schur::Factoriser;
+use super::schur::{Factoriser, Inverses};
 use aerorect_core::Vec3;
-use nalgebra::Matrix3;
 use rayon::prelude::*;
 
 /// The last linearisation and each point's damped H_pp^-1 at the last step, kept for their
@@ -19,7 +18,7 @@ use rayon::prelude::*;
 #[derive(Default)]
 pub(super) struct Storage {
     pub linear: Option<Linear>,
-    pub inverses: Vec<Option<Matrix3<f64>>>,
+    pub inverses: Inverses,
     /// Each point's back-substituted step at the last step (zero where it has none).
     pub point_steps: Vec<Vec3>,
     /// The reduced system's symbolic factorisation, shared by the steps and the standard
@@ -105,22 +104,22 @@ impl crate::lm::Model for Solver<'_, '_> {
             .solve(&rhs)?;
         let mut next = self.problem.layout.moved(s, &dc);
         let mut step2: f64 = dc.iter().map(|d| d * d).sum();
-        // The points back-substituted in parallel; the step's norm summed in their order (a
-        // point without one adds zero).
+        // The points back-substituted in parallel, part by part; the step's norm summed in
+        // their order (a point without one adds zero).
         let mut steps = std::mem::take(&mut self.storage.point_steps);
         steps.resize(next.points.len(), Vec3::zeros());
-        (next.points.par_iter_mut(), steps.par_iter_mut())
+        (next.points.par_chunks_mut(PART), steps.par_chunks_mut(PART))
             .into_par_iter()
-            .zip(lin.points.par_iter().zip(inverses.par_iter()))
-            .for_each(|((x, dx), (p, inv))| {
-                *dx = Vec3::zeros();
-                if let Some(inv) = inv {
-                    let hd = lin
-                        .hpc(p)
-                        .iter()
-                        .fold(Vec3::zeros(), |a, (i, v)| a + v * dc[*i]);
-                    *dx = inv * (p.bp - hd);
-                    *x += *dx;
+            .zip(lin.parts.par_iter().zip(inverses.par_iter()))
+            .for_each(|((xs, dxs), (part, invs))| {
+                for (((x, dx), p), inv) in xs.iter_mut().zip(dxs).zip(&part.points).zip(invs) {
+                    *dx = Vec3::zeros();
+                    if let Some(inv) = inv {
+                        let hd =
+                            (part.hpc(p).iter()).fold(Vec3::zeros(), |a, (i, v)| a + v * dc[*i]);
+                        *dx = inv * (p.bp - hd);
+                        *x += *dx;
+                    }
                 }
             });
         step2 = steps.iter().fold(step2, |a, dx| a + dx.norm_squared());
@@ -289,7 +288,7 @@ mod tests {
                 let want_rhs = b.rows(0, nc) - &ncp * &ipp * b.rows(nc, np);
                 let mut inverses = Vec::new();
                 let (entries, rhs) = lin.reduced(lambda, &mut inverses);
-                assert!(inverses.iter().all(Option::is_some));
+                assert!(inverses.iter().flatten().all(Option::is_some));
                 let scale = want.amax();
                 let mut got = DMatrix::<f64>::zeros(nc, nc);
                 for (i, j, v) in entries.lower_triplets() {
@@ -311,13 +310,10 @@ mod tests {
         with_fixture(|p, s| {
             let lin = p.linear(s, None).unwrap();
             let blocks = p.point_blocks(s).unwrap();
-            assert_eq!(blocks.len(), lin.points.len());
-            assert!(
-                lin.points.iter().any(|q| q.robust),
-                "no point in Huber's arm"
-            );
+            assert_eq!(blocks.len(), lin.points().count());
+            assert!(lin.points().any(|q| q.robust), "no point in Huber's arm");
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            for ((hpp, bp), q) in blocks.iter().zip(&lin.points) {
+            for ((hpp, bp), q) in blocks.iter().zip(lin.points()) {
                 assert_eq!(bits(hpp.as_slice()), bits(q.hpp.as_slice()));
                 assert_eq!(bits(bp.as_slice()), bits(q.bp.as_slice()));
             }
