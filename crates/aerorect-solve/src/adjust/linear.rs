@@ -78,9 +78,16 @@ impl Partial {
         }
     }
 
-    /// Adds the part's sums to the whole's.
-    pub(super) fn add_to(mut self, entries: &mut SymBlocks, rhs: &mut [f64]) {
+    /// The part's sums with its gathered additions sent to its matrix: done by the worker
+    /// that made them (on the calling thread, they held up the other core).
+    pub(super) fn flushed(mut self) -> Self {
         self.gathered.flush(&mut self.entries);
+        self
+    }
+
+    /// Adds the part's sums ([`Self::flushed`]) to the whole's.
+    pub(super) fn add_to(&self, entries: &mut SymBlocks, rhs: &mut [f64]) {
+        debug_assert!(self.gathered.is_empty());
         entries.add_matrix(&self.entries);
         for (r, v) in rhs.iter_mut().zip(&self.rhs) {
             *r += v;
@@ -228,7 +235,7 @@ impl Problem<'_> {
                 .map(|((ties, xs), part)| {
                     let mut sum = Partial::new(&lin.entries, lin.rhs.len());
                     self.part_lin(&posed, (ties, xs), &mut sum, part)?;
-                    Some(sum)
+                    Some(sum.flushed())
                 })
                 .collect();
             for sum in parts {

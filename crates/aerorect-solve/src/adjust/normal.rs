@@ -307,6 +307,11 @@ impl Gathered {
         k
     }
 
+    /// Whether no sum is held.
+    pub fn is_empty(&self) -> bool {
+        self.sets.is_empty()
+    }
+
     /// Adds every held sum to `into` and holds none.
     pub fn flush(&mut self, into: &mut SymBlocks) {
         for set in &mut self.sets {

@@ -52,7 +52,7 @@ impl Linear {
                         (part.points.iter())
                             .map(|p| work.eliminate(p, part.hpc(p), lambda, &mut sum)),
                     );
-                    sum
+                    sum.flushed()
                 })
                 .collect();
             for sum in sums {
