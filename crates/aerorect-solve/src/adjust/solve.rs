@@ -155,6 +155,12 @@ mod tests {
     /// A problem of two frames and 40 tie points over a sloping terrain, one observation in
     /// Huber's linear arm, attitudes and positions free, and a state near its minimum.
     fn with_fixture(run: impl FnOnce(&Problem<'_>, &State)) {
+        with_ties(40, run)
+    }
+
+    /// [`with_fixture`]'s problem with `n` tie points: its 40 again and again, each copy
+    /// shifted by about a centimetre, one observation in 40 in Huber's linear arm.
+    fn with_ties(n: usize, run: impl FnOnce(&Problem<'_>, &State)) {
         use super::super::blocks::{CameraBlock, DatumBlock, FrameBlock, Layout};
         use super::super::{AdjustFrame, AdjustOptions};
         use aerorect_core::{Camera, ImageSize, Intrinsics};
@@ -174,11 +180,12 @@ mod tests {
             None,
             ImageSize::new(1000, 760),
         )];
-        let ties: Vec<TiePoint> = (0..40)
+        let ties: Vec<TiePoint> = (0..n)
             .map(|k| {
+                let copy = (k / 40) as f64;
                 let g = [
-                    (k % 8) as f64 * 6.0 - 20.0,
-                    (k / 8) as f64 * 7.0 - 14.0,
+                    (k % 8) as f64 * 6.0 - 20.0 + 0.01 * copy,
+                    (k / 8 % 5) as f64 * 7.0 - 14.0 - 0.013 * copy,
                     1.0,
                 ];
                 let at = |f: usize, dx: f64| Observation {
@@ -188,7 +195,7 @@ mod tests {
                 };
                 TiePoint {
                     ground: g,
-                    observations: vec![at(0, 140.0), at(1, -175.0 + f64::from(k == 7) * 40.0)],
+                    observations: vec![at(0, 140.0), at(1, -175.0 + f64::from(k % 40 == 7) * 40.0)],
                     control: None,
                 }
             })
@@ -224,82 +231,105 @@ mod tests {
 
     /// The reduced system and right-hand side at two dampings equal a dense oracle: every
     /// observation's full Jacobian (all 14 local columns and the point's 3) assembled into
-    /// one dense normal matrix with the priors, damped, and its points eliminated by a dense
-    /// Schur complement.
+    /// dense normal matrices with the priors, damped, and each point eliminated by a dense
+    /// Schur complement of its own block (the points' blocks are independent). With 40 tie
+    /// points (one part) and with 4,500 (18 parts over two chunks, the last of each short),
+    /// the second damping on a linearisation and inverses that reuse the first's storage.
     #[test]
     fn the_reduced_system_is_the_dense_schur_complement() {
+        for n in [40, 4500] {
+            with_ties(n, |p, s| {
+                let mut lin = p.linear(s, None).unwrap();
+                let mut inverses = Vec::new();
+                for lambda in [0.0, 1e-3] {
+                    let (want, want_rhs) = dense_reduced(p, s, lambda);
+                    lin = p.linear(s, Some(lin)).unwrap();
+                    let (entries, rhs) = lin.reduced(lambda, &mut inverses);
+                    assert!(inverses.iter().flatten().all(Option::is_some));
+                    assert_eq!(inverses.iter().flatten().count(), n);
+                    let nc = p.layout.len();
+                    let mut got = nalgebra::DMatrix::<f64>::zeros(nc, nc);
+                    for (i, j, v) in entries.lower_triplets() {
+                        got[(i, j)] = v;
+                        got[(j, i)] = v;
+                    }
+                    let scale = want.amax();
+                    assert!((&got - &want).amax() <= 1e-9 * scale, "{n}: {got}\n{want}");
+                    let rhs = nalgebra::DVector::from_vec(rhs);
+                    let tol = 1e-9 * want_rhs.amax().max(1.0);
+                    assert!((&rhs - &want_rhs).amax() <= tol, "{n}");
+                }
+            });
+        }
+    }
+
+    /// The dense oracle of [`the_reduced_system_is_the_dense_schur_complement`].
+    fn dense_reduced(
+        p: &Problem<'_>,
+        s: &State,
+        lambda: f64,
+    ) -> (nalgebra::DMatrix<f64>, nalgebra::DVector<f64>) {
         use super::super::jacobian::pixel_jacobian;
         use nalgebra::{DMatrix, DVector};
-        with_fixture(|p, s| {
-            let lin = p.linear(s, None).unwrap();
-            let (nc, np) = (p.layout.len(), 3 * p.ties.len());
-            let mut n = DMatrix::<f64>::zeros(nc + np, nc + np);
-            let mut b = DVector::<f64>::zeros(nc + np);
-            let sig = p.opts.pixel_sigma;
-            for (t, (tie, x)) in p.ties.iter().zip(&s.points).enumerate() {
-                for o in &tie.observations {
-                    let fr = &p.frames[o.frame];
-                    let (fb, cb) = (&s.frames[o.frame], &s.cameras[fr.camera]);
-                    let pj = pixel_jacobian(fr, &p.cameras[fr.camera], fb, cb, x).unwrap();
-                    let r =
-                        nalgebra::Vector2::new(pj.pixel[0] - o.pixel[0], pj.pixel[1] - o.pixel[1])
-                            / sig;
-                    let w = p.weight(&r, o);
-                    let mut j = DMatrix::<f64>::zeros(2, nc + np);
-                    for (a, i) in p.layout.local(o.frame, fr.camera).iter().enumerate() {
-                        if let Some(i) = i {
-                            j.set_column(*i, &(pj.local.column(a) / sig));
-                        }
-                    }
-                    for k in 0..3 {
-                        j.set_column(nc + 3 * t + k, &(pj.point.column(k) / sig));
-                    }
-                    n += j.transpose() * &j * w;
-                    b -= j.transpose() * DVector::from_column_slice(r.as_slice()) * w;
-                }
-                let (hp, bp) = p.point_prior_blocks(tie, x);
-                let at = nc + 3 * t;
-                let mut block = n.view_mut((at, at), (3, 3));
-                block += hp;
-                let mut rows = b.rows_mut(at, 3);
-                rows -= bp;
-            }
-            for row in p.prior_rows(s) {
-                let w = row.weight / (row.sigma * row.sigma);
-                for &(i, a) in &row.terms {
-                    b[i] -= w * a * row.value;
-                    for &(j, c) in &row.terms {
-                        n[(i, j)] += w * a * c;
+        let nc = p.layout.len();
+        let (mut ncc, mut bc) = (DMatrix::<f64>::zeros(nc, nc), DVector::<f64>::zeros(nc));
+        // Per point: its (nc + 3)-square normal matrix's point rows and its right-hand side.
+        let mut points = Vec::new();
+        let sig = p.opts.pixel_sigma;
+        for (tie, x) in p.ties.iter().zip(&s.points) {
+            let mut n = DMatrix::<f64>::zeros(nc + 3, nc + 3);
+            let mut b = DVector::<f64>::zeros(nc + 3);
+            for o in &tie.observations {
+                let fr = &p.frames[o.frame];
+                let (fb, cb) = (&s.frames[o.frame], &s.cameras[fr.camera]);
+                let pj = pixel_jacobian(fr, &p.cameras[fr.camera], fb, cb, x).unwrap();
+                let r = nalgebra::Vector2::new(pj.pixel[0] - o.pixel[0], pj.pixel[1] - o.pixel[1])
+                    / sig;
+                let w = p.weight(&r, o);
+                let mut j = DMatrix::<f64>::zeros(2, nc + 3);
+                for (a, i) in p.layout.local(o.frame, fr.camera).iter().enumerate() {
+                    if let Some(i) = i {
+                        j.set_column(*i, &(pj.local.column(a) / sig));
                     }
                 }
-            }
-            for lambda in [0.0, 1e-3] {
-                let mut d = n.clone();
-                for i in 0..nc + np {
-                    d[(i, i)] += lambda * n[(i, i)].max(1e-9);
+                for k in 0..3 {
+                    j.set_column(nc + k, &(pj.point.column(k) / sig));
                 }
-                let ipp = d
-                    .view((nc, nc), (np, np))
-                    .clone_owned()
-                    .try_inverse()
-                    .unwrap();
-                let ncp = d.view((0, nc), (nc, np)).clone_owned();
-                let want = d.view((0, 0), (nc, nc)) - &ncp * &ipp * ncp.transpose();
-                let want_rhs = b.rows(0, nc) - &ncp * &ipp * b.rows(nc, np);
-                let mut inverses = Vec::new();
-                let (entries, rhs) = lin.reduced(lambda, &mut inverses);
-                assert!(inverses.iter().flatten().all(Option::is_some));
-                let scale = want.amax();
-                let mut got = DMatrix::<f64>::zeros(nc, nc);
-                for (i, j, v) in entries.lower_triplets() {
-                    got[(i, j)] = v;
-                    got[(j, i)] = v;
-                }
-                assert!((&got - &want).amax() <= 1e-9 * scale, "{got}\n{want}");
-                let rhs = DVector::from_vec(rhs);
-                assert!((&rhs - &want_rhs).amax() <= 1e-9 * want_rhs.amax().max(1.0));
+                n += j.transpose() * &j * w;
+                b -= j.transpose() * DVector::from_column_slice(r.as_slice()) * w;
             }
-        });
+            let (hp, bp) = p.point_prior_blocks(tie, x);
+            let mut block = n.view_mut((nc, nc), (3, 3));
+            block += hp;
+            let mut rows = b.rows_mut(nc, 3);
+            rows -= bp;
+            ncc += n.view((0, 0), (nc, nc));
+            bc += b.rows(0, nc);
+            points.push((n, b));
+        }
+        for row in p.prior_rows(s) {
+            let w = row.weight / (row.sigma * row.sigma);
+            for &(i, a) in &row.terms {
+                bc[i] -= w * a * row.value;
+                for &(j, c) in &row.terms {
+                    ncc[(i, j)] += w * a * c;
+                }
+            }
+        }
+        for i in 0..nc {
+            ncc[(i, i)] += lambda * ncc[(i, i)].max(1e-9);
+        }
+        for (n, b) in &points {
+            let mut pp = n.view((nc, nc), (3, 3)).clone_owned();
+            for k in 0..3 {
+                pp[(k, k)] += lambda * n[(nc + k, nc + k)].max(1e-9);
+            }
+            let ipp = pp.try_inverse().unwrap();
+            let cp = n.view((0, nc), (nc, 3));
+            ncc -= cp * &ipp * cp.transpose();
+            bc -= cp * &ipp * b.rows(nc, 3);
+        }
+        (ncc, bc)
     }
 
     /// The points' blocks alone (a warm start's point passes) are those of the full
