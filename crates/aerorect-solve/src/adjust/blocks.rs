@@ -9,7 +9,7 @@ use aerorect_core::Vec3;
 
 /// A frame parameter: the rotation correction (world axes, radians) or the position
 /// correction (world axes, metres), by axis.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub(super) enum FrameParam {
     Rotation(usize),
     Position(usize),
@@ -27,7 +27,7 @@ pub(super) const FRAME_PARAMS: [FrameParam; 6] = [
 
 /// A camera parameter: focal scale s (fx, fy times 1 + s), principal point shift (px), the
 /// radial terms dk1, dk2 and the boresight rotation (camera axes, radians).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub(super) enum CameraParam {
     FocalScale,
     PrincipalPoint(usize),
@@ -51,7 +51,7 @@ pub(super) const CAMERA_PARAMS: [CameraParam; 8] = [
 /// images') by, as a shift (m), a small rotation (rotation vector, radians) and a scale about
 /// the frames' centroid (see [`super::Datum`]), and a drift (m over the flight, linear in each
 /// frame's time: see [`super::AdjustOptions::gps_drift_times`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub(super) enum DatumParam {
     Shift(usize),
     Rotation(usize),
@@ -292,7 +292,7 @@ impl Layout {
 }
 
 /// A parameter by name: frame or camera (with its index), or the datum's.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub(super) enum Param {
     Frame(usize, FrameParam),
     Camera(usize, CameraParam),

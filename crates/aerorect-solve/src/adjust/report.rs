@@ -11,12 +11,16 @@ use super::{
 /// Residual RMS per frame (with counts and outliers) and overall.
 pub(super) type Rms = (Vec<(f64, usize, usize)>, f64);
 
+/// Standard deviations by parameter.
+pub(super) type Sigmas = std::collections::HashMap<Param, f64>;
+
 /// What the solve gave, for the report.
 pub(super) struct Fit {
     pub before: Rms,
     pub after: Rms,
-    /// One per parameter, by [`Param`]: 0 for held ones.
-    pub sigmas: Vec<(Param, f64)>,
+    /// One per free parameter, by [`Param`] (held ones have none: 0). A map: looked up per
+    /// frame in a list, they grew with the square of the frames.
+    pub sigmas: Sigmas,
     pub iterations: usize,
     pub termination: Termination,
     pub gauge: Vec<GaugeHold>,
@@ -28,11 +32,7 @@ pub(super) struct Fit {
 /// Standard deviations of the free parameters: the diagonal of the reduced system's inverse
 /// (Gauss-Newton, undamped), scaled by the a-posteriori variance factor. The normal
 /// equations are formed in the solve's `storage`, and factorised with its symbolic factor.
-pub(super) fn standard_deviations(
-    p: &Problem<'_>,
-    s: &State,
-    storage: Storage,
-) -> Vec<(Param, f64)> {
+pub(super) fn standard_deviations(p: &Problem<'_>, s: &State, storage: Storage) -> Sigmas {
     let free: Vec<(usize, Param)> = p.layout.free().collect();
     let nan = || free.iter().map(|&(_, q)| (q, f64::NAN)).collect();
     let Some(lin) = p.linear(s, storage.linear) else {
@@ -56,15 +56,12 @@ pub(super) fn standard_deviations(
 
 /// Every free parameter's standard deviation as unknown (NaN): a solve that does not report
 /// them ([`super::AdjustOptions::standard_deviations`]).
-pub(super) fn unknown_deviations(p: &Problem<'_>) -> Vec<(Param, f64)> {
+pub(super) fn unknown_deviations(p: &Problem<'_>) -> Sigmas {
     p.layout.free().map(|(_, q)| (q, f64::NAN)).collect()
 }
 
 fn sigma_of(fit: &Fit, q: Param) -> f64 {
-    fit.sigmas
-        .iter()
-        .find(|(p, _)| *p == q)
-        .map_or(0.0, |(_, s)| *s)
+    fit.sigmas.get(&q).copied().unwrap_or(0.0)
 }
 
 fn frame_report(p: &Problem<'_>, s: &State, fit: &Fit, f: usize) -> FrameAdjustment {
