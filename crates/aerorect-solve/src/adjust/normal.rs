@@ -8,8 +8,8 @@
 //! found once per addition and its entries are plain array slots, and [`Gathered`] sums the
 //! additions of consecutive points at the same indices before they reach the matrix.
 //!
-//! Every entry receives the additions a map of entries would, in the same order, so it holds
-//! the same values bit for bit. A block pair is stored whole from its first use: the entries of
+//! Every entry receives the additions made to it that a map of entries would, in the same
+//! order, so it holds the same values bit for bit. A block pair is stored whole from its first use: the entries of
 //! it that nothing reached are zeros that a map would not have held (the factorisation
 //! carries them as explicit zeros; a frame's block is dense in practice anyway).
 
@@ -288,14 +288,9 @@ impl Gathered {
             self.sets.push(GatheredSet::default());
             self.sets.len() - 1
         } else {
-            let (k, _) = self
-                .sets
-                .iter()
-                .enumerate()
-                .fold(
-                    (0, u64::MAX),
-                    |m, (k, s)| if s.used < m.1 { (k, s.used) } else { m },
-                );
+            let k = (0..GATHERED)
+                .min_by_key(|&k| self.sets[k].used)
+                .unwrap_or(0);
             self.sets[k].send(into);
             k
         };
