@@ -19,5 +19,6 @@ pub use error::RasterError;
 pub use map::{LensDirection, LensMap, PixelMap, Then};
 pub use raster::{AnyRaster, Raster, Sample};
 pub use warp::{
-    Coordinates, Interp, WarpOptions, warp, warp_into, warp_into_avx2, warp_into_portable,
+    Coordinates, Interp, ReducedLevels, WarpOptions, warp, warp_into, warp_into_avx2,
+    warp_into_portable, warp_levels,
 };

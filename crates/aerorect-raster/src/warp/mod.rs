@@ -1,6 +1,7 @@
 //! The warp engine: inverse mapping with nearest, bilinear or bicubic (Keys, a = -0.5) sampling,
 //! or area averaging (`area`); bilinear and bicubic read a box-reduced pyramid level where the
-//! destination is more than twice coarser than the source (`prefilter`).
+//! destination is more than twice coarser than the source (`prefilter`); `levels` keeps those
+//! levels between warps of one image.
 //!
 //! Sampling convention: a source position (x, y) is inside the image when
 //! -0.5 <= x < W - 0.5 and -0.5 <= y < H - 0.5 (the pixel footprints); inside, neighbours past
@@ -15,6 +16,7 @@
 mod area;
 mod block;
 mod dispatch;
+mod levels;
 mod options;
 mod portable;
 mod prefilter;
@@ -30,6 +32,7 @@ use aerorect_core::ImageSize;
 use dispatch::dispatch;
 use types::Build;
 
+pub use levels::{ReducedLevels, warp_levels};
 pub use options::{Coordinates, Interp, WarpOptions};
 pub use portable::keys_weights;
 pub use relative::FAST_MAX_ERROR;

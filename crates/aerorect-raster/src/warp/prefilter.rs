@@ -32,7 +32,7 @@ pub(crate) struct Plan {
 }
 
 impl Plan {
-    fn max_level(&self) -> usize {
+    pub(crate) fn max_level(&self) -> usize {
         self.levels.iter().copied().max().unwrap_or(0)
     }
 }
@@ -53,6 +53,12 @@ pub(crate) fn scale_at<M: PixelMap>(map: &M, col: f64, row: f64) -> Option<f64> 
     rho.is_finite().then_some(rho)
 }
 
+/// The deepest level a warp of an image of `src` reads: levels while the smaller side keeps at
+/// least 2 pixels.
+pub(crate) fn deepest_level(src: ImageSize) -> usize {
+    (src.width.min(src.height).max(1).ilog2() as usize).saturating_sub(1)
+}
+
 /// The level with rho / 2^k in [1, 2), at most `max_level` (a relative 1e-9 absorbs rounding in
 /// exact power-of-two scales).
 fn level_of(rho: f64, max_level: usize) -> usize {
@@ -64,8 +70,7 @@ fn level_of(rho: f64, max_level: usize) -> usize {
 
 /// Each tile's level; `None` when every tile reads level 0 (the plain warp applies).
 pub(crate) fn plan<M: PixelMap>(map: &M, dst: ImageSize, src: ImageSize) -> Option<Plan> {
-    // Levels while the smaller side keeps at least 2 pixels.
-    let max_level = (src.width.min(src.height).max(1).ilog2() as usize).saturating_sub(1);
+    let max_level = deepest_level(src);
     let (tiles_x, tiles_y) = (dst.width.div_ceil(TILE), dst.height.div_ceil(TILE));
     let mut levels = Vec::with_capacity(tiles_x * tiles_y);
     for ty in 0..tiles_y {
@@ -103,20 +108,26 @@ pub(crate) fn reduce_half<T: Sample>(src: &Raster<T>) -> Result<Raster<T>, Raste
             .enumerate()
             .for_each(|(r, dst)| {
                 let (r0, r1) = (2 * r, (2 * r + 1).min(h - 1));
-                let (top, bottom) = (&p[r0 * w..r0 * w + w], &p[r1 * w..r1 * w + w]);
-                let pairs = top.chunks_exact(2).zip(bottom.chunks_exact(2));
-                for (d, (t, b)) in dst.iter_mut().zip(pairs) {
-                    let sum = t[0].to_f32() + t[1].to_f32() + b[0].to_f32() + b[1].to_f32();
-                    *d = T::from_f32(0.25 * sum);
-                }
-                if w % 2 == 1 {
-                    // The last odd column is averaged with itself.
-                    let sum = top[w - 1].to_f32() + bottom[w - 1].to_f32();
-                    dst[size.width - 1] = T::from_f32(0.5 * sum);
-                }
+                half_row(&p[r0 * w..r0 * w + w], &p[r1 * w..r1 * w + w], dst);
             });
     }
     Ok(out)
+}
+
+/// One row of [`reduce_half`] from the two rows it halves (the same row twice for a last odd
+/// row): `dst` holds ceil(W / 2) samples.
+pub(crate) fn half_row<T: Sample>(top: &[T], bottom: &[T], dst: &mut [T]) {
+    let w = top.len();
+    let pairs = top.chunks_exact(2).zip(bottom.chunks_exact(2));
+    for (d, (t, b)) in dst.iter_mut().zip(pairs) {
+        let sum = t[0].to_f32() + t[1].to_f32() + b[0].to_f32() + b[1].to_f32();
+        *d = T::from_f32(0.25 * sum);
+    }
+    if w % 2 == 1 {
+        // The last odd column is averaged with itself.
+        let sum = top[w - 1].to_f32() + bottom[w - 1].to_f32();
+        dst[w / 2] = T::from_f32(0.5 * sum);
+    }
 }
 
 /// One tile's map: destination (col, row) of the tile -> position in pyramid level `level`.
@@ -160,6 +171,16 @@ impl<M: PixelMap> PixelMap for TileMap<'_, M> {
     }
 }
 
+/// The levels a prefiltered warp reads: level 0 (absent where the caller kept only the
+/// reduced ones: [`super::levels::ReducedLevels`]) and levels 1.. reduced from the part of level
+/// 0 whose first pixel is `origin` (a multiple of 2^K, K the deepest level).
+pub(crate) struct Levels<'a, T> {
+    pub(crate) level0: Option<&'a Raster<T>>,
+    pub(crate) size0: ImageSize,
+    pub(crate) reduced: &'a [Raster<T>],
+    pub(crate) origin: [usize; 2],
+}
+
 /// Warps tile by tile from the planned levels (tile rows in parallel): each tile through the
 /// plain warp into its own buffer, copied into `dst`.
 pub(crate) fn run<T: Sample, M: PixelMap>(
@@ -177,10 +198,29 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
         let next = reduce_half(reduced.last().or(cropped_src.as_ref()).unwrap_or(src))?;
         reduced.push(next);
     }
-    let level = |k: usize| if k == 0 { src } else { &reduced[k - 1] };
+    let levels = Levels {
+        level0: Some(src),
+        size0: src.size(),
+        reduced: &reduced,
+        origin: crop.map_or([0, 0], |c| [c.x0, c.y0]),
+    };
+    run_levels(&levels, map, opts, dst, plan, build)
+}
+
+/// [`run`] from levels at hand. A level-0 tile without level 0 gets nodata (and alpha 0): the
+/// caller has made sure none of its pixels has a source ([`tiles_of_level0_have_no_source`]).
+pub(crate) fn run_levels<T: Sample, M: PixelMap>(
+    levels: &Levels<'_, T>,
+    map: &M,
+    opts: &WarpOptions,
+    dst: &mut Raster<T>,
+    plan: &Plan,
+    build: super::types::Build,
+) -> Result<(), RasterError> {
     let origin = |k: usize| {
-        let [x0, y0] = crop.map_or([0, 0], |c| [c.x0, c.y0]);
-        [x0, y0].map(|v| if k == 0 { 0.0 } else { (v >> k) as f64 })
+        levels
+            .origin
+            .map(|v| if k == 0 { 0.0 } else { (v >> k) as f64 })
     };
     let nodata = opts.nodata_as::<T>()?;
     let width = dst.width();
@@ -209,9 +249,18 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
                     origin: origin(k),
                 };
                 let mut tile = Raster::new(ImageSize::new(cols, rows), bands)?;
-                super::dispatch::dispatch(level(k), &tmap, opts, nodata, &mut tile, build);
+                let source = match k {
+                    0 => levels.level0,
+                    _ => levels.reduced.get(k - 1),
+                };
+                match source {
+                    Some(src) => {
+                        super::dispatch::dispatch(src, &tmap, opts, nodata, &mut tile, build);
+                    }
+                    None => no_source(&mut tile, nodata, opts.alpha),
+                }
                 if k > 0 {
-                    outside_level0(src.size(), &tmap, nodata, opts.alpha, &mut tile);
+                    outside_level0(levels.size0, &tmap, nodata, opts.alpha, &mut tile);
                 }
                 for (chunk, plane) in chunks.iter_mut().zip(tile.planes()) {
                     for (r, line) in plane.chunks(cols).enumerate() {
@@ -221,6 +270,43 @@ pub(crate) fn run<T: Sample, M: PixelMap>(
                 }
             }
             Ok(())
+        })
+}
+
+/// What the plain warp writes where no pixel has a source: nodata, and alpha 0.
+fn no_source<T: Sample>(tile: &mut Raster<T>, nodata: T, alpha: bool) {
+    let image_bands = tile.bands() - usize::from(alpha);
+    for (b, plane) in tile.planes_mut().iter_mut().enumerate() {
+        plane.fill(if b < image_bands {
+            nodata
+        } else {
+            T::default()
+        });
+    }
+}
+
+/// Whether no pixel of the tiles planned at level 0 has a source position (those that read
+/// level 0 but would find nothing there).
+pub(crate) fn tiles_of_level0_have_no_source<M: PixelMap>(
+    map: &M,
+    plan: &Plan,
+    dst: ImageSize,
+) -> bool {
+    let (mut xs, mut ys) = (vec![0.0; TILE], vec![0.0; TILE]);
+    plan.levels
+        .iter()
+        .enumerate()
+        .filter(|(_, k)| **k == 0)
+        .all(|(t, _)| {
+            let (col0, row0) = ((t % plan.tiles_x) * TILE, (t / plan.tiles_x) * TILE);
+            let cols = TILE.min(dst.width - col0);
+            (row0..(row0 + TILE).min(dst.height)).all(|row| {
+                map.source_row(row, col0, &mut xs[..cols], &mut ys[..cols]);
+                xs[..cols]
+                    .iter()
+                    .zip(&ys[..cols])
+                    .all(|(x, y)| !(x.is_finite() && y.is_finite()))
+            })
         })
 }
 
