@@ -8,7 +8,7 @@ use aerorect_raster::shift::{
     JointTransformCorrelator, JtcOptions, PhaseCorrelator, PhaseOptions, ShiftEstimate,
     ShiftEstimator, SubPixel,
 };
-use aerorect_raster::{AnyRaster, Raster};
+use aerorect_raster::{AnyRaster, Raster, ReducedLevels};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -88,32 +88,74 @@ impl Method {
 /// The gray frame of an image: the single band, or Rec. 601 luma of RGB(A); as f32.
 pub fn gray(img: &AnyRaster) -> Result<Raster<f32>, Error> {
     let size = img.size();
-    let plane = match img.bands() {
-        1 | 2 => img.plane_f32(0),
-        // One pass over the three planes, no f32 copy of each (a 4608 x 3456 photo made four
-        // 64-MB planes; 123 ms of each matching round's render per photo).
-        3 | 4 => match img {
-            AnyRaster::U8(r) => luma(r),
-            AnyRaster::U16(r) => luma(r),
-            AnyRaster::F32(r) => luma(r),
-        },
-        n => {
-            return Err(Error::Invalid(format!(
-                "cannot make a gray frame of {n} bands"
-            )));
-        }
-    };
+    let mut plane = vec![0f32; size.pixels()];
+    // One pass over the three planes, no f32 copy of each (a 4608 x 3456 photo made four
+    // 64-MB planes; 123 ms of each matching round's render per photo).
+    Gray::of(img)?.rows(0..size.height, &mut plane);
     Ok(Raster::from_planes(size, vec![plane])?)
 }
 
-/// Rec. 601 luma of the first three bands, each sample as f32.
-fn luma<T: aerorect_raster::Sample>(img: &Raster<T>) -> Vec<f32> {
-    let (r, g, b) = (img.plane(0), img.plane(1), img.plane(2));
-    r.iter()
-        .zip(g)
-        .zip(b)
-        .map(|((r, g), b)| 0.299 * r.to_f32() + 0.587 * g.to_f32() + 0.114 * b.to_f32())
-        .collect()
+/// The reduced levels of [`gray`]'s frame (as a prefiltered warp reads them), made two rows
+/// at a time: the gray frame itself is never whole.
+pub fn gray_levels(img: &AnyRaster) -> Result<ReducedLevels<f32>, Error> {
+    let gray = Gray::of(img)?;
+    Ok(ReducedLevels::from_rows(img.size(), |r, out| {
+        gray.rows(r..r + 1, out);
+    })?)
+}
+
+/// An image whose gray frame can be made: one or two bands, or three or four.
+struct Gray<'a> {
+    img: &'a AnyRaster,
+    luma: bool,
+}
+
+impl<'a> Gray<'a> {
+    fn of(img: &'a AnyRaster) -> Result<Self, Error> {
+        match img.bands() {
+            1 | 2 => Ok(Self { img, luma: false }),
+            3 | 4 => Ok(Self { img, luma: true }),
+            n => Err(Error::Invalid(format!(
+                "cannot make a gray frame of {n} bands"
+            ))),
+        }
+    }
+
+    /// Rows `rows` of the gray frame into `out` (their samples, row after row).
+    fn rows(&self, rows: std::ops::Range<usize>, out: &mut [f32]) {
+        let w = self.img.size().width;
+        let span = rows.start * w..rows.end * w;
+        match (self.luma, self.img) {
+            (false, AnyRaster::U8(r)) => to_f32(&r.plane(0)[span], out),
+            (false, AnyRaster::U16(r)) => to_f32(&r.plane(0)[span], out),
+            (false, AnyRaster::F32(r)) => out.copy_from_slice(&r.plane(0)[span]),
+            (true, AnyRaster::U8(r)) => luma(r, span, out),
+            (true, AnyRaster::U16(r)) => luma(r, span, out),
+            (true, AnyRaster::F32(r)) => luma(r, span, out),
+        }
+    }
+}
+
+fn to_f32<T: aerorect_raster::Sample>(src: &[T], out: &mut [f32]) {
+    for (o, v) in out.iter_mut().zip(src) {
+        *o = v.to_f32();
+    }
+}
+
+/// Rec. 601 luma of the first three bands over `span` (sample indices), each sample as f32.
+fn luma<T: aerorect_raster::Sample>(
+    img: &Raster<T>,
+    span: std::ops::Range<usize>,
+    out: &mut [f32],
+) {
+    let (r, g, b) = (
+        &img.plane(0)[span.clone()],
+        &img.plane(1)[span.clone()],
+        &img.plane(2)[span],
+    );
+    for (o, ((r, g), b)) in out.iter_mut().zip(r.iter().zip(g).zip(b)) {
+        *o = 0.299 * r.to_f32() + 0.587 * g.to_f32() + 0.114 * b.to_f32();
+    }
 }
 
 /// How the displaced copy is made.

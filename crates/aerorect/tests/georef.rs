@@ -87,13 +87,17 @@ fn simulate(cam: &Camera, pose: &Pose, terrain: &Terrain) -> AnyRaster {
 }
 
 fn plan(cam: &Camera, pose: Pose, ground: &Ground) -> OrthoPlan {
+    plan_at(cam, pose, ground, 0.25)
+}
+
+fn plan_at(cam: &Camera, pose: Pose, ground: &Ground, gsd_m: f64) -> OrthoPlan {
     let world = utm35();
     let req = OrthoRequest {
         camera: cam,
         pose,
         world: &world,
         ground,
-        gsd_m: 0.25,
+        gsd_m,
         limits: RectifyLimits::default(),
         occlusion: false,
     };
@@ -185,6 +189,62 @@ fn dem_ortho_of_a_frame_over_hills_matches_the_truth_and_flat_does_not() {
     );
     eprintln!("mean |ortho - truth|: DEM {ed:.2}, flat {ef:.2} grey levels");
     assert!(ed < 4.0 && ef > 4.0 * ed, "{ed} {ef}");
+}
+
+/// A frame's ortho from the kept reduced levels of its gray frame (as a flight's rounds render
+/// it) is the ortho of its gray frame, bit for bit: over the DEM, on level ground and on level
+/// ground through a lens, for a gray f32 frame and an RGB u8 one. Where the grid is less than
+/// twice coarser than the frame, the levels do not serve (`None`).
+#[test]
+fn an_ortho_from_kept_levels_is_the_gray_orthos_bit_for_bit() {
+    use aerorect::core::distortion::Distortion;
+    use aerorect::motion::{gray, gray_levels};
+    let dem = Arc::new(dem());
+    let (cam, pose) = setup();
+    let frame = simulate(&cam, &pose, &truth_of(&dem));
+    let AnyRaster::F32(f) = &frame else {
+        panic!("f32")
+    };
+    let bands = [1.0, 0.5, 0.25].map(|k| f.plane(0).iter().map(|v| (v * k) as u8).collect());
+    let rgb = AnyRaster::U8(Raster::from_planes(cam.size, bands.to_vec()).unwrap());
+    let mut lens = Distortion::zero("opencv").unwrap();
+    let mut p = vec![0.0; lens.model().names().len()];
+    (p[0], p[1]) = (-0.2, 0.04);
+    lens.model_mut().set_params(&p);
+    let lensed = Camera::new(cam.intrinsics, Some(lens), cam.size);
+    let on_dem = Ground::Dem {
+        dem: Arc::clone(&dem),
+        fallback: None,
+        strict: true,
+    };
+    let flat = Ground::Flat(25.0);
+    let differing = |a: &Raster<f32>, b: &Raster<f32>| {
+        let pairs = a.plane(0).iter().zip(b.plane(0));
+        pairs.filter(|(x, y)| x.to_bits() != y.to_bits()).count()
+    };
+    for (name, camera, ground) in [
+        ("dem", &cam, &on_dem),
+        ("flat", &cam, &flat),
+        ("flat, lens", &lensed, &flat),
+    ] {
+        for img in [&frame, &rgb] {
+            let levels = gray_levels(img).unwrap();
+            let coarse = plan_at(camera, pose, ground, 1.0);
+            let AnyRaster::F32(want) = coarse.run(&AnyRaster::F32(gray(img).unwrap())).unwrap()
+            else {
+                panic!("f32")
+            };
+            let got = coarse
+                .run_levels(&levels)
+                .unwrap()
+                .expect("levels serve at 1 m");
+            assert_eq!(got.size(), want.size(), "{name}");
+            assert_eq!(differing(&got, &want), 0, "{name}");
+            assert!(want.plane(0).iter().any(|v| v.is_finite()), "{name}");
+            let fine = plan_at(camera, pose, ground, 0.25);
+            assert!(fine.run_levels(&levels).unwrap().is_none(), "{name}");
+        }
+    }
 }
 
 /// Ground falling away under an oblique frame's far field: the horizon cut planned on level

@@ -179,6 +179,15 @@ impl FlightPlan {
     ) -> Result<Rendered, Error> {
         let coarse_plan = self.matching_plan(k, orientation)?;
         let input = &self.frames[k].input;
+        // The frame's reduced levels, kept between rounds, give the same pixels as its gray
+        // frame wherever the matching grid is more than twice coarser than the photo.
+        let levels = self.decoded.gray_levels(k, input)?;
+        if let Some(coarse) = coarse_plan.run_levels(&levels)? {
+            return Ok(Rendered {
+                coarse,
+                coarse_plan,
+            });
+        }
         let image = self.decoded.get(k, input)?;
         let gray = AnyRaster::F32(crate::motion::gray(&image)?);
         drop(image);

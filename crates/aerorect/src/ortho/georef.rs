@@ -16,7 +16,10 @@ use aerorect_core::{
 use aerorect_geo::{
     Crs, Dem, GroundMap, HeightGrid, OrthoGrid, Pose, Terrain, Visible, occlusion_mask,
 };
-use aerorect_raster::{AnyRaster, LensDirection, LensMap, Then, WarpOptions};
+use aerorect_raster::{
+    AnyRaster, LensDirection, LensMap, PixelMap, Raster, ReducedLevels, Then, WarpOptions,
+    warp_levels,
+};
 use std::sync::Arc;
 
 mod terrain;
@@ -91,15 +94,40 @@ impl OrthoPlan {
         row0: i64,
         size: aerorect_core::ImageSize,
     ) -> Result<AnyRaster, Error> {
+        self.warp_window(Whole(input), WarpWindow { col0, row0 }, size)
+    }
+
+    /// The whole grid from a frame's kept reduced levels (one band, as f32): the same pixels as
+    /// [`Self::run`] of the frame, bit for bit; `None` where that run would read the frame at
+    /// full resolution (its scale is under 2 somewhere).
+    pub fn run_levels(&self, levels: &ReducedLevels<f32>) -> Result<Option<Raster<f32>>, Error> {
+        if levels.size0() != self.camera.size {
+            return Err(Error::Invalid(format!(
+                "reduced levels of a {} x {} frame for a {} x {} camera",
+                levels.size0().width,
+                levels.size0().height,
+                self.camera.size.width,
+                self.camera.size.height
+            )));
+        }
+        let at = WarpWindow { col0: 0, row0: 0 };
+        self.warp_window(Reduced(levels), at, self.grid.size)
+    }
+
+    /// `source` warped through the plan's map seen from window `w`.
+    fn warp_window<S: WarpSource>(
+        &self,
+        source: S,
+        w: WarpWindow,
+        size: aerorect_core::ImageSize,
+    ) -> Result<S::Out, Error> {
         let lens = LensMap::of_camera(&self.camera, LensDirection::ObservedFromIdeal);
-        let w = WarpWindow { col0, row0 };
+        let opts = &self.warp;
         match (&self.map, lens) {
-            (OrthoMap::Flat(h), None) => warp_any(input, &w.of(h), size, &self.warp),
-            (OrthoMap::Flat(h), Some(lens)) => {
-                warp_any(input, &w.of(&Then(*h, lens)), size, &self.warp)
-            }
-            (OrthoMap::Terrain(m), _) => warp_any(input, &w.of(m.as_ref()), size, &self.warp),
-            (OrthoMap::Visible(m), _) => warp_any(input, &w.of(m.as_ref()), size, &self.warp),
+            (OrthoMap::Flat(h), None) => source.warp(&w.of(h), size, opts),
+            (OrthoMap::Flat(h), Some(lens)) => source.warp(&w.of(&Then(*h, lens)), size, opts),
+            (OrthoMap::Terrain(m), _) => source.warp(&w.of(m.as_ref()), size, opts),
+            (OrthoMap::Visible(m), _) => source.warp(&w.of(m.as_ref()), size, opts),
         }
     }
 
@@ -142,6 +170,45 @@ impl OrthoPlan {
             OrthoMap::Terrain(m) => m.source_of(col, row),
             OrthoMap::Visible(m) => m.source_of(col, row),
         }
+    }
+}
+
+/// What a plan warps: a whole frame, or a frame's kept reduced levels.
+trait WarpSource {
+    type Out;
+    fn warp<M: PixelMap>(
+        self,
+        map: &M,
+        size: aerorect_core::ImageSize,
+        opts: &WarpOptions,
+    ) -> Result<Self::Out, Error>;
+}
+
+struct Whole<'a>(&'a AnyRaster);
+
+impl WarpSource for Whole<'_> {
+    type Out = AnyRaster;
+    fn warp<M: PixelMap>(
+        self,
+        map: &M,
+        size: aerorect_core::ImageSize,
+        opts: &WarpOptions,
+    ) -> Result<AnyRaster, Error> {
+        warp_any(self.0, map, size, opts)
+    }
+}
+
+struct Reduced<'a>(&'a ReducedLevels<f32>);
+
+impl WarpSource for Reduced<'_> {
+    type Out = Option<Raster<f32>>;
+    fn warp<M: PixelMap>(
+        self,
+        map: &M,
+        size: aerorect_core::ImageSize,
+        opts: &WarpOptions,
+    ) -> Result<Option<Raster<f32>>, Error> {
+        Ok(warp_levels(self.0, map, size, opts)?)
     }
 }
 
