@@ -197,13 +197,20 @@ fn compress<E>(t: &AnyRaster, tile: usize) -> Result<Vec<u8>, TileError<E>> {
 /// Whether every sample of `t` is zero (all bits: -0.0 is not).
 fn all_zero(t: &AnyRaster) -> bool {
     match t {
-        AnyRaster::U8(r) => r.planes().iter().all(|p| p.iter().all(|&v| v == 0)),
-        AnyRaster::U16(r) => r.planes().iter().all(|p| p.iter().all(|&v| v == 0)),
-        AnyRaster::F32(r) => r
-            .planes()
-            .iter()
-            .all(|p| p.iter().all(|v| v.to_bits() == 0)),
+        AnyRaster::U8(r) => r.planes().iter().all(|p| zero_bits(p, |&v| v)),
+        AnyRaster::U16(r) => r.planes().iter().all(|p| zero_bits(p, |&v| v)),
+        AnyRaster::F32(r) => r.planes().iter().all(|p| zero_bits(p, |v| v.to_bits())),
     }
+}
+
+/// Whether `bits` of every sample are zero: their OR over blocks (which vectorises, where a
+/// test per sample did not), stopping at the first block with a bit set.
+fn zero_bits<T, B>(p: &[T], bits: impl Fn(&T) -> B) -> bool
+where
+    B: Copy + Default + PartialEq + std::ops::BitOr<Output = B>,
+{
+    p.chunks(256)
+        .all(|c| c.iter().fold(B::default(), |a, v| a | bits(v)) == B::default())
 }
 
 /// A tile format: sample type and bands.
@@ -478,6 +485,29 @@ mod tests {
             found, 4,
             "tiles (32, 0), (64, 0), (0, 32) and (64, 32) are zero"
         );
+    }
+
+    /// A tile is all zero only when every bit of every sample is: one sample set anywhere
+    /// (first, inside a block, the last of a plane past whole blocks, a high bit, -0.0) is not.
+    #[test]
+    fn one_set_bit_anywhere_is_not_all_zero() {
+        let size = ImageSize::new(37, 29); // 1073 samples a plane: four blocks and a part
+        let n = size.pixels();
+        for band in [0, 1] {
+            for i in [0, 300, n - 1] {
+                let mut u8s = Raster::<u8>::new(size, 2).expect("u8");
+                let mut u16s = Raster::<u16>::new(size, 2).expect("u16");
+                let mut f32s = Raster::<f32>::new(size, 2).expect("f32");
+                assert!(all_zero(&AnyRaster::U8(u8s.clone())));
+                assert!(all_zero(&AnyRaster::F32(f32s.clone())));
+                u8s.plane_mut(band)[i] = 1;
+                u16s.plane_mut(band)[i] = 0x8000;
+                f32s.plane_mut(band)[i] = -0.0;
+                assert!(!all_zero(&AnyRaster::U8(u8s)), "u8 {band} {i}");
+                assert!(!all_zero(&AnyRaster::U16(u16s)), "u16 {band} {i}");
+                assert!(!all_zero(&AnyRaster::F32(f32s)), "f32 {band} {i}");
+            }
+        }
     }
 
     /// The tile of `full` at (c, r) of `s` pixels.
