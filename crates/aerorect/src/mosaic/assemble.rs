@@ -39,25 +39,37 @@ fn add_frame<T: Sample>(
     // Integer samples are finite: a cell that adds nothing adds 0 x its sample (+0), which
     // leaves the sums as they were, in one pass the compiler vectorises.
     let bw = b.width();
-    let cells = (b.r0..b.r1).flat_map(|row| (b.c0..b.c1).map(move |col| (row, col)));
-    let weight: Vec<f32> = cells
-        .enumerate()
-        .map(|(s, (row, col))| {
-            let wi = w.at(col, row);
-            let inside = valid.is_none_or(|a| a[s].to_f32() > 0.0);
-            let finite = integer || planes.iter().all(|p| p[s].to_f32().is_finite());
-            if wi > 0.0 && inside && finite {
-                wi
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    let mut we = vec![0f32; bw];
     for (j, row) in (b.r0..b.r1).enumerate() {
         let (i0, s0) = (row * tw + b.c0, j * bw);
-        let we = &weight[s0..s0 + bw];
+        // The row's weights, 0 where the cell is outside the frame or a sample not finite.
+        let wrow = w.row(row, (b.c0, b.c1));
+        match valid {
+            Some(a) => {
+                let cells = we.iter_mut().zip(wrow).zip(&a[s0..s0 + bw]);
+                for ((e, &wi), v) in cells {
+                    *e = if wi > 0.0 && v.to_f32() > 0.0 {
+                        wi
+                    } else {
+                        0.0
+                    };
+                }
+            }
+            None => {
+                for (e, &wi) in we.iter_mut().zip(wrow) {
+                    *e = if wi > 0.0 { wi } else { 0.0 };
+                }
+            }
+        }
+        if !integer {
+            for (c, e) in we.iter_mut().enumerate() {
+                if !planes.iter().all(|p| p[s0 + c].to_f32().is_finite()) {
+                    *e = 0.0;
+                }
+            }
+        }
         for (a, p) in acc.iter_mut().zip(&planes) {
-            let cells = a[i0..i0 + bw].iter_mut().zip(&p[s0..s0 + bw]).zip(we);
+            let cells = a[i0..i0 + bw].iter_mut().zip(&p[s0..s0 + bw]).zip(&we);
             if integer {
                 cells.for_each(|((x, &v), &e)| *x += e * v.to_f32());
             } else {
@@ -66,7 +78,7 @@ fn add_frame<T: Sample>(
                     .for_each(|((x, &v), &e)| *x += e * v.to_f32());
             }
         }
-        for (x, &e) in wsum[i0..i0 + bw].iter_mut().zip(we) {
+        for (x, &e) in wsum[i0..i0 + bw].iter_mut().zip(&we) {
             *x += e;
         }
     }

@@ -13,9 +13,10 @@ pub(super) struct Weights {
 }
 
 impl Weights {
-    /// The weight at the tile's cell (col, row), which must lie in the box.
-    pub(super) fn at(&self, col: usize, row: usize) -> f32 {
-        self.values[(row - self.cells.r0) * self.cells.width() + col - self.cells.c0]
+    /// The weights of the tile's row `row`, columns [c0, c1), which must lie in the box.
+    pub(super) fn row(&self, row: usize, (c0, c1): (usize, usize)) -> &[f32] {
+        let start = (row - self.cells.r0) * self.cells.width() + c0 - self.cells.c0;
+        &self.values[start..start + c1 - c0]
     }
 
     /// The bounding box of the positive weights (tile coordinates).
