@@ -253,6 +253,8 @@ pub(crate) fn run_levels<T: Sample, M: PixelMap>(
                     0 => levels.level0,
                     _ => levels.reduced.get(k - 1),
                 };
+                // Only level 0 may be missing: `plan`'s levels are within the image's.
+                debug_assert!(k == 0 || source.is_some(), "level {k} missing");
                 match source {
                     Some(src) => {
                         super::dispatch::dispatch(src, &tmap, opts, nodata, &mut tile, build);
