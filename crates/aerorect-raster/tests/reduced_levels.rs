@@ -9,22 +9,9 @@ use aerorect_raster::{
     Interp, PixelMap, Raster, ReducedLevels, Sample, WarpOptions, warp, warp_levels,
 };
 
-/// A deterministic pseudo-random image (an LCG), `bands` planes.
+/// A textured test image with noise, values 0..255, `bands` planes.
 fn noise<T: Sample>(size: ImageSize, bands: usize, seed: u64) -> Raster<T> {
-    let mut s = seed;
-    let planes = (0..bands)
-        .map(|_| {
-            (0..size.pixels())
-                .map(|_| {
-                    s = s
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    T::from_f32((s >> 56) as f32)
-                })
-                .collect()
-        })
-        .collect();
-    Raster::from_planes(size, planes).unwrap()
+    aerorect_testkit::textured_scene(size, bands, 255.0, seed)
 }
 
 fn homography(m: [f64; 9]) -> Homography {
