@@ -77,22 +77,25 @@ pub(super) fn weights(
         return None;
     }
     let n = cap as f32;
-    let weight = |j: usize| match &feathered {
-        None => f32::from(u8::from(mine[j])),
-        Some(_) if uncovered[j] => 0.0,
-        Some([d_in, d_out, d_cov]) => {
-            let s = if mine[j] {
-                d_in[j] - 0.5
-            } else {
-                0.5 - d_out[j]
-            };
-            (0.5 + s / n).clamp(0.0, 1.0) * (d_cov[j] / n).min(1.0)
-        }
-    };
     let mut values = Vec::with_capacity(cells.width() * cells.height());
     for r in cells.r0..cells.r1 {
         let j0 = (r - b.r0) * bw + cells.c0 - b.c0;
-        values.extend((j0..j0 + cells.width()).map(weight));
+        let js = j0..j0 + cells.width();
+        match &feathered {
+            None => values.extend(mine[js].iter().map(|&m| f32::from(u8::from(m)))),
+            Some([d_in, d_out, d_cov]) => {
+                let seam = mine[js.clone()]
+                    .iter()
+                    .zip(&d_in[js.clone()])
+                    .zip(&d_out[js.clone()]);
+                let cover = uncovered[js.clone()].iter().zip(&d_cov[js]);
+                values.extend(seam.zip(cover).map(|(((&m, &di), &dout), (&u, &dc))| {
+                    let s = if m { di - 0.5 } else { 0.5 - dout };
+                    let w = (0.5 + s / n).clamp(0.0, 1.0) * (dc / n).min(1.0);
+                    if u { 0.0 } else { w }
+                }));
+            }
+        }
     }
     Some(Weights {
         cells: CellBox {
