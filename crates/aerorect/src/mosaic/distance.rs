@@ -29,28 +29,38 @@ pub(crate) fn distance_within(feature: &[bool], width: usize, cap: usize) -> Vec
 }
 
 /// The row pass for a small `cap`: each cell's least `dx^2 + along^2` over the columns at
-/// most `cap` away, in integers (at most `2 cap^2`).
+/// most `cap` away, in integers (at most `2 cap^2`). A row's pass covers only the cells within
+/// `cap` of its first and last column with a distance (beyond, every term is over the cap).
 fn rows_by_offsets(along: &[u32], width: usize, cap: usize, out: &mut [f32]) {
     const FAR: u32 = u32::MAX / 4;
     let cap2 = (cap * cap) as u32;
-    // The row's squared column distances, with `cap` far cells either side.
+    // The span's squared column distances, with `cap` more cells either side.
     let mut g = vec![FAR; width + 2 * cap];
     let mut best = vec![FAR; width];
     for (row, dst) in along.chunks_exact(width).zip(out.chunks_exact_mut(width)) {
-        if row.iter().all(|&d| d == u32::MAX) {
+        let (Some(first), Some(last)) = (
+            row.iter().position(|&d| d != u32::MAX),
+            row.iter().rposition(|&d| d != u32::MAX),
+        ) else {
             continue;
-        }
-        for (gi, &d) in g[cap..cap + width].iter_mut().zip(row) {
+        };
+        let (lo, hi) = (first.saturating_sub(cap), (last + cap + 1).min(width));
+        let n = hi - lo;
+        // g[i] is column lo - cap + i.
+        g[..n + 2 * cap].fill(FAR);
+        let (c0, c1) = (lo.saturating_sub(cap), (hi + cap).min(width));
+        for (gi, &d) in g[c0 + cap - lo..c1 + cap - lo].iter_mut().zip(&row[c0..c1]) {
             *gi = if d == u32::MAX { FAR } else { d * d };
         }
+        let best = &mut best[..n];
         best.fill(FAR);
         for dx in 0..=2 * cap {
             let dd = (dx.abs_diff(cap) * dx.abs_diff(cap)) as u32;
-            for (b, &v) in best.iter_mut().zip(&g[dx..dx + width]) {
+            for (b, &v) in best.iter_mut().zip(&g[dx..dx + n]) {
                 *b = (*b).min(v + dd);
             }
         }
-        for (o, &s) in dst.iter_mut().zip(&best) {
+        for (o, &s) in dst[lo..hi].iter_mut().zip(best.iter()) {
             if s <= cap2 {
                 *o = f64::from(s).sqrt() as f32;
             }
