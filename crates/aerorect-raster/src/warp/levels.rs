@@ -5,7 +5,7 @@
 //! as a whole), and [`warp_levels`] warps from them: the same pixels as [`super::warp`] of
 //! level 0, bit for bit, or `None` where that warp would read level 0.
 
-use super::options::{Interp, WarpOptions};
+use super::options::WarpOptions;
 use super::prefilter::{self, Levels, deepest_level, half_row, reduce_half};
 use super::types::Build;
 use crate::error::RasterError;
@@ -92,7 +92,7 @@ pub fn warp_levels<T: Sample, M: PixelMap>(
     size: ImageSize,
     opts: &WarpOptions,
 ) -> Result<Option<Raster<T>>, RasterError> {
-    if !(opts.prefilter && matches!(opts.interp, Interp::Bilinear | Interp::Bicubic)) {
+    if !prefilter::applies(opts) {
         return Ok(None);
     }
     let Some(plan) = prefilter::plan(map, size, levels.size0) else {
@@ -103,16 +103,8 @@ pub fn warp_levels<T: Sample, M: PixelMap>(
     {
         return Ok(None);
     }
-    if levels.size0.pixels() > u32::MAX as usize {
-        // As the warp of level 0 (its kernels index source pixels with u32).
-        return Err(RasterError::TooLarge {
-            width: levels.size0.width,
-            height: levels.size0.height,
-            bands: levels.reduced[0].bands(),
-            sample: T::NAME,
-            bytes: (levels.size0.pixels() * std::mem::size_of::<T>()) as u128,
-        });
-    }
+    // As the warp of level 0 would.
+    super::source_fits::<T>(levels.size0, levels.reduced[0].bands())?;
     let bands = levels.reduced[0].bands();
     let mut dst = Raster::new(size, opts.output_bands(bands))?;
     let source = Levels {

@@ -97,22 +97,26 @@ fn warp_into_impl<T: Sample, M: PixelMap>(
         });
     }
     let nodata = opts.nodata_as::<T>()?;
-    if src.size().pixels() > u32::MAX as usize {
-        // The kernels index source pixels with u32.
-        return Err(RasterError::TooLarge {
-            width: src.width(),
-            height: src.height(),
-            bands: src.bands(),
-            sample: T::NAME,
-            bytes: (src.size().pixels() * std::mem::size_of::<T>()) as u128,
-        });
-    }
-    if opts.prefilter
-        && matches!(opts.interp, Interp::Bilinear | Interp::Bicubic)
+    source_fits::<T>(src.size(), src.bands())?;
+    if prefilter::applies(opts)
         && let Some(plan) = prefilter::plan(map, dst.size(), src.size())
     {
         return prefilter::run(src, map, opts, dst, &plan, build);
     }
     dispatch(src, map, opts, nodata, dst, build);
     Ok(())
+}
+
+/// Refuses a source of more than 2^32 pixels: the kernels index source pixels with u32.
+fn source_fits<T: Sample>(size: ImageSize, bands: usize) -> Result<(), RasterError> {
+    if size.pixels() <= u32::MAX as usize {
+        return Ok(());
+    }
+    Err(RasterError::TooLarge {
+        width: size.width,
+        height: size.height,
+        bands,
+        sample: T::NAME,
+        bytes: (size.pixels() * std::mem::size_of::<T>()) as u128,
+    })
 }

@@ -15,7 +15,7 @@
 //! as for the plain warp. Neighbouring tiles at different levels differ in sharpness: a visible
 //! seam where the scale crosses a power of two (no blending between levels).
 
-use super::options::WarpOptions;
+use super::options::{Interp, WarpOptions};
 use crate::error::RasterError;
 use crate::map::PixelMap;
 use crate::raster::{Raster, Sample};
@@ -51,6 +51,11 @@ pub(crate) fn scale_at<M: PixelMap>(map: &M, col: f64, row: f64) -> Option<f64> 
     );
     let rho = d(l, r).max(d(u, b));
     rho.is_finite().then_some(rho)
+}
+
+/// Whether `opts` prefilter: bilinear or bicubic with `prefilter` set.
+pub(crate) fn applies(opts: &WarpOptions) -> bool {
+    opts.prefilter && matches!(opts.interp, Interp::Bilinear | Interp::Bicubic)
 }
 
 /// The deepest level a warp of an image of `src` reads: levels while the smaller side keeps at
