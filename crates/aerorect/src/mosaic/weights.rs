@@ -59,9 +59,15 @@ pub(super) fn weights(
     // `cap / 2 + 1` (infinity) gives the weight the exact distance would.
     let feathered = (opts.blend == Blend::Feather).then(|| {
         let not_mine: Vec<bool> = mine.iter().map(|m| !m).collect();
+        // The distance to k's cells is read only at the others' cells: where every cell is
+        // k's, none is read (infinity stands in).
+        let to_mine = match not_mine.contains(&true) {
+            true => distance_within(&mine, bw, cap / 2 + 1),
+            false => vec![f32::INFINITY; mine.len()],
+        };
         [
             distance_within(&not_mine, bw, cap / 2 + 1),
-            distance_within(&mine, bw, cap / 2 + 1),
+            to_mine,
             distance_within(&uncovered, bw, cap),
         ]
     });
