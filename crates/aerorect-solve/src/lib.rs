@@ -8,6 +8,7 @@ pub mod lm;
 pub mod matching;
 pub mod pairs;
 pub mod ransac;
+pub mod significance;
 
 use aerorect_core::{Homography, Mat3};
 use nalgebra::{DMatrix, Vector3};
