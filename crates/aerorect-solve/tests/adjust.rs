@@ -338,6 +338,78 @@ fn frames_from_one_point_hold_their_positions_and_are_turned_right() {
     assert!(r.rms_after_px < 0.1);
 }
 
+/// The same hover with each fix off by a few decimetres (a GPS's noise; the truth is one
+/// point): held at the fixes' mean, the frames agree with each other as from one point (held
+/// as recorded, the fake baseline's parallax leaves 0.16 px and bends them 0.035 deg). With
+/// RTK priors (a receiver whose centimetres make the same baseline real) they stay where
+/// recorded.
+#[test]
+fn frames_from_one_point_with_noisy_fixes_are_held_at_their_mean() {
+    let flat = |_: f64, _: f64| 0.0;
+    let mut fl = hover(21);
+    let noise = [
+        [0.15, -0.10, 0.05],
+        [-0.10, 0.12, -0.04],
+        [0.0, -0.05, 0.10],
+    ];
+    for (f, d) in fl.recorded.iter_mut().zip(noise) {
+        f.centre = [d[0], d[1], 120.0 + d[2]];
+    }
+    let mean = [0.05 / 3.0, -0.03 / 3.0, 120.0 + 0.11 / 3.0];
+    let opts = AdjustOptions {
+        refine_focal: false,
+        refine_principal_point: false,
+        position_sigma_m: Some(5.0),
+        terrain: Some((&flat, 0.1)),
+        ..Default::default()
+    };
+    let out = adjust(&fl.recorded, &[camera(800.0)], &fl.ties, &opts).unwrap();
+    let r = &out.report;
+    assert_eq!(r.gauge.len(), 1, "{:?}", r.gauge);
+    let at = r.gauge[0].held_at.unwrap();
+    for (f, k) in out.frames.iter().zip(0..) {
+        for i in 0..3 {
+            assert!((at[i] - mean[i]).abs() < 1e-9, "{at:?}");
+            assert!(
+                (f.centre[i] - mean[i]).abs() < 1e-9,
+                "frame {k}: {:?}",
+                f.centre
+            );
+        }
+    }
+    let e = errors(&fl.truth, &out.frames);
+    let common = e.iter().fold(Vec3::zeros(), |a, v| a + v) / e.len() as f64;
+    let worst = max_norm(&e.iter().map(|v| v - common).collect::<Vec<_>>());
+    eprintln!(
+        "noisy hover: worst relative attitude error {worst:.4} deg, rms {:.3} px, {} iterations ({:?})",
+        r.rms_after_px, r.iterations, r.termination
+    );
+    assert!(r.converged, "{:?}", r.termination);
+    assert!(
+        worst < 0.005 && r.rms_after_px < 0.01,
+        "{worst} {}",
+        r.rms_after_px
+    );
+    // RTK standard deviations (2 cm): the 0.3-m baseline is real, held as recorded.
+    for f in &mut fl.recorded {
+        f.position_sigma_m = Some([0.02; 3]);
+    }
+    let out = adjust(&fl.recorded, &[camera(800.0)], &fl.ties, &opts).unwrap();
+    assert_eq!(out.report.gauge[0].held_at, None);
+    for (f, r) in out.frames.iter().zip(&fl.recorded) {
+        assert_eq!(f.centre, r.centre);
+    }
+    let e = errors(&fl.truth, &out.frames);
+    let common = e.iter().fold(Vec3::zeros(), |a, v| a + v) / e.len() as f64;
+    let bent = max_norm(&e.iter().map(|v| v - common).collect::<Vec<_>>());
+    eprintln!(
+        "held as recorded: worst relative attitude error {bent:.4} deg, rms {:.3} px",
+        out.report.rms_after_px
+    );
+    // Had these been noise, the baseline's parallax would show in the residuals and turns.
+    assert!(out.report.rms_after_px > 0.1 && bent > 0.01, "{bent}");
+}
+
 #[test]
 fn a_solve_cut_by_its_iteration_limit_says_so_and_gives_its_result() {
     let fl = flight(4, 3, 1.0, &hills, 5);

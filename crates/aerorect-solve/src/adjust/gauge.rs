@@ -4,7 +4,9 @@
 //! common shift of their positions, and any shift along those rays, leaves every tie where it
 //! was. Such frames are found geometrically: the frames the ties join (a connected set) whose
 //! centres all lie within [`ONE_POINT_RATIO`] of their distance to the ground they tie. Their
-//! positions are held as recorded (the attitudes, the cameras and the points are solved).
+//! positions are held (the attitudes, the cameras and the points are solved): at their fixes'
+//! mean where the fixes lie within the GPS's noise of each other ([`NOISE_BASELINE_SIGMAS`]),
+//! else as recorded.
 
 use super::{AdjustFrame, TiePoint};
 use aerorect_core::Vec3;
@@ -14,6 +16,15 @@ use serde::Serialize;
 /// points are taken as seen from one point (0.02: rays from the two ends meet at a
 /// ground point at less than 1.2 degrees).
 pub const ONE_POINT_RATIO: f64 = 0.02;
+
+/// A one-point set is held at its fixes' mean when its baseline is within this many standard
+/// deviations of the difference of two fixes (sqrt 2 times the smallest position prior of the
+/// set's frames, per axis). Such fixes differ by the receiver's noise, and held as recorded
+/// they give rays from one point a parallax the photos do not have: two DJI frames hovering
+/// 391 m from the ground they tie, their fixes 0.19 m apart (5 m priors), turned 4.4 and
+/// 4.6 degrees from their recorded gimbal angles (1 degree priors) and ran to the solve's
+/// iteration limit, to fit it. An RTK receiver's centimetres keep a real baseline as recorded.
+pub const NOISE_BASELINE_SIGMAS: f64 = 3.0;
 
 /// A gauge freedom found and how it was held.
 #[derive(Debug, Clone, Serialize, PartialEq)]
@@ -25,6 +36,9 @@ pub struct GaugeHold {
     pub range_m: f64,
     /// What was held, in words.
     pub held: String,
+    /// The point the frames' positions are held at: their fixes' mean where those differ by
+    /// the receiver's noise ([`NOISE_BASELINE_SIGMAS`]); `None` where each is held as recorded.
+    pub held_at: Option<[f64; 3]>,
 }
 
 /// The sets of frames the ties join (union-find over the tie points' observations), each
@@ -70,8 +84,13 @@ pub fn connected_by(
     sets.into_values().collect()
 }
 
-/// The connected sets of two or more frames seen from one point.
-pub(super) fn one_point_sets(frames: &[AdjustFrame], ties: &[TiePoint]) -> Vec<GaugeHold> {
+/// The connected sets of two or more frames seen from one point (`sigma_m`: the position prior
+/// of a frame that gives none of its own).
+pub(super) fn one_point_sets(
+    frames: &[AdjustFrame],
+    ties: &[TiePoint],
+    sigma_m: f64,
+) -> Vec<GaugeHold> {
     let mut out = Vec::new();
     for set in connected(frames.len(), ties) {
         if set.len() < 2 {
@@ -96,13 +115,24 @@ pub(super) fn one_point_sets(frames: &[AdjustFrame], ties: &[TiePoint]) -> Vec<G
             false => *ranges.select_nth_unstable_by(mid, f64::total_cmp).1,
         };
         if range > 0.0 && baseline < ONE_POINT_RATIO * range {
+            let sigma = set
+                .iter()
+                .flat_map(|&f| frames[f].position_sigma_m.unwrap_or([sigma_m; 3]))
+                .fold(f64::INFINITY, f64::min);
+            let noise = baseline <= NOISE_BASELINE_SIGMAS * std::f64::consts::SQRT_2 * sigma;
+            let held_at = noise.then(|| (c.iter().sum::<Vec3>() / c.len() as f64).into());
+            let how = match noise {
+                true => "positions held at their fixes' mean (they differ by the GPS's noise)",
+                false => "positions held as recorded",
+            };
             out.push(GaugeHold {
                 frames: set,
                 baseline_m: baseline,
                 range_m: range,
-                held: "positions held as recorded: frames from one point cannot place \
-                       themselves from their ties"
-                    .into(),
+                held: format!(
+                    "{how}: frames from one point cannot place themselves from their ties"
+                ),
+                held_at,
             });
         }
     }

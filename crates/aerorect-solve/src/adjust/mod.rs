@@ -317,10 +317,9 @@ pub fn adjust(
     let t0 = std::time::Instant::now();
     check_input(frames, cameras, ties, opts.gps_drift_times)?;
     let mut positions_free = vec![opts.position_sigma_m.is_some(); frames.len()];
-    let gauge: Vec<GaugeHold> = if opts.position_sigma_m.is_some() {
-        gauge::one_point_sets(frames, ties)
-    } else {
-        Vec::new()
+    let gauge: Vec<GaugeHold> = match opts.position_sigma_m {
+        Some(sigma) => gauge::one_point_sets(frames, ties, sigma),
+        None => Vec::new(),
     };
     for g in &gauge {
         for &f in &g.frames {
@@ -357,12 +356,21 @@ pub fn adjust(
         centroid,
     };
     let start: Vec<Vec3> = ties.iter().map(|t| Vec3::from(t.ground)).collect();
-    let s = State {
+    let mut s = State {
         frames: vec![FrameBlock::default(); frames.len()],
         cameras: vec![CameraBlock::default(); cameras.len()],
         datum: DatumBlock::default(),
         points: start.clone(),
     };
+    // Held positions keep their first value: a one-point set's, its fixes' mean.
+    for (g, at) in gauge
+        .iter()
+        .filter_map(|g| Some((g, Vec3::from(g.held_at?))))
+    {
+        for &f in &g.frames {
+            s.frames[f].position = at - Vec3::from(frames[f].centre);
+        }
+    }
     let before = p.rms(&s);
     if p.cost(&s).is_none() {
         return Err(SolveError::Degenerate);
