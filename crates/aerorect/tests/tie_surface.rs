@@ -70,3 +70,79 @@ fn the_tie_surface_follows_the_simulated_hills_and_leaves_mismatches_out() {
         "{e:?}"
     );
 }
+
+/// A frame taken from the first frame's point (5 cm away, turned 3 degrees), tying thrice as
+/// many points with it as the flight has ties, each first guessed on the level ground: rays
+/// from one point do not measure a height, so the surface leaves those ties out and is the
+/// flight's own (without that, under half of all ties intersect, and there is no surface).
+#[test]
+fn ties_seen_from_one_point_do_not_make_the_surface() {
+    use aerorect::core::Vec3;
+    use aerorect::solve::adjust::{AdjustFrame, Observation, TiePoint};
+    let mut f = flight(5, 4, 0.0, &hills, 11);
+    let cam = camera(800.0);
+    let first = f.truth[0].clone();
+    let turn = nalgebra::Rotation3::new(Vec3::x() * 3f64.to_radians()).into_inner();
+    let twin = AdjustFrame {
+        centre: [first.centre[0] + 0.05, first.centre[1], first.centre[2]],
+        world_from_camera: first.world_from_camera * turn,
+        ..first.clone()
+    };
+    let see = |fr: &AdjustFrame, g: Vec3| {
+        let d: Vec3 = fr.world_from_camera.transpose() * (g - Vec3::from(fr.centre));
+        let p = cam.pixel_from_camera_point(d)?;
+        (p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= 999.0 && p[1] <= 749.0).then_some(p)
+    };
+    let k = f.truth.len();
+    let want = 3 * f.ties.len();
+    let mut added = 0;
+    'grid: for i in 0..400 {
+        for j in 0..400 {
+            let (x, y) = (
+                first.centre[0] - 40.0 + 0.2 * i as f64,
+                first.centre[1] - 30.0 + 0.15 * j as f64,
+            );
+            let g = Vec3::new(x, y, hills(x, y));
+            let (Some(a), Some(b)) = (see(&first, g), see(&twin, g)) else {
+                continue;
+            };
+            let obs = |frame, pixel| Observation {
+                frame,
+                pixel,
+                weight: 1.0,
+            };
+            f.ties.push(TiePoint {
+                ground: [x, y, 0.0],
+                observations: vec![obs(0, a), obs(k, b)],
+                control: None,
+            });
+            added += 1;
+            if added == want {
+                break 'grid;
+            }
+        }
+    }
+    assert_eq!(added, want);
+    let mut frames = f.truth.clone();
+    frames.push(twin);
+    let cams = [camera(800.0)];
+    let oriented = OrientedFrames {
+        frames: &frames,
+        cameras: &cams,
+    };
+    let crs = Crs::from_epsg(32633).unwrap();
+    let s = tie_surface(&f.ties, oriented, &crs).unwrap().unwrap();
+    // The flight's own ties, as in the test above: the added ones are not among them.
+    assert!(s.report.tie_points + s.report.rejected <= f.ties.len() - added);
+    let (mut sum, mut n) = (0.0, 0);
+    for i in 0..=40 {
+        for j in 0..=24 {
+            let (x, y) = (i as f64 * 5.0, j as f64 * 5.0);
+            sum += (s.dem.height_at(x, y).unwrap() - hills(x, y)).powi(2);
+            n += 1;
+        }
+    }
+    let rms = (sum / n as f64).sqrt();
+    eprintln!("{:?}; surface - hills {rms:.3} m rms", s.report);
+    assert!(rms < 0.5, "{rms}");
+}

@@ -10,8 +10,9 @@
 
 use super::*;
 use crate::georef::bounds_of;
+use aerorect_core::Vec3;
 use aerorect_geo::Dem;
-use aerorect_solve::adjust::{OrientedFrames, PosedFrames};
+use aerorect_solve::adjust::{ONE_POINT_RATIO, OrientedFrames, PosedFrames};
 use std::sync::Arc;
 
 /// A tie point whose intersection misses its observations by more than this (px, rms over
@@ -80,6 +81,7 @@ pub fn tie_surface(
     let candidates: Vec<&TiePoint> = ties
         .iter()
         .filter(|t| t.control.is_none() && t.observations.len() >= 2)
+        .filter(|t| !seen_from_one_point(t, frames))
         .collect();
     let points: Vec<[f64; 3]> = timing::time("tie surface: points", || {
         let posed = frames.posed();
@@ -136,6 +138,29 @@ pub fn tie_surface(
 
 /// Tie `t`'s point through the frames, if its rays meet within
 /// [`SURFACE_MAX_RESIDUAL_PX`] of every view (rms); `posed`: the same frames posed once.
+/// Whether a tie's frames saw it from (nearly) one point: their largest baseline under
+/// [`ONE_POINT_RATIO`] of the first frame's range to its first guess. Its rays meet at under
+/// about a degree, so its height is the level ground's guess, not a measurement, and the
+/// surface leaves it out (it is not counted among the candidates either). Two DJI frames from
+/// one hover point, their 4,672 ties against the nadir pair's 208, left a five-frame flight
+/// with no surface at all: under half its ties intersected.
+fn seen_from_one_point(t: &TiePoint, frames: OrientedFrames<'_>) -> bool {
+    let centre = |o: &aerorect_solve::adjust::Observation| {
+        frames.frames.get(o.frame).map(|f| Vec3::from(f.centre))
+    };
+    let Some(Some(first)) = t.observations.first().map(centre) else {
+        return false;
+    };
+    let mut baseline = 0.0f64;
+    for o in &t.observations[1..] {
+        let Some(c) = centre(o) else {
+            return false;
+        };
+        baseline = baseline.max((c - first).norm());
+    }
+    baseline < ONE_POINT_RATIO * (Vec3::from(t.ground) - first).norm()
+}
+
 fn ground_point(
     t: &TiePoint,
     frames: OrientedFrames<'_>,
