@@ -301,19 +301,34 @@ fn hover(seed: u64) -> aerorect_testkit::flight::Flight {
     }
 }
 
-#[test]
-fn frames_from_one_point_hold_their_positions_and_are_turned_right() {
-    let flat = |_: f64, _: f64| 0.0;
-    let fl = hover(21);
-    assert!(fl.ties.len() > 300, "{}", fl.ties.len());
-    let opts = AdjustOptions {
+fn level(_: f64, _: f64) -> f64 {
+    0.0
+}
+
+/// The hover tests' solve: positions free at 5 m, the ties held to the level ground at 0.1 m.
+fn hover_options() -> AdjustOptions<'static> {
+    AdjustOptions {
         refine_focal: false,
         refine_principal_point: false,
         position_sigma_m: Some(5.0),
-        terrain: Some((&flat, 0.1)),
+        terrain: Some((&level, 0.1)),
         ..Default::default()
-    };
-    let out = adjust(&fl.recorded, &[camera(800.0)], &fl.ties, &opts).unwrap();
+    }
+}
+
+/// The largest attitude error (degrees) of `frames` against `truth` once their common error
+/// (what the ties of frames from one point cannot see) is taken out.
+fn worst_relative_error(truth: &[AdjustFrame], frames: &[AdjustFrame]) -> f64 {
+    let e = errors(truth, frames);
+    let common = e.iter().fold(Vec3::zeros(), |a, v| a + v) / e.len() as f64;
+    max_norm(&e.iter().map(|v| v - common).collect::<Vec<_>>())
+}
+
+#[test]
+fn frames_from_one_point_hold_their_positions_and_are_turned_right() {
+    let fl = hover(21);
+    assert!(fl.ties.len() > 300, "{}", fl.ties.len());
+    let out = adjust(&fl.recorded, &[camera(800.0)], &fl.ties, &hover_options()).unwrap();
     let r = &out.report;
     // The gauge freedom is found: the three frames, zero baseline, about 200 m range.
     assert_eq!(r.gauge.len(), 1, "{:?}", r.gauge);
@@ -325,10 +340,7 @@ fn frames_from_one_point_hold_their_positions_and_are_turned_right() {
     }
     // On level ground their common turn is the priors' (the ties cannot see it): the frames
     // must agree with each other.
-    let e = errors(&fl.truth, &out.frames);
-    let mean = e.iter().fold(Vec3::zeros(), |a, v| a + v) / e.len() as f64;
-    let relative: Vec<Vec3> = e.iter().map(|v| v - mean).collect();
-    let worst = max_norm(&relative);
+    let worst = worst_relative_error(&fl.truth, &out.frames);
     eprintln!(
         "hover: {} ties, worst attitude error {worst:.4} deg, rms {:.2} -> {:.3} px, {} iterations ({:?})",
         r.tie_points, r.rms_before_px, r.rms_after_px, r.iterations, r.termination
@@ -345,7 +357,6 @@ fn frames_from_one_point_hold_their_positions_and_are_turned_right() {
 /// recorded.
 #[test]
 fn frames_from_one_point_with_noisy_fixes_are_held_at_their_mean() {
-    let flat = |_: f64, _: f64| 0.0;
     let mut fl = hover(21);
     let noise = [
         [0.15, -0.10, 0.05],
@@ -356,13 +367,7 @@ fn frames_from_one_point_with_noisy_fixes_are_held_at_their_mean() {
         f.centre = [d[0], d[1], 120.0 + d[2]];
     }
     let mean = [0.05 / 3.0, -0.03 / 3.0, 120.0 + 0.11 / 3.0];
-    let opts = AdjustOptions {
-        refine_focal: false,
-        refine_principal_point: false,
-        position_sigma_m: Some(5.0),
-        terrain: Some((&flat, 0.1)),
-        ..Default::default()
-    };
+    let opts = hover_options();
     let out = adjust(&fl.recorded, &[camera(800.0)], &fl.ties, &opts).unwrap();
     let r = &out.report;
     assert_eq!(r.gauge.len(), 1, "{:?}", r.gauge);
@@ -377,9 +382,7 @@ fn frames_from_one_point_with_noisy_fixes_are_held_at_their_mean() {
             );
         }
     }
-    let e = errors(&fl.truth, &out.frames);
-    let common = e.iter().fold(Vec3::zeros(), |a, v| a + v) / e.len() as f64;
-    let worst = max_norm(&e.iter().map(|v| v - common).collect::<Vec<_>>());
+    let worst = worst_relative_error(&fl.truth, &out.frames);
     eprintln!(
         "noisy hover: worst relative attitude error {worst:.4} deg, rms {:.3} px, {} iterations ({:?})",
         r.rms_after_px, r.iterations, r.termination
@@ -399,9 +402,7 @@ fn frames_from_one_point_with_noisy_fixes_are_held_at_their_mean() {
     for (f, r) in out.frames.iter().zip(&fl.recorded) {
         assert_eq!(f.centre, r.centre);
     }
-    let e = errors(&fl.truth, &out.frames);
-    let common = e.iter().fold(Vec3::zeros(), |a, v| a + v) / e.len() as f64;
-    let bent = max_norm(&e.iter().map(|v| v - common).collect::<Vec<_>>());
+    let bent = worst_relative_error(&fl.truth, &out.frames);
     eprintln!(
         "held as recorded: worst relative attitude error {bent:.4} deg, rms {:.3} px",
         out.report.rms_after_px
