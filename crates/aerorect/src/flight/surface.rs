@@ -136,8 +136,6 @@ pub fn tie_surface(
     }))
 }
 
-/// Tie `t`'s point through the frames, if its rays meet within
-/// [`SURFACE_MAX_RESIDUAL_PX`] of every view (rms); `posed`: the same frames posed once.
 /// Whether a tie's frames saw it from (nearly) one point: their largest baseline under
 /// [`ONE_POINT_RATIO`] of the first frame's range to its first guess. Its rays meet at under
 /// about a degree, so its height is the level ground's guess, not a measurement, and the
@@ -161,6 +159,8 @@ fn seen_from_one_point(t: &TiePoint, frames: OrientedFrames<'_>) -> bool {
     baseline < ONE_POINT_RATIO * (Vec3::from(t.ground) - first).norm()
 }
 
+/// Tie `t`'s point through the frames, if its rays meet within
+/// [`SURFACE_MAX_RESIDUAL_PX`] of every view (rms); `posed`: the same frames posed once.
 fn ground_point(
     t: &TiePoint,
     frames: OrientedFrames<'_>,
