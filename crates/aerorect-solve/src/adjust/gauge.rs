@@ -21,8 +21,8 @@ pub const ONE_POINT_RATIO: f64 = 0.02;
 /// deviations of the difference of two fixes (sqrt 2 times the smallest position prior of the
 /// set's frames, per axis). Such fixes differ by the receiver's noise, and held as recorded
 /// they give rays from one point a parallax the photos do not have: two DJI frames hovering
-/// 391 m from the ground they tie, their fixes 0.19 m apart (5 m priors), turned 4.4 and
-/// 4.6 degrees from their recorded gimbal angles (1 degree priors) and ran to the solve's
+/// 437 m from the ground they tie, their fixes 0.19 m apart (5 m priors), turned 4.6 and
+/// 3.9 degrees from their recorded gimbal angles (1 degree priors) and ran to the solve's
 /// iteration limit, to fit it. An RTK receiver's centimetres keep a real baseline as recorded.
 pub const NOISE_BASELINE_SIGMAS: f64 = 3.0;
 
