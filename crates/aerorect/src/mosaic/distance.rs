@@ -38,13 +38,9 @@ fn rows_by_offsets(along: &[u32], width: usize, cap: usize, out: &mut [f32]) {
     let mut g = vec![FAR; width + 2 * cap];
     let mut best = vec![FAR; width];
     for (row, dst) in along.chunks_exact(width).zip(out.chunks_exact_mut(width)) {
-        let (Some(first), Some(last)) = (
-            row.iter().position(|&d| d != u32::MAX),
-            row.iter().rposition(|&d| d != u32::MAX),
-        ) else {
+        let Some(std::ops::Range { start: lo, end: hi }) = reach(row, cap) else {
             continue;
         };
-        let (lo, hi) = (first.saturating_sub(cap), (last + cap + 1).min(width));
         let n = hi - lo;
         // g[i] is column lo - cap + i.
         g[..n + 2 * cap].fill(FAR);
@@ -68,6 +64,16 @@ fn rows_by_offsets(along: &[u32], width: usize, cap: usize, out: &mut [f32]) {
     }
 }
 
+/// The cells of a row of column distances that can lie within `cap` of a feature: from `cap`
+/// before its first column with a distance to `cap` after its last (beyond, every term of the
+/// row pass is over the cap); `None` when no column has one.
+fn reach(row: &[u32], cap: usize) -> Option<std::ops::Range<usize>> {
+    let first = row.iter().position(|&d| d != u32::MAX)?;
+    let last = row.iter().rposition(|&d| d != u32::MAX)?;
+    let end = last.saturating_add(cap).saturating_add(1).min(row.len());
+    Some(first.saturating_sub(cap)..end)
+}
+
 /// The row pass by the lower envelope of the parabolas: any `cap`.
 fn rows_by_envelope(along: &[u32], width: usize, cap: usize, out: &mut [f32]) {
     const FAR: f64 = 1e20;
@@ -75,14 +81,9 @@ fn rows_by_envelope(along: &[u32], width: usize, cap: usize, out: &mut [f32]) {
     let (mut f, mut row_out) = (vec![0.0; width], vec![0.0; width]);
     let cap2 = (cap as f64) * (cap as f64);
     for (row, dst) in along.chunks_exact(width).zip(out.chunks_exact_mut(width)) {
-        let (Some(first), Some(last)) = (
-            row.iter().position(|&d| d != u32::MAX),
-            row.iter().rposition(|&d| d != u32::MAX),
-        ) else {
+        let Some(span) = reach(row, cap) else {
             continue;
         };
-        let end = last.saturating_add(cap).saturating_add(1).min(width);
-        let span = first.saturating_sub(cap)..end;
         for (fi, &d) in f[span.clone()].iter_mut().zip(&row[span.clone()]) {
             *fi = if d == u32::MAX {
                 FAR
