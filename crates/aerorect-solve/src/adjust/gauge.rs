@@ -117,7 +117,7 @@ pub(super) fn one_point_sets(
         if range > 0.0 && baseline < ONE_POINT_RATIO * range {
             let sigma = set
                 .iter()
-                .flat_map(|&f| frames[f].position_sigma_m.unwrap_or([sigma_m; 3]))
+                .flat_map(|&f| frames[f].position_sigma_or(sigma_m))
                 .fold(f64::INFINITY, f64::min);
             let noise = baseline <= NOISE_BASELINE_SIGMAS * std::f64::consts::SQRT_2 * sigma;
             let held_at = noise.then(|| (c.iter().sum::<Vec3>() / c.len() as f64).into());

@@ -68,6 +68,13 @@ pub struct AdjustFrame {
     pub attitude_sigma_deg: Option<f64>,
 }
 
+impl AdjustFrame {
+    /// This frame's position prior (m, per world axis): its own, else `flight_m` on each.
+    pub fn position_sigma_or(&self, flight_m: f64) -> [f64; 3] {
+        self.position_sigma_m.unwrap_or([flight_m; 3])
+    }
+}
+
 /// A tie point's observation in one frame (observed pixel, with the matcher's confidence as a
 /// relative weight in (0, 1]).
 #[derive(Debug, Clone, Copy, PartialEq)]

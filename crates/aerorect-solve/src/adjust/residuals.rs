@@ -217,9 +217,9 @@ impl Problem<'_> {
                 .attitude_sigma_deg
                 .unwrap_or(self.opts.attitude_sigma_deg)
                 .to_radians(),
-            FrameParam::Position(k) => self.frames[f]
-                .position_sigma_m
-                .map_or(self.opts.position_sigma_m.unwrap_or(1.0), |s| s[k]),
+            FrameParam::Position(k) => {
+                self.frames[f].position_sigma_or(self.opts.position_sigma_m.unwrap_or(1.0))[k]
+            }
         }
     }
 

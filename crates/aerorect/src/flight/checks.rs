@@ -42,7 +42,7 @@ pub(super) fn gps_checks(
         .zip(adjust_frames)
         .zip(&report.frames)
         .map(|((f, a), r)| {
-            let sigma = a.position_sigma_m.unwrap_or([default; 3]);
+            let sigma = a.position_sigma_or(default);
             // Against what the solved datum (the block's common shift, its drift) gives
             // the frame.
             let sigmas = (0..3)
