@@ -17,6 +17,12 @@ use serde::Serialize;
 /// ground point at less than 1.2 degrees).
 pub const ONE_POINT_RATIO: f64 = 0.02;
 
+/// Whether frames whose largest baseline is `baseline_m` see what lies `range_m` from them as
+/// from one point ([`ONE_POINT_RATIO`]).
+pub fn one_point(baseline_m: f64, range_m: f64) -> bool {
+    range_m > 0.0 && baseline_m < ONE_POINT_RATIO * range_m
+}
+
 /// A one-point set is held at its fixes' mean when its baseline is within this many standard
 /// deviations of the difference of two fixes (sqrt 2 times the smallest position prior of the
 /// set's frames, per axis). Such fixes differ by the receiver's noise, and held as recorded
@@ -114,7 +120,7 @@ pub(super) fn one_point_sets(
             true => 0.0,
             false => *ranges.select_nth_unstable_by(mid, f64::total_cmp).1,
         };
-        if range > 0.0 && baseline < ONE_POINT_RATIO * range {
+        if one_point(baseline, range) {
             let sigma = set
                 .iter()
                 .flat_map(|&f| frames[f].position_sigma_or(sigma_m))

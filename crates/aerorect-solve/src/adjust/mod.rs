@@ -44,7 +44,7 @@ mod solve;
 
 pub use crate::lm::{Termination, Tolerances};
 pub use corrections::Corrections;
-pub use gauge::{GaugeHold, ONE_POINT_RATIO, connected, connected_by};
+pub use gauge::{GaugeHold, ONE_POINT_RATIO, connected, connected_by, one_point};
 pub use points::{OrientedFrames, PosedFrames};
 pub use residuals::radial_refinable;
 

@@ -12,7 +12,7 @@ use super::*;
 use crate::georef::bounds_of;
 use aerorect_core::Vec3;
 use aerorect_geo::Dem;
-use aerorect_solve::adjust::{ONE_POINT_RATIO, OrientedFrames, PosedFrames};
+use aerorect_solve::adjust::{OrientedFrames, PosedFrames, one_point};
 use std::sync::Arc;
 
 /// A tie point whose intersection misses its observations by more than this (px, rms over
@@ -136,8 +136,8 @@ pub fn tie_surface(
     }))
 }
 
-/// Whether a tie's frames saw it from (nearly) one point: their largest baseline under
-/// [`ONE_POINT_RATIO`] of the first frame's range to its first guess. Its rays meet at under
+/// Whether a tie's frames saw it from (nearly) one point ([`one_point`]): their largest
+/// baseline under 2 % of the first frame's range to its first guess. Its rays meet at under
 /// about a degree, so its height is the level ground's guess, not a measurement, and the
 /// surface leaves it out (it is not counted among the candidates either). Two DJI frames from
 /// one hover point, their 4,672 ties against the nadir pair's 208, left a five-frame flight
@@ -156,7 +156,7 @@ fn seen_from_one_point(t: &TiePoint, frames: OrientedFrames<'_>) -> bool {
         };
         baseline = baseline.max((c - first).norm());
     }
-    baseline < ONE_POINT_RATIO * (Vec3::from(t.ground) - first).norm()
+    one_point(baseline, (Vec3::from(t.ground) - first).norm())
 }
 
 /// Tie `t`'s point through the frames, if its rays meet within
