@@ -176,6 +176,7 @@ impl FlightProgress {
             since: None,
             start,
             surface: f.surface.map(SurfaceFile::into_surface).transpose()?,
+            sampled: None,
         })
     }
 }
@@ -249,6 +250,7 @@ pub(super) mod tests {
             since: None,
             start: Corrections::from_values(1, 1, &vec![0.125; Corrections::value_count(1, 1)]),
             surface: None,
+            sampled: None,
         };
         assert!(p.start.is_some());
         let back = FlightProgress::from_json(&p.to_json().unwrap()).unwrap();

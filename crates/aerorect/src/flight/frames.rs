@@ -15,6 +15,7 @@ pub(super) struct Frame {
 }
 
 /// A frame's gray ortho on the matching grid (NaN: no data) and that ortho's plan.
+#[derive(Clone)]
 pub(super) struct Rendered {
     pub(super) coarse: Raster<f32>,
     pub(super) coarse_plan: OrthoPlan,

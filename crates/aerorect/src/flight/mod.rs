@@ -435,11 +435,18 @@ pub fn adjust_flight_for(
     let plan = timing::time("plan (wall)", || FlightPlan::new(inputs, opts, fo))?;
     let (features, guide) = timing::time("features round (wall)", || plan.first_round_matches())?;
     let plan = plan.with_sensefly_roll_chosen(&features)?;
-    let render_all = |o: Option<&Orientation>| -> Result<Vec<Rendered>, Error> {
+    // Frames the features round's source sample rendered with `o` are taken, not rendered
+    // again.
+    let render_all = |o: Option<&Orientation>,
+                      sampled: &mut Option<sources::Sampled>|
+     -> Result<Vec<Rendered>, Error> {
+        let done: Vec<Option<Rendered>> = (0..plan.len())
+            .map(|k| sampled.as_mut().and_then(|s| s.take_rendered(k)))
+            .collect();
         timing::time("render (wall)", || {
-            (0..plan.len())
-                .into_par_iter()
-                .map(|k| plan.render(k, o))
+            done.into_par_iter()
+                .enumerate()
+                .map(|(k, r)| r.map_or_else(|| plan.render(k, o), Ok))
                 .collect()
         })
     };
@@ -448,7 +455,7 @@ pub fn adjust_flight_for(
         let round = plan.adjust_round(&mut progress, features.clone(), fo.final_all_ties)?;
         if progress.done {
             let rendered = match overview {
-                true => render_all(progress.orientation.as_ref())?,
+                true => render_all(progress.orientation.as_ref(), &mut None)?,
                 false => Vec::new(),
             };
             timing::print();
@@ -456,12 +463,21 @@ pub fn adjust_flight_for(
         }
     }
     loop {
-        let rendered = render_all(progress.orientation.as_ref())?;
+        let mut sampled = progress.sampled.take();
+        let rendered = render_all(progress.orientation.as_ref(), &mut sampled)?;
         let grids: Vec<OrthoGrid> = rendered.iter().map(|r| r.coarse_plan.grid).collect();
+        let pairs: Vec<((usize, usize), Option<PairMatch>)> = overlapping(&grids)
+            .into_iter()
+            .map(|(i, j)| ((i, j), sampled.as_mut().and_then(|s| s.take_matched(i, j))))
+            .collect();
+        drop(sampled);
         let mut matched: Vec<PairMatch> = timing::time("correlate (wall)", || {
-            overlapping(&grids)
-                .par_iter()
-                .map(|&(i, j)| plan.match_rendered((i, &rendered[i]), (j, &rendered[j])))
+            pairs
+                .into_par_iter()
+                .map(|((i, j), m)| match m {
+                    Some(m) => Ok(m),
+                    None => plan.match_rendered((i, &rendered[i]), (j, &rendered[j])),
+                })
                 .collect::<Result<_, Error>>()
         })?;
         matched.extend(features.iter().cloned());

@@ -54,6 +54,9 @@ pub struct FlightProgress {
     /// The ground the last round's tie points describe, once the rounds are done (see
     /// [`FlightOptions::tie_surface`]): the adjusted frames are rendered over it.
     pub surface: Option<TieSurface>,
+    /// The features round's source sample (rendered and correlated with this orientation),
+    /// for the next round to take (within one process, see [`sources::Sampled`]).
+    pub(super) sampled: Option<sources::Sampled>,
 }
 
 impl FlightPlan {
@@ -353,6 +356,7 @@ impl FlightPlan {
             && self.fo.ties == TieSource::Both
             && !matched.is_empty()
             && matched.iter().all(|m| m.features);
+        let mut sampled = None;
         summary.sources = match (self.opts.dem.is_some(), correlated.is_empty()) {
             (true, false) => SourceWeights::weigh(&matched, (&poses, &cams), self.gap_on()),
             (dem, true)
@@ -362,7 +366,9 @@ impl FlightPlan {
                     poses: poses.clone(),
                     cameras: cameras.clone(),
                 };
-                self.sampled_sources(&matched, &orientation)?
+                let (weights, work) = self.sampled_sources(&matched, &orientation)?;
+                sampled = Some(work);
+                weights
             }
             (false, false) | (_, true) => None,
         };
@@ -399,6 +405,8 @@ impl FlightPlan {
             false => (round, poses, cameras),
         };
         progress.rounds.push(summary);
+        // The next round renders with this round's orientation, as the sample did.
+        progress.sampled = sampled.filter(|_| !progress.done);
         progress.since = Some(std::time::Instant::now());
         progress.orientation = Some(Orientation { poses, cameras });
         progress.start = Some(round.adjusted.corrections.clone());

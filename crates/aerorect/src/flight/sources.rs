@@ -30,6 +30,7 @@
 
 use super::*;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// Ties sampled per source for its median gap: enough for a median to 1 %, few enough to cost
 /// nothing beside the solve.
@@ -165,23 +166,23 @@ impl FlightPlan {
         &self,
         matched: &[PairMatch],
         orientation: &Orientation,
-    ) -> Result<Option<SourceWeights>, Error> {
+    ) -> Result<(Option<SourceWeights>, Sampled), Error> {
         let reliable: Vec<&PairMatch> = matched
             .iter()
             .filter(|m| m.features && m.reliable())
             .collect();
         let step = reliable.len().div_ceil(SOURCE_SAMPLE_PAIRS).max(1);
         let sample: Vec<&PairMatch> = reliable.into_iter().step_by(step).collect();
-        let correlated: Vec<PairMatch> = timing::time("sources: correlated sample (wall)", || {
+        let (rendered, correlated) = timing::time("sources: correlated sample (wall)", || {
             // Each frame rendered once for every sampled pair it is in (the senseFly photos'
             // 11 frames: 1.55 s of sample rendering them per pair).
             let frames: std::collections::BTreeSet<usize> =
                 sample.iter().flat_map(|m| [m.a, m.b]).collect();
-            let rendered: std::collections::BTreeMap<usize, Rendered> = frames
+            let rendered: BTreeMap<usize, Rendered> = frames
                 .into_par_iter()
                 .map(|k| Ok((k, self.render(k, Some(orientation))?)))
                 .collect::<Result<_, Error>>()?;
-            sample
+            let correlated: Vec<PairMatch> = sample
                 .par_iter()
                 .map(|m| match (rendered.get(&m.a), rendered.get(&m.b)) {
                     (Some(a), Some(b)) => self.match_rendered((m.a, a), (m.b, b)),
@@ -190,16 +191,53 @@ impl FlightPlan {
                         m.a, m.b
                     ))),
                 })
-                .collect::<Result<_, Error>>()
+                .collect::<Result<_, Error>>()?;
+            Ok::<_, Error>((rendered, correlated))
         })?;
         let mut both: Vec<PairMatch> = sample.iter().map(|m| (*m).clone()).collect();
-        both.extend(correlated);
+        both.extend(correlated.iter().cloned());
         let cams: Vec<&Camera> = orientation.cameras.iter().collect();
         let weights = SourceWeights::weigh(&both, (&orientation.poses, &cams), self.gap_on());
-        Ok(weights.map(|w| SourceWeights {
+        let weights = weights.map(|w| SourceWeights {
             sampled_pairs: Some(sample.len()),
             ..w
-        }))
+        });
+        let matched = correlated.into_iter().map(|m| ((m.a, m.b), m)).collect();
+        Ok((weights, Sampled { rendered, matched }))
+    }
+}
+
+/// What the features round's source sample rendered and correlated, with the orientation
+/// the next round renders with: that round takes them rather than making them again (the
+/// same frames and ties, bit for bit; within one process). On the senseFly photos the sample
+/// is every reliable pair.
+#[derive(Clone, Default)]
+pub(super) struct Sampled {
+    /// The sampled pairs' frames, by frame.
+    rendered: BTreeMap<usize, Rendered>,
+    /// The sampled pairs' correlation matches, by (a, b) as [`FlightPlan::match_rendered`]
+    /// took them.
+    matched: BTreeMap<(usize, usize), PairMatch>,
+}
+
+impl std::fmt::Debug for Sampled {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Sampled")
+            .field("frames", &self.rendered.len())
+            .field("pairs", &self.matched.len())
+            .finish()
+    }
+}
+
+impl Sampled {
+    /// Frame `k` as the sample rendered it, taken out (each is used once).
+    pub(super) fn take_rendered(&mut self, k: usize) -> Option<Rendered> {
+        self.rendered.remove(&k)
+    }
+
+    /// Pair (a, b)'s correlation matches as the sample made them, taken out.
+    pub(super) fn take_matched(&mut self, a: usize, b: usize) -> Option<PairMatch> {
+        self.matched.remove(&(a, b))
     }
 }
 
