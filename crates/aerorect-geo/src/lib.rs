@@ -13,6 +13,8 @@ mod occlusion;
 mod ortho;
 mod pose;
 mod terrain;
+#[cfg(target_arch = "x86_64")]
+mod terrain_avx2;
 
 pub use crs::{Crs, CrsForm, TmParams, convergence_deg, grid_from_enu, proj_params, tm_params};
 pub use error::{CrsError, GeoError};

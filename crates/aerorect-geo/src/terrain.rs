@@ -219,6 +219,22 @@ impl HeightGrid {
         }
         let (r0, r1, fy) = nodes_around(row, h);
         let (top, bottom) = (&self.values[r0 * w..][..w], &self.values[r1 * w..][..w]);
+        #[cfg(target_arch = "x86_64")]
+        let xs = match std::arch::is_x86_feature_detected!("avx2") {
+            true => {
+                let nodes = crate::terrain_avx2::RowNodes {
+                    top,
+                    bottom,
+                    fy,
+                    x0: self.origin[0],
+                    spacing: self.spacing,
+                };
+                // SAFETY: the CPU has AVX2.
+                let done = unsafe { crate::terrain_avx2::heights(&nodes, xs) };
+                &mut xs[done..]
+            }
+            false => xs,
+        };
         for x in xs {
             let col = ((*x - self.origin[0]) / self.spacing).clamp(0.0, (w - 1) as f64);
             if !(col >= 0.0 && col <= (w - 1) as f64) {
@@ -264,8 +280,9 @@ impl Terrain {
 mod tests {
     use super::*;
 
-    /// A row's heights are `height_at`'s bit for bit: inside, on and beyond the edges (the
-    /// nearest edge), across a node with no height (NaN), and for a grid one node wide.
+    /// A row's heights are `height_at`'s bit for bit (the AVX2 loop's and the scalar tail's):
+    /// inside, on and beyond the edges (the nearest edge), across a node with no height
+    /// (NaN), for x not a number or infinite, and for a grid one node wide.
     #[test]
     fn heights_along_a_row_are_height_at_bit_for_bit() {
         let (width, height) = (7, 5);
@@ -289,7 +306,19 @@ mod tests {
                 values: vec![10.0, 20.0],
             },
         ];
-        let xs0: Vec<f64> = (0..40).map(|i| 493.0 + i as f64 * 0.61).collect();
+        // 43: ten runs of four (the AVX2 loop's) and a tail of three; x off the grid's
+        // ends, exactly on its first and last nodes, not a number and infinite.
+        let mut xs0: Vec<f64> = (0..43).map(|i| 493.0 + i as f64 * 0.61).collect();
+        let odd = [
+            (3, f64::NAN),
+            (8, 500.0),
+            (17, 515.0),
+            (22, f64::INFINITY),
+            (41, f64::NEG_INFINITY),
+        ];
+        for (k, x) in odd {
+            xs0[k] = x;
+        }
         let mut checked = 0;
         for g in &grids {
             for y in [2003.0, 2000.0, 1996.3, 1994.9, 1990.0, 1980.0, f64::NAN] {
