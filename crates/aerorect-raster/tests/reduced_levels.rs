@@ -167,3 +167,30 @@ fn a_warp_that_reads_level_zero_is_none() {
             .is_some()
     );
 }
+
+/// The bytes levels would hold, told without making them, are the bytes made levels hold:
+/// odd and even sides, one side of a single pixel, and several bands.
+#[test]
+fn levels_byte_count_is_that_of_the_levels_made() {
+    for (w, h, bands) in [
+        (8, 4, 1),
+        (13, 7, 1),
+        (1, 1, 1),
+        (2, 300, 3),
+        (461, 346, 1),
+        (64, 33, 4),
+    ] {
+        let size = ImageSize::new(w, h);
+        let made = ReducedLevels::of(&noise::<f32>(size, bands, 3)).unwrap();
+        assert_eq!(
+            ReducedLevels::<f32>::byte_len_for(size, bands),
+            made.byte_len(),
+            "{w} x {h} x {bands}"
+        );
+        let made = ReducedLevels::of(&noise::<u8>(size, bands, 3)).unwrap();
+        assert_eq!(
+            ReducedLevels::<u8>::byte_len_for(size, bands),
+            made.byte_len()
+        );
+    }
+}

@@ -72,6 +72,18 @@ impl<T: Sample> ReducedLevels<T> {
             .sum()
     }
 
+    /// The bytes [`Self::byte_len`] gives for the levels of a `bands`-band image of `size0`,
+    /// without making them.
+    pub fn byte_len_for(size0: ImageSize, bands: usize) -> usize {
+        let mut size = size0;
+        (0..deepest_level(size0).max(1))
+            .map(|_| {
+                size = ImageSize::new(size.width.div_ceil(2), size.height.div_ceil(2));
+                size.pixels() * bands * std::mem::size_of::<T>()
+            })
+            .sum()
+    }
+
     fn from_first(size0: ImageSize, first: Raster<T>) -> Result<Self, RasterError> {
         let mut reduced = vec![first];
         while reduced.len() < deepest_level(size0) {

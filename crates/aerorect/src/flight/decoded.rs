@@ -11,28 +11,75 @@ use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 
-/// The most bytes of decoded photos and their gray levels a flight keeps (1 GiB: the snowpeak
+/// The least a flight keeps of decoded photos and their gray levels (1 GiB: the snowpeak
 /// flight's 11 photos are 525 MB and their levels 233 MB, the 1,000-frame simulation's photos
-/// 173 MB). Photos past it are decoded at each use, levels made at each render.
+/// 173 MB); [`budget`] gives more where the machine has the memory. Photos past it are decoded
+/// at each use, levels made at each render.
 pub const DECODED_BUDGET_BYTES: usize = 1 << 30;
+
+/// The most a flight keeps (4 GiB: the levels of 167 photos of 16 Mpx take 3.5 GB).
+pub const MAX_DECODED_BUDGET_BYTES: usize = 4 << 30;
+
+/// The bytes a flight keeps: a quarter of the memory available as it starts (Linux's
+/// `MemAvailable`), within [`DECODED_BUDGET_BYTES`] and [`MAX_DECODED_BUDGET_BYTES`];
+/// the least where that is not known. What is kept changes no result, only how often a
+/// photo is decoded.
+pub(super) fn budget() -> usize {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|m| mem_available(&m))
+        .map_or(DECODED_BUDGET_BYTES, |a| {
+            (a / 4).clamp(DECODED_BUDGET_BYTES, MAX_DECODED_BUDGET_BYTES)
+        })
+}
+
+/// `MemAvailable` of a `/proc/meminfo` text, in bytes.
+fn mem_available(meminfo: &str) -> Option<usize> {
+    let kb = meminfo
+        .lines()
+        .find_map(|l| l.strip_prefix("MemAvailable:"))?
+        .trim()
+        .strip_suffix("kB")?
+        .trim()
+        .parse::<usize>()
+        .ok()?;
+    kb.checked_mul(1024)
+}
 
 /// The flight's decoded photos, and the reduced levels of their gray frames that each round's
 /// render reads, one slot of each a frame.
+///
+/// Levels come first: every round's render reads a frame's levels, a photo is read twice (by
+/// the features and by the written frames), and levels are under half a photo's bytes (a
+/// gray f32 quarter and its reductions against RGB u8). Photos are kept only within the
+/// budget less every frame's levels: with the budget first come first served, 22 of 167
+/// photos of 16 Mpx filled 1 GiB in the features round and every later round decoded the
+/// other 145 again.
 #[derive(Debug)]
 pub(super) struct Decoded {
     photos: Vec<OnceLock<Arc<AnyRaster>>>,
     levels: Vec<OnceLock<Arc<ReducedLevels<f32>>>>,
     used: AtomicUsize,
     budget: usize,
+    /// Bytes of kept photos (counted in `used` too), and the most they may take.
+    photos_used: AtomicUsize,
+    photo_budget: usize,
+    /// Each frame's gray levels' bytes.
+    level_bytes: Vec<usize>,
 }
 
 impl Decoded {
-    pub(super) fn new(frames: usize, budget: usize) -> Self {
+    /// Slots for frames whose levels will take `level_bytes` each, within `budget`.
+    pub(super) fn new(level_bytes: &[usize], budget: usize) -> Self {
+        let levels: usize = level_bytes.iter().sum();
         Self {
-            photos: (0..frames).map(|_| OnceLock::new()).collect(),
-            levels: (0..frames).map(|_| OnceLock::new()).collect(),
+            photos: level_bytes.iter().map(|_| OnceLock::new()).collect(),
+            levels: level_bytes.iter().map(|_| OnceLock::new()).collect(),
             used: AtomicUsize::new(0),
             budget,
+            photos_used: AtomicUsize::new(0),
+            photo_budget: budget.saturating_sub(levels),
+            level_bytes: level_bytes.to_vec(),
         }
     }
 
@@ -44,7 +91,7 @@ impl Decoded {
                 aerorect_io::read_image(path)
             })?)
         };
-        self.kept(&self.photos, k, decode, byte_len)
+        self.kept((&self.photos, true), k, decode, byte_len)
     }
 
     /// The reduced levels of frame `k`'s gray frame (`crate::motion::gray_levels` of its
@@ -58,13 +105,35 @@ impl Decoded {
             let image = self.get(k, path)?;
             super::timing::time("render: gray levels", || crate::motion::gray_levels(&image))
         };
-        self.kept(&self.levels, k, make, ReducedLevels::byte_len)
+        self.kept((&self.levels, false), k, make, ReducedLevels::byte_len)
     }
 
-    /// Slot `k` of `slots`: its value, else `make`'s, kept when it fits the budget.
+    /// Frame `k`'s photo for a use that decodes it anyway (the features). A photo not kept
+    /// has its gray levels made from it now where they fit, so that no round's render decodes
+    /// it again (making them is about a tenth of a decode: 12 against 116 ms for a 16-Mpx
+    /// JPEG).
+    pub(super) fn get_with_levels(&self, k: usize, path: &Path) -> Result<Arc<AnyRaster>, Error> {
+        let image = self.get(k, path)?;
+        let photo_kept = self.photos.get(k).is_some_and(|s| s.get().is_some());
+        let levels_kept = self.levels.get(k).is_some_and(|s| s.get().is_some());
+        let fits = self
+            .level_bytes
+            .get(k)
+            .is_some_and(|&n| self.used.load(Ordering::Relaxed).saturating_add(n) <= self.budget);
+        if !photo_kept && !levels_kept && fits {
+            let make = || {
+                super::timing::time("render: gray levels", || crate::motion::gray_levels(&image))
+            };
+            self.kept((&self.levels, false), k, make, ReducedLevels::byte_len)?;
+        }
+        Ok(image)
+    }
+
+    /// Slot `k` of `slots`: its value, else `make`'s, kept when it fits the budget (and, for
+    /// `photo` slots, the photos' share of it).
     fn kept<V>(
         &self,
-        slots: &[OnceLock<Arc<V>>],
+        (slots, photo): (&[OnceLock<Arc<V>>], bool),
         k: usize,
         make: impl FnOnce() -> Result<V, Error>,
         bytes: impl Fn(&V) -> usize,
@@ -78,9 +147,17 @@ impl Decoded {
         let value = Arc::new(make()?);
         let n = bytes(&value);
         let before = self.used.fetch_add(n, Ordering::Relaxed);
-        if before + n > self.budget || slot.set(Arc::clone(&value)).is_err() {
+        let photos_before = match photo {
+            true => self.photos_used.fetch_add(n, Ordering::Relaxed),
+            false => 0,
+        };
+        let over = before + n > self.budget || (photo && photos_before + n > self.photo_budget);
+        if over || slot.set(Arc::clone(&value)).is_err() {
             // Over the budget, or another thread kept the same value first.
             self.used.fetch_sub(n, Ordering::Relaxed);
+            if photo {
+                self.photos_used.fetch_sub(n, Ordering::Relaxed);
+            }
         }
         Ok(value)
     }
@@ -113,8 +190,8 @@ mod tests {
     fn keeps_photos_within_the_budget_and_gives_the_decoded_pixels() {
         let dir = tempfile::tempdir().expect("dir");
         let (a, b) = (png(dir.path(), "a.png", 7), png(dir.path(), "b.png", 9));
-        // Room for one 32-byte photo.
-        let d = Decoded::new(2, 40);
+        // Two frames whose levels take 32 bytes each: room for one 32-byte photo beside them.
+        let d = Decoded::new(&[32, 32], 104);
         let first = d.get(0, &a).expect("a");
         assert_eq!(d.kept_bytes(), 32);
         let other = d.get(1, &b).expect("b");
@@ -131,23 +208,37 @@ mod tests {
         assert!(d.get(2, &a).is_err());
     }
 
-    /// The gray levels count against the same budget: made from the kept photo (its file
-    /// gone), kept while they fit and then handed back as they are; over the budget, made
-    /// again at each call.
+    /// The gray levels come first: a photo is kept only where every frame's levels still fit
+    /// beside it, levels wherever they fit. Kept levels are handed back as they are (their
+    /// photo's file gone), levels over the budget made again at each call.
     #[test]
-    fn keeps_gray_levels_within_the_budget() {
+    fn keeps_gray_levels_before_photos() {
         let dir = tempfile::tempdir().expect("dir");
-        for (budget, kept) in [(64, true), (40, false)] {
+        // (budget, photo kept, levels kept): the 8 x 4 photo's levels take 32 bytes.
+        for (budget, photo, levels) in [(64, true, true), (63, false, true), (31, false, false)] {
             let a = png(dir.path(), &format!("{budget}.png"), 7);
-            let d = Decoded::new(1, budget);
+            let d = Decoded::new(&[32], budget);
             d.get(0, &a).expect("photo");
-            std::fs::remove_file(&a).expect("rm");
+            assert_eq!(
+                d.kept_bytes(),
+                if photo { 32 } else { 0 },
+                "budget {budget}"
+            );
             let first = d.gray_levels(0, &a).expect("levels");
             // 8 x 4 -> 4 x 2 f32, the only level of so small a frame.
             assert_eq!(first.byte_len(), 32);
-            assert_eq!(d.kept_bytes(), if kept { 64 } else { 32 });
-            let again = d.gray_levels(0, &a).expect("levels");
-            assert_eq!(Arc::ptr_eq(&first, &again), kept, "budget {budget}");
+            let kept = 32 * (photo as usize + levels as usize);
+            assert_eq!(d.kept_bytes(), kept, "budget {budget}");
+            std::fs::remove_file(&a).expect("rm");
+            let again = match d.gray_levels(0, &a) {
+                Ok(again) => again,
+                Err(_) => {
+                    // Neither kept: made again from the photo, whose file is gone.
+                    assert!(!photo && !levels, "budget {budget}");
+                    continue;
+                }
+            };
+            assert_eq!(Arc::ptr_eq(&first, &again), levels, "budget {budget}");
             let plan = aerorect_core::Homography::new(aerorect_core::Mat3::new(
                 2.0, 0.0, 0.5, 0.0, 2.0, 0.5, 0.0, 0.0, 1.0,
             ))
@@ -162,5 +253,38 @@ mod tests {
                 .expect("level 1");
             assert!(out.plane(0).iter().all(|&v| v == 7.0));
         }
+    }
+
+    /// A photo the features decode but the budget does not keep leaves its gray levels kept,
+    /// made from it (its file gone, the render still has them); a kept photo leaves none (the
+    /// render makes them from it), nor does one whose levels would not fit.
+    #[test]
+    fn features_leave_the_levels_of_a_photo_not_kept() {
+        let dir = tempfile::tempdir().expect("dir");
+        // (budget, photo kept, levels kept)
+        for (budget, photo, levels) in [(64, true, false), (40, false, true), (31, false, false)] {
+            let a = png(dir.path(), &format!("{budget}.png"), 7);
+            let d = Decoded::new(&[32], budget);
+            d.get_with_levels(0, &a).expect("photo");
+            let kept = 32 * (photo as usize + levels as usize);
+            assert_eq!(d.kept_bytes(), kept, "budget {budget}");
+            std::fs::remove_file(&a).expect("rm");
+            assert_eq!(
+                d.gray_levels(0, &a).is_ok(),
+                photo || levels,
+                "budget {budget}"
+            );
+        }
+    }
+
+    /// `MemAvailable` as the kernel writes it (proc(5): a value in kB), and nothing from a
+    /// text without it.
+    #[test]
+    fn reads_the_available_memory() {
+        let meminfo = "MemTotal:       24542108 kB\nMemFree:         1234567 kB\n\
+                       MemAvailable:   20971520 kB\nBuffers:          123456 kB\n";
+        assert_eq!(mem_available(meminfo), Some(20 << 30));
+        assert_eq!(mem_available("MemTotal: 1 kB\nMemFree: 1 kB\n"), None);
+        assert_eq!(mem_available("MemAvailable: lots\n"), None);
     }
 }

@@ -85,7 +85,7 @@ impl FlightPlan {
         let f = self.frames.get(k).ok_or_else(|| {
             Error::Invalid(format!("frame {k} of a flight of {} frames", self.len()))
         })?;
-        let image = self.decoded.get(k, &f.input)?;
+        let image = self.decoded.get_with_levels(k, &f.input)?;
         let mut features = timing::time("features: sift", || {
             raster_features(&f.input, &image, &self.tie_options())
         })?;

@@ -96,6 +96,16 @@ impl FlightPlan {
             None => None,
         };
         warnings.extend(control.iter().flat_map(|c| c.warnings.iter().cloned()));
+        // Each frame's gray levels, which the rounds' renders read, come before its photo.
+        let level_bytes: Vec<usize> = rec
+            .camera_of
+            .iter()
+            .map(|&c| {
+                rec.cameras.get(c).map_or(0, |camera| {
+                    aerorect_raster::ReducedLevels::<f32>::byte_len_for(camera.size, 1)
+                })
+            })
+            .collect();
         Ok(Self {
             times: drift::flight_times(&metas),
             ground: ground_fn(&opts, &crs),
@@ -109,10 +119,7 @@ impl FlightPlan {
             started,
             warnings,
             roll: None,
-            decoded: std::sync::Arc::new(decoded::Decoded::new(
-                inputs.len(),
-                decoded::DECODED_BUDGET_BYTES,
-            )),
+            decoded: std::sync::Arc::new(decoded::Decoded::new(&level_bytes, decoded::budget())),
         })
     }
 
