@@ -13,6 +13,7 @@
 pub mod error;
 pub mod flight;
 pub mod lens;
+pub mod memory;
 pub mod mosaic;
 pub mod motion;
 pub mod options;

@@ -70,11 +70,17 @@ pub struct MosaicOptions {
     pub feather_px: usize,
     /// Output tile side (px, a multiple of 16).
     pub tile_px: usize,
-    /// Decoded frames kept between tiles, shared by the threads compositing them. At most
-    /// this many plus one per thread are held at once (a 4608 x 3456 RGB u8 photo is 48 MB);
-    /// the default 8 held every frame a row of snowpeak's tiles needs (each of its 11 photos
-    /// decoded once; 4 decoded them 39-40 times).
+    /// Decoded frames kept between tiles, shared by the threads compositing them: at least
+    /// this many, more where `cache_bytes` holds more. At most the cache plus one per thread
+    /// are held at once (a 4608 x 3456 RGB u8 photo is 48 MB); 8 held every frame a row of
+    /// snowpeak's tiles needs (each of its 11 photos decoded once; 4 decoded them 39-40
+    /// times).
     pub cache_frames: usize,
+    /// The bytes of decoded frames the cache may hold beyond `cache_frames` (counted by the
+    /// largest frame): [`crate::memory::cache_budget_bytes`] by default. A flight's tile rows
+    /// cross every strip: with 8 frames kept, each of a simulated 144-frame flight's frames
+    /// was decoded 3.4 times (up to 6), once per row of tiles it spans.
+    pub cache_bytes: usize,
     /// Append an alpha band (opaque where a frame covers the cell).
     pub alpha: bool,
     /// The value of cells no frame covers.
@@ -92,6 +98,7 @@ impl Default for MosaicOptions {
             feather_px: 16,
             tile_px: 512,
             cache_frames: 8,
+            cache_bytes: crate::memory::cache_budget_bytes(),
             alpha: true,
             nodata: 0.0,
             max_output_px: aerorect_core::rectify::DEFAULT_MAX_OUTPUT_PX,

@@ -345,6 +345,7 @@ fn tiles_equal_the_whole_mosaic_composited_in_one_piece() {
             feather_px: n,
             tile_px: 48,
             cache_frames: 2,
+            cache_bytes: 0,
             ..MosaicOptions::default()
         };
         let (plan, v, a, loads) = run_all(&s, opts);

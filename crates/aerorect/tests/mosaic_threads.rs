@@ -92,6 +92,7 @@ fn threads_share_decoded_frames_and_make_the_tiles_one_thread_makes() {
     let opts = |cache_frames| MosaicOptions {
         tile_px: 32,
         cache_frames,
+        cache_bytes: 0,
         ..MosaicOptions::default()
     };
     // A cache of every frame: each decoded once, however many tiles want it at once.
@@ -111,6 +112,39 @@ fn threads_share_decoded_frames_and_make_the_tiles_one_thread_makes() {
     let (parallel, loads) = tiles_on(&s, &plan, 4);
     assert!(loads.iter().sum::<usize>() > 3, "{loads:?}");
     assert!(parallel.iter().zip(&serial).all(|(a, b)| same(a, b)));
+}
+
+/// The cache holds as many frames as its bytes allow (counted by the largest frame), however
+/// few it is asked to hold at least: bytes for all three frames decode each once, bytes for
+/// one decode them again.
+#[test]
+fn the_cache_holds_as_many_frames_as_its_bytes_allow() {
+    let s = scene([0.0, 20.0, -20.0]);
+    // One f32 band.
+    let largest = s
+        .frames
+        .iter()
+        .map(|f| f.plan.camera.size.pixels())
+        .max()
+        .unwrap()
+        * 4;
+    for (bytes, once) in [(3 * largest, true), (largest, false)] {
+        let opts = MosaicOptions {
+            tile_px: 32,
+            cache_frames: 1,
+            cache_bytes: bytes,
+            ..MosaicOptions::default()
+        };
+        let plan = MosaicPlan::new(s.frames.clone(), GSD, opts).unwrap();
+        for threads in [1, 4] {
+            let (_, loads) = tiles_on(&s, &plan, threads);
+            assert_eq!(
+                loads == [1, 1, 1],
+                once,
+                "{bytes} bytes, {threads}: {loads:?}"
+            );
+        }
+    }
 }
 
 #[test]

@@ -1,5 +1,6 @@
 //! Decoded photos kept between a flight's stages (the features, each matching round's render,
-//! the written frames) while they fit a memory budget: on the senseFly photos (4608 x 3456
+//! the written frames) while they fit a memory budget ([`crate::memory::cache_budget_bytes`]):
+//! on the senseFly photos (4608 x 3456
 //! JPEGs) decoding was about half of every round's render, repeated for each of up to eight
 //! rounds. A kept photo is the very raster a fresh decode gives, and kept gray levels the very
 //! levels a fresh render makes, so what is kept changes no result: Dask's workers, which
@@ -10,41 +11,6 @@ use aerorect_raster::{AnyRaster, ReducedLevels};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
-
-/// The least a flight keeps of decoded photos and their gray levels (1 GiB: the snowpeak
-/// flight's 11 photos are 525 MB and their levels 233 MB, the 1,000-frame simulation's photos
-/// 173 MB); [`budget`] gives more where the machine has the memory. Photos past it are decoded
-/// at each use, levels made at each render.
-pub const DECODED_BUDGET_BYTES: usize = 1 << 30;
-
-/// The most a flight keeps (4 GiB: the levels of 167 photos of 16 Mpx take 3.5 GB).
-pub const MAX_DECODED_BUDGET_BYTES: usize = 4 << 30;
-
-/// The bytes a flight keeps: a quarter of the memory available as it starts (Linux's
-/// `MemAvailable`), within [`DECODED_BUDGET_BYTES`] and [`MAX_DECODED_BUDGET_BYTES`];
-/// the least where that is not known. What is kept changes no result, only how often a
-/// photo is decoded.
-pub(super) fn budget() -> usize {
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|m| mem_available(&m))
-        .map_or(DECODED_BUDGET_BYTES, |a| {
-            (a / 4).clamp(DECODED_BUDGET_BYTES, MAX_DECODED_BUDGET_BYTES)
-        })
-}
-
-/// `MemAvailable` of a `/proc/meminfo` text, in bytes.
-fn mem_available(meminfo: &str) -> Option<usize> {
-    let kb = meminfo
-        .lines()
-        .find_map(|l| l.strip_prefix("MemAvailable:"))?
-        .trim()
-        .strip_suffix("kB")?
-        .trim()
-        .parse::<usize>()
-        .ok()?;
-    kb.checked_mul(1024)
-}
 
 /// The flight's decoded photos, and the reduced levels of their gray frames that each round's
 /// render reads, one slot of each a frame.
@@ -106,6 +72,21 @@ impl Decoded {
             super::timing::time("render: gray levels", || crate::motion::gray_levels(&image))
         };
         self.kept((&self.levels, false), k, make, ReducedLevels::byte_len)
+    }
+
+    /// The same photos without their gray levels, once the rounds that read them are done:
+    /// their bytes (3.5 GB for 167 photos of 16 Mpx) are freed for the frames written and
+    /// mosaicked. As it is where another holder shares it.
+    pub(super) fn without_levels(mut self: Arc<Self>) -> Arc<Self> {
+        if let Some(d) = Arc::get_mut(&mut self) {
+            let freed: usize = (d.levels.iter_mut())
+                .filter_map(|slot| slot.take())
+                .map(|levels| levels.byte_len())
+                .sum();
+            let used = d.used.get_mut();
+            *used = used.saturating_sub(freed);
+        }
+        self
     }
 
     /// Frame `k`'s photo for a use that decodes it anyway (the features). A photo not kept
@@ -277,14 +258,26 @@ mod tests {
         }
     }
 
-    /// `MemAvailable` as the kernel writes it (proc(5): a value in kB), and nothing from a
-    /// text without it.
+    /// Once the rounds are done the levels are let go (the photo stays), unless another
+    /// holder shares the slots.
     #[test]
-    fn reads_the_available_memory() {
-        let meminfo = "MemTotal:       24542108 kB\nMemFree:         1234567 kB\n\
-                       MemAvailable:   20971520 kB\nBuffers:          123456 kB\n";
-        assert_eq!(mem_available(meminfo), Some(20 << 30));
-        assert_eq!(mem_available("MemTotal: 1 kB\nMemFree: 1 kB\n"), None);
-        assert_eq!(mem_available("MemAvailable: lots\n"), None);
+    fn levels_are_let_go_after_the_rounds() {
+        let dir = tempfile::tempdir().expect("dir");
+        for shared in [false, true] {
+            let a = png(dir.path(), &format!("{shared}.png"), 7);
+            let d = Arc::new(Decoded::new(&[32], 64));
+            let photo = d.get(0, &a).expect("photo");
+            d.gray_levels(0, &a).expect("levels");
+            assert_eq!(d.kept_bytes(), 64);
+            let other = shared.then(|| Arc::clone(&d));
+            let d = d.without_levels();
+            assert_eq!(d.kept_bytes(), if shared { 64 } else { 32 });
+            std::fs::remove_file(&a).expect("rm");
+            assert!(Arc::ptr_eq(&photo, &d.get(0, &a).expect("kept photo")));
+            // Without the file, levels come only from the slot (or the kept photo).
+            let levels = d.gray_levels(0, &a).expect("levels");
+            assert_eq!(d.kept_bytes(), 64, "made again from the photo and kept");
+            drop((levels, other));
+        }
     }
 }

@@ -55,7 +55,6 @@ pub use accuracy::{
 pub use batch::{ACCURACY_FILE, ADJUSTMENT_FILES, adjustment_files};
 pub use checks::{BlockReport, GpsCheck};
 pub use control::{ControlOptions, MARK_SIGMA_PX, Role, SURVEY_SIGMA_M};
-pub use decoded::DECODED_BUDGET_BYTES;
 pub use exchange::{exact_json, from_exact_json};
 pub use features::{FEATURE_TIES_PER_PAIR, MIN_FEATURE_INLIERS, TieSource, in_steps};
 pub use guide::{

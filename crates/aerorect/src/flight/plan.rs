@@ -119,7 +119,10 @@ impl FlightPlan {
             started,
             warnings,
             roll: None,
-            decoded: std::sync::Arc::new(decoded::Decoded::new(&level_bytes, decoded::budget())),
+            decoded: std::sync::Arc::new(decoded::Decoded::new(
+                &level_bytes,
+                crate::memory::cache_budget_bytes(),
+            )),
         })
     }
 
@@ -509,7 +512,7 @@ impl FlightPlan {
             cameras,
             report,
             crs: self.crs,
-            decoded: self.decoded,
+            decoded: self.decoded.without_levels(),
         }
     }
 

@@ -2,9 +2,10 @@
 //! slots, one per frame, so that two tiles wanting the same frame at once decode it once (the
 //! second waits on the first's slot) and a frame let go is decoded again when asked for.
 //!
-//! Memory: the cache holds at most `capacity` frames; a tile being composited holds one more
-//! frame (the one it is rendering) after the cache may have let it go, so at most `capacity` +
-//! (threads compositing) frames are decoded at once (a 4608 x 3456 RGB u8 photo is 48 MB).
+//! Memory: the cache holds at least `cache_frames` frames, and as many as `cache_bytes` holds
+//! of the largest; a tile being composited holds one more frame (the one it is rendering)
+//! after the cache may have let it go, so at most that + (threads compositing) frames are
+//! decoded at once (a 4608 x 3456 RGB u8 photo is 48 MB).
 
 use super::MosaicFrame;
 use crate::Error;
@@ -17,6 +18,8 @@ use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 pub(super) struct Format {
     pub sample: &'static str,
     pub bands: usize,
+    /// Bytes of one pixel (every band).
+    pub pixel_bytes: usize,
 }
 
 impl Format {
@@ -24,6 +27,7 @@ impl Format {
         Self {
             sample: img.sample_name(),
             bands: img.bands(),
+            pixel_bytes: img.bands() * img.sample_bytes(),
         }
     }
 }
@@ -36,11 +40,16 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// At most `capacity` decoded frames of `frames`, shared between threads.
+/// Decoded frames of `frames` (as many as [`Self::capacity`]), shared between threads.
 pub(super) struct FrameCache<'a, L> {
     frames: &'a [MosaicFrame],
     load: L,
-    capacity: usize,
+    /// At least this many frames are held, and as many as `bytes` holds of the largest
+    /// (once the frames' format is known).
+    frames_held: usize,
+    bytes: usize,
+    /// The largest frame's pixels.
+    largest_px: usize,
     /// The frames held, most recently asked for first.
     slots: Mutex<Vec<(usize, Arc<Slot>)>>,
     /// The first frame's format, which every frame must share.
@@ -54,11 +63,18 @@ where
     L: Fn(&MosaicFrame) -> Result<R, Error> + Sync,
     R: Into<Arc<AnyRaster>>,
 {
-    pub fn new(frames: &'a [MosaicFrame], load: L, capacity: usize) -> Self {
+    /// At least `frames_held` frames held (one when 0), more as `bytes` allows.
+    pub fn new(frames: &'a [MosaicFrame], load: L, (frames_held, bytes): (usize, usize)) -> Self {
         Self {
             frames,
             load,
-            capacity: capacity.max(1),
+            frames_held: frames_held.max(1),
+            bytes,
+            largest_px: frames
+                .iter()
+                .map(|f| f.plan.camera.size.pixels())
+                .max()
+                .unwrap_or(0),
             slots: Mutex::new(Vec::new()),
             format: OnceLock::new(),
             loads: frames.iter().map(|_| AtomicUsize::new(0)).collect(),
@@ -100,6 +116,16 @@ where
         Ok(img)
     }
 
+    /// How many frames are held: `frames_held`, or as many of the largest frame as `bytes`
+    /// holds once the format is known.
+    fn capacity(&self) -> usize {
+        let by_bytes = match self.format.get() {
+            Some(f) => self.bytes / (self.largest_px * f.pixel_bytes).max(1),
+            None => 0,
+        };
+        self.frames_held.max(by_bytes)
+    }
+
     /// Frame `k`'s image, from its slot or decoded into it.
     fn image(&self, k: usize) -> Result<Arc<AnyRaster>, Error> {
         let slot = {
@@ -107,7 +133,7 @@ where
             let e = match slots.iter().position(|e| e.0 == k) {
                 Some(i) => slots.remove(i),
                 None => {
-                    slots.truncate(self.capacity - 1);
+                    slots.truncate(self.capacity() - 1);
                     (k, Arc::new(Mutex::new(None)))
                 }
             };

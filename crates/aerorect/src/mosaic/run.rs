@@ -62,7 +62,11 @@ where
     pub fn new(plan: &'a MosaicPlan, load: L) -> Self {
         Self {
             plan,
-            cache: FrameCache::new(&plan.frames, load, plan.opts.cache_frames),
+            cache: FrameCache::new(
+                &plan.frames,
+                load,
+                (plan.opts.cache_frames, plan.opts.cache_bytes),
+            ),
             cells: plan.frames.iter().map(|_| AtomicUsize::new(0)).collect(),
         }
     }
