@@ -190,11 +190,23 @@ impl FlightPlan {
         k: usize,
         orientation: Option<&Orientation>,
     ) -> Result<Rendered, Error> {
+        self.render_keeping(k, orientation, true)
+    }
+
+    /// [`Self::render`]; `keep`: whether the gray levels it makes are kept for later rounds
+    /// (not for the features round's source sample, after which the rounds may end: the
+    /// levels of a photo not kept were kept by the features, see `decoded`).
+    pub(super) fn render_keeping(
+        &self,
+        k: usize,
+        orientation: Option<&Orientation>,
+        keep: bool,
+    ) -> Result<Rendered, Error> {
         let coarse_plan = self.matching_plan(k, orientation)?;
         let input = &self.frames[k].input;
         // The frame's reduced levels, kept between rounds, give the same pixels as its gray
         // frame wherever the matching grid is more than twice coarser than the photo.
-        let levels = self.decoded.gray_levels(k, input)?;
+        let levels = self.decoded.gray_levels((k, input), keep)?;
         if let Some(coarse) = coarse_plan.run_levels(&levels)? {
             return Ok(Rendered {
                 coarse,

@@ -180,7 +180,7 @@ impl FlightPlan {
                 sample.iter().flat_map(|m| [m.a, m.b]).collect();
             let rendered: BTreeMap<usize, Rendered> = frames
                 .into_par_iter()
-                .map(|k| Ok((k, self.render(k, Some(orientation))?)))
+                .map(|k| Ok((k, self.render_keeping(k, Some(orientation), false)?)))
                 .collect::<Result<_, Error>>()?;
             let correlated: Vec<PairMatch> = sample
                 .par_iter()
