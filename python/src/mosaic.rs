@@ -40,7 +40,12 @@ pub fn plan_mosaic(
     feather_px: usize,
 ) -> PyResult<MosaicTiles> {
     let args = PhotoArgs::from_dict(opts)?;
-    let mopts = mosaic_options(blend, feather_px, args.max_output_px()).map_err(py_err)?;
+    // A task's tiles keep the 8 frames they share at least, not a quarter of the machine's
+    // memory: a Dask worker has its own memory limit, which that does not know.
+    let mopts = aerorect::mosaic::MosaicOptions {
+        cache_bytes: 0,
+        ..mosaic_options(blend, feather_px, args.max_output_px()).map_err(py_err)?
+    };
     py.detach(|| -> Result<_> {
         let (mut o, _) = args.flight_frames(&paths)?;
         o.warp.nodata = 0.0;
