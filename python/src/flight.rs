@@ -139,6 +139,9 @@ impl FlightPlan {
             if let Some(choice) = sensefly_roll_choice {
                 plan = plan.with_sensefly_roll(aerorect::flight::from_exact_json(choice)?)?;
             }
+            // A Dask worker's memory limit is its own: the least budget, as before it took a
+            // share of the machine's memory.
+            let plan = plan.with_cache_budget(aerorect::memory::MIN_CACHE_BYTES);
             Ok(Self { plan, opts: o })
         })
         .map_err(py_err)

@@ -59,6 +59,18 @@ pub struct FlightProgress {
     pub(super) sampled: Option<sources::Sampled>,
 }
 
+/// Each frame's gray levels' bytes: the budget keeps them before its photo (`decoded`).
+fn level_bytes(rec: &Recorded) -> Vec<usize> {
+    rec.camera_of
+        .iter()
+        .map(|&c| {
+            rec.cameras.get(c).map_or(0, |camera| {
+                aerorect_raster::ReducedLevels::<f32>::byte_len_for(camera.size, 1)
+            })
+        })
+        .collect()
+}
+
 impl FlightPlan {
     /// Reads every frame's metadata and plans it on the matching grid.
     pub fn new(inputs: &[PathBuf], opts: &DroneOptions, fo: &FlightOptions) -> Result<Self, Error> {
@@ -96,16 +108,8 @@ impl FlightPlan {
             None => None,
         };
         warnings.extend(control.iter().flat_map(|c| c.warnings.iter().cloned()));
-        // Each frame's gray levels, which the rounds' renders read, come before its photo.
-        let level_bytes: Vec<usize> = rec
-            .camera_of
-            .iter()
-            .map(|&c| {
-                rec.cameras.get(c).map_or(0, |camera| {
-                    aerorect_raster::ReducedLevels::<f32>::byte_len_for(camera.size, 1)
-                })
-            })
-            .collect();
+        let decoded =
+            decoded::Decoded::new(&level_bytes(&rec), crate::memory::cache_budget_bytes());
         Ok(Self {
             times: drift::flight_times(&metas),
             ground: ground_fn(&opts, &crs),
@@ -119,11 +123,16 @@ impl FlightPlan {
             started,
             warnings,
             roll: None,
-            decoded: std::sync::Arc::new(decoded::Decoded::new(
-                &level_bytes,
-                crate::memory::cache_budget_bytes(),
-            )),
+            decoded: std::sync::Arc::new(decoded),
         })
+    }
+
+    /// The same plan keeping at most `bytes` of decoded photos and gray levels, not a share
+    /// of the machine's available memory: a Dask worker's plan, whose memory limit is its own.
+    pub fn with_cache_budget(mut self, bytes: usize) -> Self {
+        let decoded = decoded::Decoded::new(&level_bytes(&self.rec), bytes);
+        self.decoded = std::sync::Arc::new(decoded);
+        self
     }
 
     /// The median turn (degrees) below which the rounds are settled:
