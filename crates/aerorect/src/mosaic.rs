@@ -79,7 +79,7 @@ pub struct MosaicOptions {
     /// The bytes of decoded frames the cache may hold beyond `cache_frames` (counted by the
     /// largest frame): [`crate::memory::cache_budget_bytes`] by default. A flight's tile rows
     /// cross every strip: with 8 frames kept, each of a simulated 144-frame flight's frames
-    /// was decoded 3.4 times (up to 6), once per row of tiles it spans.
+    /// was decoded 3.3 times (up to 6), once per row of tiles it spans.
     pub cache_bytes: usize,
     /// Append an alpha band (opaque where a frame covers the cell).
     pub alpha: bool,
