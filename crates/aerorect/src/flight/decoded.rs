@@ -1,10 +1,9 @@
 //! Decoded photos kept between a flight's stages (the features, each matching round's render,
 //! the written frames) while they fit a memory budget ([`crate::memory::cache_budget_bytes`]):
-//! on the senseFly photos (4608 x 3456
-//! JPEGs) decoding was about half of every round's render, repeated for each of up to eight
-//! rounds. A kept photo is the very raster a fresh decode gives, and kept gray levels the very
-//! levels a fresh render makes, so what is kept changes no result: Dask's workers, which
-//! decode afresh, write the same bytes.
+//! on the senseFly photos (4608 x 3456 JPEGs) decoding was about half of every round's render,
+//! repeated for each of up to eight rounds. A kept photo is the very raster a fresh decode
+//! gives, and kept gray levels the very levels a fresh render makes, so what is kept changes
+//! no result: Dask's workers, which decode afresh, write the same bytes.
 
 use crate::Error;
 use aerorect_raster::{AnyRaster, ReducedLevels};
@@ -70,10 +69,7 @@ impl Decoded {
         (k, path): (usize, &Path),
         keep: bool,
     ) -> Result<Arc<ReducedLevels<f32>>, Error> {
-        let make = || {
-            let image = self.get(k, path)?;
-            super::timing::time("render: gray levels", || crate::motion::gray_levels(&image))
-        };
+        let make = || levels_of(self.get(k, path)?.as_ref());
         match (keep, self.levels.get(k).and_then(|slot| slot.get())) {
             (false, Some(kept)) => Ok(Arc::clone(kept)),
             (false, None) => Ok(Arc::new(make()?)),
@@ -109,10 +105,12 @@ impl Decoded {
             .get(k)
             .is_some_and(|&n| self.used.load(Ordering::Relaxed).saturating_add(n) <= self.budget);
         if !photo_kept && !levels_kept && fits {
-            let make = || {
-                super::timing::time("render: gray levels", || crate::motion::gray_levels(&image))
-            };
-            self.kept((&self.levels, false), k, make, ReducedLevels::byte_len)?;
+            self.kept(
+                (&self.levels, false),
+                k,
+                || levels_of(&image),
+                ReducedLevels::byte_len,
+            )?;
         }
         Ok(image)
     }
@@ -155,6 +153,11 @@ impl Decoded {
     fn kept_bytes(&self) -> usize {
         self.used.load(Ordering::Relaxed)
     }
+}
+
+/// The reduced levels of a photo's gray frame, timed as the render's.
+fn levels_of(image: &AnyRaster) -> Result<ReducedLevels<f32>, Error> {
+    super::timing::time("render: gray levels", || crate::motion::gray_levels(image))
 }
 
 fn byte_len(image: &AnyRaster) -> usize {
