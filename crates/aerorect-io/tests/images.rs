@@ -99,6 +99,44 @@ fn jpeg_reads_as_rgb8() {
     );
 }
 
+/// 8-bit images are decoded into kept buffers, handed from one decode to the next: each read,
+/// on any thread and after images of other sizes and bands, gives its own pixels (the PNGs
+/// their written rasters, the JPEG the image crate's own decode).
+#[test]
+fn reads_into_kept_buffers_give_each_image_its_own_pixels() {
+    use rayon::prelude::*;
+    let dir = tempfile::tempdir().unwrap();
+    let images: Vec<(PathBuf, AnyRaster)> = [(61, 47, 3), (9, 5, 1), (64, 40, 4), (33, 71, 2)]
+        .iter()
+        .enumerate()
+        .map(|(k, &(w, h, bands))| {
+            let img = AnyRaster::U8(textured_scene(
+                ImageSize::new(w, h),
+                bands,
+                255.0,
+                7 + k as u64,
+            ));
+            let p = dir.path().join(format!("{k}.png"));
+            write_image(&p, &img).unwrap();
+            (p, img)
+        })
+        .collect();
+    let jpeg = data("aero1.jpg");
+    let rgb = image::open(&jpeg).unwrap().to_rgb8();
+    let planes = (0..3)
+        .map(|b| rgb.as_raw().iter().skip(b).step_by(3).copied().collect())
+        .collect();
+    let want_jpeg = AnyRaster::U8(Raster::from_planes(ImageSize::new(640, 480), planes).unwrap());
+    (0..40).into_par_iter().for_each(|i| {
+        if i % 5 == 4 {
+            assert_eq!(read_image(&jpeg).unwrap(), want_jpeg, "read {i}");
+        } else {
+            let (p, img) = &images[(i * 3) % images.len()];
+            assert_eq!(&read_image(p).unwrap(), img, "read {i}: {}", p.display());
+        }
+    });
+}
+
 #[test]
 fn header_sizes_equal_the_decoded_sizes() {
     for name in [
