@@ -12,7 +12,11 @@
 
 use thiserror::Error;
 
+mod scan;
+#[cfg(target_arch = "x86_64")]
+mod scan_avx2;
 mod within;
+use scan::{Columns, Row, scan_row};
 pub use within::{Element, Window, bytes_of_whole, match_bytes_within, match_float_within};
 
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -204,14 +208,10 @@ fn select(
 /// Queries per block of the float distance matrix (a block of 256 x 4000 distances is 4 MB).
 const FLOAT_BLOCK: usize = 256;
 
-/// Lanes of the running two-smallest search ([`two_smallest`]): independent chains the
-/// compiler keeps in vector registers.
-const LANES: usize = 16;
-
 /// Per query the best and second-best train row by squared L2 distance, and per train row the
 /// best query, from matrix products of blocks of queries with all train rows. Each block's
 /// products are stored one query per contiguous column, so the scans over train rows
-/// ([`two_smallest`], [`Columns::update`]) run on contiguous slices and vectorise (they were
+/// ([`scan_row`]) run on contiguous slices and vectorise (they were
 /// strided through the product and cost more than the product itself: 20 s of CPU against
 /// its 16 s on the 1,000-frame simulation).
 fn nearest_float(query: &[f32], train: &[f32], dim: usize) -> (RowBest, ColumnBest) {
@@ -249,11 +249,16 @@ fn nearest_float(query: &[f32], train: &[f32], dim: usize) -> (RowBest, ColumnBe
         );
         for (r, products) in dots.chunks_exact(nt).take(rows).enumerate() {
             let i = start + r;
-            for ((x, &p), &n) in dist.iter_mut().zip(products).zip(&tn) {
-                *x = (qn[i] + n - 2.0 * p).max(0.0);
-            }
-            let (best, second) = two_smallest(&dist);
-            columns.update(&dist, i);
+            let (best, second) = scan_row(
+                Row {
+                    qn: qn[i],
+                    products,
+                    tn: &tn,
+                    i,
+                },
+                &mut columns,
+                &mut dist,
+            );
             let q = &query[i * dim..(i + 1) * dim];
             row.push(exact_two(q, train, dim, [best.1, second.1]));
         }
@@ -287,89 +292,6 @@ fn exact_two(q: &[f32], train: &[f32], dim: usize, candidates: [usize; 2]) -> (u
     let [b, s] = candidates.map(|j| (exact(j), j));
     let (b, s) = if s.0 < b.0 { (s, b) } else { (b, s) };
     (b.1, b.0, s.0)
-}
-
-/// The smallest and second-smallest `(value, index)` of `values`, ties to the lower index
-/// (what one pass keeping the first strictly smaller value finds); `(inf, usize::MAX)` where
-/// there are not enough values below infinity. [`LANES`] independent running pairs, merged
-/// at the end: every lane keeps its own two smallest, and the two smallest of all are among
-/// them.
-fn two_smallest(values: &[f32]) -> ((f32, usize), (f32, usize)) {
-    let mut b1 = [f32::INFINITY; LANES];
-    let mut b2 = [f32::INFINITY; LANES];
-    let mut i1 = [u32::MAX; LANES];
-    let mut i2 = [u32::MAX; LANES];
-    let chunks = values.chunks_exact(LANES);
-    let tail = chunks.remainder();
-    for (c, chunk) in chunks.enumerate() {
-        let base = (c * LANES) as u32;
-        for k in 0..LANES {
-            let (d, j) = (chunk[k], base + k as u32);
-            let (below1, below2) = (d < b1[k], d < b2[k]);
-            i2[k] = if below1 {
-                i1[k]
-            } else if below2 {
-                j
-            } else {
-                i2[k]
-            };
-            b2[k] = if below1 {
-                b1[k]
-            } else if below2 {
-                d
-            } else {
-                b2[k]
-            };
-            i1[k] = if below1 { j } else { i1[k] };
-            b1[k] = if below1 { d } else { b1[k] };
-        }
-    }
-    let mut two = ((f32::INFINITY, usize::MAX), (f32::INFINITY, usize::MAX));
-    let mut offer = |d: f32, j: usize| {
-        // Only values below infinity count, as in the one-pass scan (`d < best`).
-        if d.is_nan() || d == f32::INFINITY {
-            return;
-        }
-        let before = |a: (f32, usize), b: (f32, usize)| a.0 < b.0 || (a.0 == b.0 && a.1 < b.1);
-        if before((d, j), two.0) {
-            two.1 = two.0;
-            two.0 = (d, j);
-        } else if before((d, j), two.1) {
-            two.1 = (d, j);
-        }
-    };
-    for k in 0..LANES {
-        for (d, j) in [(b1[k], i1[k]), (b2[k], i2[k])] {
-            if j != u32::MAX {
-                offer(d, j as usize);
-            }
-        }
-    }
-    let tail_start = values.len() - tail.len();
-    for (k, &d) in tail.iter().enumerate() {
-        offer(d, tail_start + k);
-    }
-    two
-}
-
-/// Per train row, the best query so far and its distance (`u32::MAX`: none yet), as two
-/// arrays so that [`Columns::update`] vectorises.
-struct Columns {
-    distance: Vec<f32>,
-    query: Vec<u32>,
-}
-
-impl Columns {
-    /// Query `i`'s distances to every train row: each row keeps the first query strictly
-    /// closer than its best so far.
-    fn update(&mut self, dist: &[f32], i: usize) {
-        let i = i as u32;
-        for ((d, q), &x) in self.distance.iter_mut().zip(&mut self.query).zip(dist) {
-            let closer = x < *d;
-            *q = if closer { i } else { *q };
-            *d = if closer { x } else { *d };
-        }
-    }
 }
 
 /// Matches float descriptors (rows of `dim` values) of `query` against `train` by Euclidean
@@ -517,58 +439,6 @@ mod tests {
                 );
             }
         }
-    }
-
-    /// The one-pass scan [`two_smallest`] replaces: keep the first strictly smaller value.
-    fn one_pass(values: &[f32]) -> ((f32, usize), (f32, usize)) {
-        let inf = (f32::INFINITY, usize::MAX);
-        let (mut best, mut second) = (inf, inf);
-        for (j, &d) in values.iter().enumerate() {
-            if d < best.0 {
-                second = best;
-                best = (d, j);
-            } else if d < second.0 {
-                second = (d, j);
-            }
-        }
-        (best, second)
-    }
-
-    /// The lane-wise search finds what one pass finds, ties (values drawn from a few levels)
-    /// and infinities included, for lengths below, at and past multiples of the lanes.
-    #[test]
-    fn two_smallest_equals_one_pass_with_ties() {
-        let mut rng = ChaCha8Rng::seed_from_u64(11);
-        for len in [0, 1, 2, 15, 16, 17, 31, 33, 100, 257] {
-            for levels in [1, 3, 50] {
-                let v: Vec<f32> = (0..len)
-                    .map(|_| match rng.random_range(0..=levels) {
-                        0 => f32::INFINITY,
-                        l => l as f32,
-                    })
-                    .collect();
-                let (got, want) = (two_smallest(&v), one_pass(&v));
-                assert_eq!(got.0.1, want.0.1, "best of {v:?}");
-                assert_eq!(got.1.1, want.1.1, "second of {v:?}");
-                assert_eq!(got.0.0.to_bits(), want.0.0.to_bits());
-                assert_eq!(got.1.0.to_bits(), want.1.0.to_bits());
-            }
-        }
-    }
-
-    /// Each train row keeps the first query closest to it, ties included.
-    #[test]
-    fn columns_keep_the_first_closest_query() {
-        let rows = [[3.0, 1.0, 2.0], [3.0, 0.5, 2.0], [1.0, 0.5, f32::INFINITY]];
-        let mut c = Columns {
-            distance: vec![f32::INFINITY; 3],
-            query: vec![u32::MAX; 3],
-        };
-        for (i, r) in rows.iter().enumerate() {
-            c.update(r, i);
-        }
-        assert_eq!(c.query, [2, 1, 0]);
-        assert_eq!(c.distance, [1.0, 0.5, 2.0]);
     }
 
     #[test]
