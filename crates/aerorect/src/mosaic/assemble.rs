@@ -112,11 +112,12 @@ pub(super) fn assemble(
             .map(|a| {
                 let mut plane = vec![nodata; wsum.len()];
                 if !empty {
-                    // Divided everywhere (a cell without weight divides to NaN and keeps
-                    // nodata): one pass the compiler vectorises.
+                    // Divided everywhere (a cell without weight divides to NaN and is
+                    // nodata): one pass the compiler vectorises, every cell stored (a store
+                    // only where weighed became masked stores, slow on AMD's cores).
                     for ((o, &v), &w) in plane.iter_mut().zip(a).zip(wsum) {
                         let q = T::from_f32(v / w);
-                        *o = if w > 0.0 { q } else { *o };
+                        *o = if w > 0.0 { q } else { nodata };
                     }
                 }
                 plane
@@ -126,7 +127,7 @@ pub(super) fn assemble(
             let mut a = vec![T::default(); wsum.len()];
             if !empty {
                 for (o, &w) in a.iter_mut().zip(wsum) {
-                    *o = if w > 0.0 { T::OPAQUE } else { *o };
+                    *o = if w > 0.0 { T::OPAQUE } else { T::default() };
                 }
             }
             planes.push(a);

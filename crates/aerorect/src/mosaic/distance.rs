@@ -56,10 +56,13 @@ fn rows_by_offsets(along: &[u32], width: usize, cap: usize, out: &mut [f32]) {
                 *b = (*b).min(v + dd);
             }
         }
+        // The row's cells are infinity until here: each is written (a conditional write became
+        // masked stores, slow on AMD's cores).
         for (o, &s) in dst[lo..hi].iter_mut().zip(best.iter()) {
-            if s <= cap2 {
-                *o = f64::from(s).sqrt() as f32;
-            }
+            *o = match s <= cap2 {
+                true => f64::from(s).sqrt() as f32,
+                false => f32::INFINITY,
+            };
         }
     }
 }
@@ -112,18 +115,16 @@ fn column_distances(feature: &[bool], width: usize, cap: usize) -> Vec<u32> {
         }
         above.copy_from_slice(row);
     }
+    // Capped on the way up: a distance over the cap stays over it one row on (and a
+    // conditional write of the cap's marker became masked stores, slow on AMD's cores).
+    let cap = u32::try_from(cap).unwrap_or(u32::MAX - 1);
     let mut below = vec![u32::MAX; width];
     for row in d.chunks_exact_mut(width).rev() {
         for (v, b) in row.iter_mut().zip(&below) {
-            *v = (*v).min(b.saturating_add(1));
+            let m = (*v).min(b.saturating_add(1));
+            *v = if m > cap { u32::MAX } else { m };
         }
         below.copy_from_slice(row);
-    }
-    let cap = u32::try_from(cap).unwrap_or(u32::MAX - 1);
-    for v in &mut d {
-        if *v > cap {
-            *v = u32::MAX;
-        }
     }
     d
 }

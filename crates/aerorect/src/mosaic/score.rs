@@ -427,16 +427,27 @@ pub(super) fn best_of(
 ) -> Vec<usize> {
     let (n, ww) = (size.pixels(), size.width);
     let (mut best, mut labels) = (vec![f64::INFINITY; n], vec![NO_FRAME; n]);
+    let mut row_labels = vec![NO_FRAME; ww];
     for (&k, s) in cands.iter().zip(scores) {
         for (at, row) in s.rows_in(ww) {
-            let cells = best[at..at + row.len()]
+            let (best, labels) = (
+                &mut best[at..at + row.len()],
+                &mut labels[at..at + row.len()],
+            );
+            // Every cell stored, whether or not it changes: the least score as a minimum,
+            // the labels through a row of their own. Stored only where better, they were
+            // masked stores (slow on AMD's cores: best_of took 3.8 % of snowpeak's CPU).
+            let new_labels = &mut row_labels[..row.len()];
+            let cells = best
                 .iter_mut()
-                .zip(&mut labels[at..at + row.len()]);
-            for (&v, (b, l)) in row.iter().zip(cells) {
-                let better = v < *b && v.is_finite();
-                *b = if better { v } else { *b };
-                *l = if better { k } else { *l };
+                .zip(labels.iter())
+                .zip(new_labels.iter_mut());
+            for (&v, ((b, &l), nl)) in row.iter().zip(cells) {
+                let w = if v.is_finite() { v } else { f64::INFINITY };
+                *nl = if w < *b { k } else { l };
+                *b = b.min(w);
             }
+            labels.copy_from_slice(new_labels);
         }
     }
     labels
