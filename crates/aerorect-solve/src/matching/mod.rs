@@ -16,7 +16,7 @@ mod scan;
 #[cfg(target_arch = "x86_64")]
 mod scan_avx2;
 mod within;
-use scan::{Columns, Row, scan_row};
+use scan::{Columns, Row, Scratch, scan_row};
 pub use within::{Element, Window, bytes_of_whole, match_bytes_within, match_float_within};
 
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -223,13 +223,10 @@ fn nearest_float(query: &[f32], train: &[f32], dim: usize) -> (RowBest, ColumnBe
     };
     let (qn, tn) = (norms(query), norms(train));
     let t = faer::MatRef::from_row_major_slice(train, nt, dim);
-    let mut columns = Columns {
-        distance: vec![f32::INFINITY; nt],
-        query: vec![u32::MAX; nt],
-    };
+    let mut columns = Columns::new(nt);
     let mut row = Vec::with_capacity(nq);
     let mut dots = vec![0f32; nt * FLOAT_BLOCK.min(nq)];
-    let mut dist = vec![0f32; nt];
+    let mut scratch = Scratch::new(nt);
     for start in (0..nq).step_by(FLOAT_BLOCK) {
         let rows = FLOAT_BLOCK.min(nq - start);
         let q = faer::MatRef::from_row_major_slice(
@@ -257,7 +254,7 @@ fn nearest_float(query: &[f32], train: &[f32], dim: usize) -> (RowBest, ColumnBe
                     i,
                 },
                 &mut columns,
-                &mut dist,
+                &mut scratch,
             );
             let q = &query[i * dim..(i + 1) * dim];
             row.push(exact_two(q, train, dim, [best.1, second.1]));

@@ -27,14 +27,31 @@ impl Row<'_> {
 /// The two smallest and their train rows: `((best, row), (second, row))`.
 pub(super) type Two = ((f32, usize), (f32, usize));
 
+/// Room for one row's scan: its distances (the portable passes), the columns' next state
+/// (AVX2).
+pub(super) struct Scratch {
+    dist: Vec<f32>,
+    next: Columns,
+}
+
+impl Scratch {
+    /// For rows of `n` train rows.
+    pub(super) fn new(n: usize) -> Self {
+        Self {
+            dist: vec![0.0; n],
+            next: Columns::new(n),
+        }
+    }
+}
+
 /// The row's two nearest train rows (as [`two_smallest`] of its distances), each train row's
-/// best query updated with the row's ([`Columns::update`]); `dist` is scratch of the row's
-/// length.
-pub(super) fn scan_row(row: Row<'_>, columns: &mut Columns, dist: &mut [f32]) -> Two {
+/// best query updated with the row's ([`Columns::update`]).
+pub(super) fn scan_row(row: Row<'_>, columns: &mut Columns, scratch: &mut Scratch) -> Two {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
+        let next = &mut scratch.next;
         // SAFETY: the CPU has AVX2.
-        let (lanes, done) = unsafe { super::scan_avx2::scan(&row, columns) };
+        let (lanes, done) = unsafe { super::scan_avx2::scan(&row, (columns, next)) };
         let mut two = TwoSmallest::default();
         for (d, j) in lanes {
             two.offer(d, j);
@@ -42,10 +59,18 @@ pub(super) fn scan_row(row: Row<'_>, columns: &mut Columns, dist: &mut [f32]) ->
         for j in done..row.products.len() {
             let d = row.distance(j);
             two.offer(d, j);
-            columns.update_one(j, d, row.i);
+            let closer = d < columns.distance[j];
+            next.distance[j] = if closer { d } else { columns.distance[j] };
+            next.query[j] = if closer {
+                row.i as u32
+            } else {
+                columns.query[j]
+            };
         }
+        std::mem::swap(columns, next);
         return two.0;
     }
+    let dist = &mut scratch.dist;
     for (j, x) in dist.iter_mut().enumerate() {
         *x = row.distance(j);
     }
@@ -138,6 +163,14 @@ pub(super) struct Columns {
 }
 
 impl Columns {
+    /// No query yet for any of `n` train rows.
+    pub(super) fn new(n: usize) -> Self {
+        Self {
+            distance: vec![f32::INFINITY; n],
+            query: vec![u32::MAX; n],
+        }
+    }
+
     /// Query `i`'s distances to every train row: each row keeps the first query strictly
     /// closer than its best so far.
     pub(super) fn update(&mut self, dist: &[f32], i: usize) {
@@ -146,14 +179,6 @@ impl Columns {
             let closer = x < *d;
             *q = if closer { i } else { *q };
             *d = if closer { x } else { *d };
-        }
-    }
-
-    /// [`Self::update`] of train row `j` alone, at distance `x` from query `i`.
-    fn update_one(&mut self, j: usize, x: f32, i: usize) {
-        if x < self.distance[j] {
-            self.distance[j] = x;
-            self.query[j] = i as u32;
         }
     }
 }
@@ -227,12 +252,8 @@ mod tests {
             let tn: Vec<f32> = (0..len)
                 .map(|_| rng.random_range(0..4) as f32 * 0.5)
                 .collect();
-            let fresh = || Columns {
-                distance: vec![f32::INFINITY; len],
-                query: vec![u32::MAX; len],
-            };
-            let (mut got_c, mut want_c) = (fresh(), fresh());
-            let mut dist = vec![0f32; len];
+            let (mut got_c, mut want_c) = (Columns::new(len), Columns::new(len));
+            let mut scratch = Scratch::new(len);
             for i in 0..6 {
                 let products: Vec<f32> = (0..len)
                     .map(|_| rng.random_range(0..6) as f32 * 0.25)
@@ -244,7 +265,7 @@ mod tests {
                     tn: &tn,
                     i,
                 };
-                let got = scan_row(row(), &mut got_c, &mut dist);
+                let got = scan_row(row(), &mut got_c, &mut scratch);
                 let all: Vec<f32> = (0..len).map(|j| row().distance(j)).collect();
                 want_c.update(&all, i);
                 let want = two_smallest(&all);

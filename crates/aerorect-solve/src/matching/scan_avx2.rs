@@ -14,15 +14,19 @@ use std::arch::x86_64::*;
 pub(super) type Lanes = [(f32, usize); 16];
 
 /// The leading multiple of eight of `row`'s train rows: every lane's two smallest distances,
-/// and `columns` updated with query `row.i`; returns them and how many rows were scanned.
+/// and the columns `old` updated with query `row.i` into `new`; returns the lanes and how many
+/// rows were scanned. The columns are written to other arrays than they are read from: a
+/// blend of what was loaded from the same address, stored back, the compiler made a masked
+/// store (slow on AMD's cores: most of the scan's time).
 ///
 /// # Safety
 /// The CPU must have AVX2.
 #[target_feature(enable = "avx2")]
-pub(super) unsafe fn scan(row: &Row<'_>, columns: &mut Columns) -> (Lanes, usize) {
+pub(super) unsafe fn scan(row: &Row<'_>, (old, new): (&Columns, &mut Columns)) -> (Lanes, usize) {
     const NONE: (f32, usize) = (f32::INFINITY, usize::MAX);
     let n = row.products.len();
-    if row.tn.len() != n || columns.distance.len() != n || columns.query.len() != n {
+    let fits = |c: &Columns| c.distance.len() == n && c.query.len() == n;
+    if row.tn.len() != n || !fits(old) || !fits(new) {
         return ([NONE; 16], 0);
     }
     let m = n - n % 8;
@@ -35,12 +39,13 @@ pub(super) unsafe fn scan(row: &Row<'_>, columns: &mut Columns) -> (Lanes, usize
     let mut j = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     let eight = _mm256_set1_epi32(8);
     let (p, t) = (row.products.as_ptr(), row.tn.as_ptr());
-    let (cd, cq) = (
-        columns.distance.as_mut_ptr(),
-        columns.query.as_mut_ptr().cast::<f32>(),
+    let (od, oq) = (old.distance.as_ptr(), old.query.as_ptr().cast::<f32>());
+    let (nd, nq) = (
+        new.distance.as_mut_ptr(),
+        new.query.as_mut_ptr().cast::<f32>(),
     );
     for c in (0..m).step_by(8) {
-        // SAFETY: c + 8 <= m <= n, the length of all four slices.
+        // SAFETY: c + 8 <= m <= n, the length of all six slices.
         unsafe {
             let sum = _mm256_add_ps(qn, _mm256_loadu_ps(t.add(c)));
             let d = _mm256_sub_ps(sum, _mm256_mul_ps(two, _mm256_loadu_ps(p.add(c))));
@@ -53,11 +58,11 @@ pub(super) unsafe fn scan(row: &Row<'_>, columns: &mut Columns) -> (Lanes, usize
             i2 = _mm256_blendv_ps(_mm256_blendv_ps(i2, jf, below2), i1, below1);
             b1 = _mm256_blendv_ps(b1, d, below1);
             i1 = _mm256_blendv_ps(i1, jf, below1);
-            let best = _mm256_loadu_ps(cd.add(c));
+            let best = _mm256_loadu_ps(od.add(c));
             let closer = _mm256_cmp_ps::<_CMP_LT_OQ>(d, best);
-            _mm256_storeu_ps(cd.add(c), _mm256_blendv_ps(best, d, closer));
-            let q = _mm256_loadu_ps(cq.add(c));
-            _mm256_storeu_ps(cq.add(c), _mm256_blendv_ps(q, query, closer));
+            _mm256_storeu_ps(nd.add(c), _mm256_blendv_ps(best, d, closer));
+            let q = _mm256_loadu_ps(oq.add(c));
+            _mm256_storeu_ps(nq.add(c), _mm256_blendv_ps(q, query, closer));
             j = _mm256_add_epi32(j, eight);
         }
     }
