@@ -17,6 +17,9 @@ pub fn full_from_reduced(factor: usize, p: [f64; 2]) -> [f64; 2] {
 /// divided by 257, f32 taken as already on the 0..255 scale.
 fn gray(raster: &AnyRaster) -> Vec<f32> {
     fn all<T: crate::Sample>(r: &Raster<T>, to: impl Fn(T) -> f32 + Sync) -> Vec<f32> {
+        if r.bands() < 3 {
+            return r.plane(0).par_iter().map(|&v| to(v)).collect();
+        }
         let luma = Luma::of(r, to);
         (0..r.size().pixels())
             .into_par_iter()
