@@ -65,7 +65,7 @@ impl<'a, T: crate::Sample, F: Fn(T) -> f32> Luma<'a, T, F> {
 ///
 /// Reduced, each pixel's gray value is made where its block is summed, in the same operations
 /// and order as the full gray frame's (summed a block row at a time): no full-resolution gray
-/// frame is made (64 MB of f32 for a 16-Mpx photo, a quarter of the snowpeak flight's page
+/// frame is made (64 MB of f32 for a 16-Mpx photo, nearly a third of the snowpeak flight's page
 /// faults). The test holds it to the full frame's reduction bit for bit.
 pub fn gray_reduced(raster: &AnyRaster, factor: usize) -> Result<Raster<f32>, RasterError> {
     let f = factor.max(1);
