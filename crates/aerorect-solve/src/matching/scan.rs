@@ -3,8 +3,9 @@
 //! time with AVX2 ([`super::scan_avx2`]), else the portable passes below, which are its oracle:
 //! the same distances bit for bit, the same rows chosen.
 
-/// Lanes of the portable two-smallest search ([`two_smallest`]): independent chains the
-/// compiler keeps in vector registers.
+/// Lanes of the portable two-smallest search ([`two_smallest`]): independent chains, meant for
+/// vector registers (on x86-64 the compiler kept them in memory, updated by masked stores:
+/// hence [`super::scan_avx2`]).
 const LANES: usize = 16;
 
 /// One query's row of the distance matrix: its squared norm, its products with every train
