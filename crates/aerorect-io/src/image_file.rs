@@ -106,8 +106,9 @@ fn read_with_image_crate(path: &Path) -> Result<AnyRaster, IoError> {
     let claimed = image::ImageDecoder::total_bytes(&decoder);
     check_claimed_bytes(path, &format!("{w} x {h} pixels"), claimed)?;
     check_image_pixels(path, u64::from(w), u64::from(h))?;
-    let bands = usize::from(image::ImageDecoder::color_type(&decoder).channel_count());
-    let eight_bit = image::ImageDecoder::color_type(&decoder).bytes_per_pixel() as usize == bands;
+    let colour = image::ImageDecoder::color_type(&decoder);
+    let bands = usize::from(colour.channel_count());
+    let eight_bit = usize::from(colour.bytes_per_pixel()) == bands;
     if eight_bit && claimed <= REUSED_DECODE_MAX_BYTES {
         let size = ImageSize::new(w as usize, h as usize);
         let mut buf = decode_buffer(claimed as usize);

@@ -12,50 +12,54 @@ pub fn full_from_reduced(factor: usize, p: [f64; 2]) -> [f64; 2] {
     p.map(|x| f * (x + 0.5) - 0.5)
 }
 
-/// Gray value (0..255) of each pixel: one band as is, two bands (gray + alpha) the first,
-/// three or more ITU-R BT.601 luma of the first three (OpenCV's `cvtColor` weights); u16
-/// divided by 257, f32 taken as already on the 0..255 scale.
-fn gray(raster: &AnyRaster) -> Vec<f32> {
-    fn all<T: crate::Sample>(r: &Raster<T>, to: impl Fn(T) -> f32 + Sync) -> Vec<f32> {
-        if r.bands() < 3 {
-            return r.plane(0).par_iter().map(|&v| to(v)).collect();
-        }
-        let luma = Luma::of(r, to);
-        (0..r.size().pixels())
-            .into_par_iter()
-            .map(|i| luma.at(i))
-            .collect()
-    }
-    match raster {
-        AnyRaster::U8(r) => all(r, |v| v as f32),
-        AnyRaster::U16(r) => all(r, |v| v as f32 / 257.0),
-        AnyRaster::F32(r) => all(r, |v| v),
+/// A sample's gray level on the 0..255 scale: u8 as is, u16 divided by 257, f32 taken as
+/// already on that scale.
+trait GrayLevel: crate::Sample {
+    fn level(self) -> f32;
+}
+
+impl GrayLevel for u8 {
+    fn level(self) -> f32 {
+        self as f32
     }
 }
 
-/// One pixel's gray value (the rule of [`gray`]), read from a raster's planes.
-struct Luma<'a, T, F> {
+impl GrayLevel for u16 {
+    fn level(self) -> f32 {
+        self as f32 / 257.0
+    }
+}
+
+impl GrayLevel for f32 {
+    fn level(self) -> f32 {
+        self
+    }
+}
+
+/// One pixel's gray value, read from a raster's planes: one band as is, two bands (gray +
+/// alpha) the first, three or more ITU-R BT.601 luma of the first three (OpenCV's `cvtColor`
+/// weights), each sample's [`GrayLevel`].
+struct Luma<'a, T> {
     planes: [&'a [T]; 3],
     colour: bool,
-    to: F,
 }
 
-impl<'a, T: crate::Sample, F: Fn(T) -> f32> Luma<'a, T, F> {
-    fn of(r: &'a Raster<T>, to: F) -> Self {
+impl<'a, T: GrayLevel> Luma<'a, T> {
+    fn of(r: &'a Raster<T>) -> Self {
         let colour = r.bands() >= 3;
         let planes = match colour {
             true => [r.plane(0), r.plane(1), r.plane(2)],
             false => [r.plane(0); 3],
         };
-        Self { planes, colour, to }
+        Self { planes, colour }
     }
 
     #[inline(always)]
     fn at(&self, i: usize) -> f32 {
         let [a, b, c] = self.planes;
         match self.colour {
-            true => 0.299 * (self.to)(a[i]) + 0.587 * (self.to)(b[i]) + 0.114 * (self.to)(c[i]),
-            false => (self.to)(a[i]),
+            true => 0.299 * a[i].level() + 0.587 * b[i].level() + 0.114 * c[i].level(),
+            false => a[i].level(),
         }
     }
 }
@@ -74,23 +78,31 @@ pub fn gray_reduced(raster: &AnyRaster, factor: usize) -> Result<Raster<f32>, Ra
     if size.width == 0 || size.height == 0 {
         return Err(RasterError::Empty);
     }
-    if f == 1 {
-        return Raster::from_planes(size, vec![gray(raster)]);
-    }
     let out = match raster {
-        AnyRaster::U8(r) => reduce(&Luma::of(r, |v| v as f32), s.width, size, f),
-        AnyRaster::U16(r) => reduce(&Luma::of(r, |v| v as f32 / 257.0), s.width, size, f),
-        AnyRaster::F32(r) => reduce(&Luma::of(r, |v| v), s.width, size, f),
+        AnyRaster::U8(r) => reduced(r, size, f),
+        AnyRaster::U16(r) => reduced(r, size, f),
+        AnyRaster::F32(r) => reduced(r, size, f),
     };
     Raster::from_planes(size, vec![out])
 }
 
+/// [`gray_reduced`]'s samples for a raster of `T`: `size` blocks of `f` x `f`.
+fn reduced<T: GrayLevel>(r: &Raster<T>, size: ImageSize, f: usize) -> Vec<f32> {
+    match f {
+        1 if r.bands() < 3 => r.plane(0).par_iter().map(|&v| v.level()).collect(),
+        1 => {
+            let luma = Luma::of(r);
+            (0..r.size().pixels())
+                .into_par_iter()
+                .map(|i| luma.at(i))
+                .collect()
+        }
+        _ => reduce(&Luma::of(r), r.size().width, size, f),
+    }
+}
+
 /// The block means of `luma` over a frame `width` pixels wide: `size` blocks of `f` x `f`.
-fn reduce<T, F>(luma: &Luma<'_, T, F>, width: usize, size: ImageSize, f: usize) -> Vec<f32>
-where
-    T: crate::Sample,
-    F: Fn(T) -> f32 + Sync,
-{
+fn reduce<T: GrayLevel>(luma: &Luma<'_, T>, width: usize, size: ImageSize, f: usize) -> Vec<f32> {
     let scale = 1.0 / (f * f) as f32;
     let mut out = vec![0f32; size.width * size.height];
     out.par_chunks_mut(size.width)
