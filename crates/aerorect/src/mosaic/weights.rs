@@ -55,22 +55,8 @@ pub(super) fn weights(
     if !mine.contains(&true) {
         return None;
     }
-    // The cross-fade is 0 or 1 beyond half the feather from the seam: a distance to it over
-    // `cap / 2 + 1` (infinity) gives the weight the exact distance would.
-    let feathered = (opts.blend == Blend::Feather).then(|| {
-        let not_mine: Vec<bool> = mine.iter().map(|m| !m).collect();
-        // The distance to k's cells is read only at the others' cells: where every cell is
-        // k's, none is read (infinity stands in).
-        let to_mine = match not_mine.contains(&true) {
-            true => distance_within(&mine, bw, cap / 2 + 1),
-            false => vec![f32::INFINITY; mine.len()],
-        };
-        [
-            distance_within(&not_mine, bw, cap / 2 + 1),
-            to_mine,
-            distance_within(&uncovered, bw, cap),
-        ]
-    });
+    let feathered =
+        (opts.blend == Blend::Feather).then(|| Distances::new(&mine, &uncovered, bw, cap));
     // The tile's cells in the box (window coordinates).
     let (tc, tr) = (tile.col0 - win.col0, tile.row0 - win.row0);
     let cells = CellBox {
@@ -89,7 +75,8 @@ pub(super) fn weights(
         let js = j0..j0 + cells.width();
         match &feathered {
             None => values.extend(mine[js].iter().map(|&m| f32::from(u8::from(m)))),
-            Some([d_in, d_out, d_cov]) => {
+            Some(d) => {
+                let ((d_in, d_out), d_cov) = (d.seam(), &d.to_uncovered);
                 let seam = mine[js.clone()]
                     .iter()
                     .zip(&d_in[js.clone()])
@@ -112,6 +99,56 @@ pub(super) fn weights(
         },
         values,
     })
+}
+
+/// The distances the cross-fade reads over a box of cells: to the uncovered cells, and
+/// across the seam.
+struct Distances {
+    /// From each covered cell to the nearest uncovered one, within the feather.
+    to_uncovered: Vec<f32>,
+    /// From k's cells to the others' and from the others' to k's, within half the feather
+    /// (plus one): `None` where k alone covers the box.
+    seam: Option<[Vec<f32>; 2]>,
+}
+
+impl Distances {
+    /// Over a box `bw` cells wide (`mine`: k's cells), for a feather of `cap`. The cross-fade
+    /// is 0 or 1 beyond half the feather from the seam: a distance to it over `cap / 2 + 1`
+    /// (infinity) gives the weight the exact distance would.
+    fn new(mine: &[bool], uncovered: &[bool], bw: usize, cap: usize) -> Self {
+        let to_uncovered = distance_within(uncovered, bw, cap);
+        // k alone covers the box (most tiles of a flight): no seam.
+        if mine.iter().zip(uncovered).all(|(&m, &u)| m != u) {
+            return Self {
+                to_uncovered,
+                seam: None,
+            };
+        }
+        let not_mine: Vec<bool> = mine.iter().map(|m| !m).collect();
+        // The distance to k's cells is read only at the others' cells: where every cell is
+        // k's, none is read (infinity stands in).
+        let to_mine = match not_mine.contains(&true) {
+            true => distance_within(mine, bw, cap / 2 + 1),
+            false => vec![f32::INFINITY; mine.len()],
+        };
+        let to_others = distance_within(&not_mine, bw, cap / 2 + 1);
+        Self {
+            to_uncovered,
+            seam: Some([to_others, to_mine]),
+        }
+    }
+
+    /// The distances from k's cells to the others' and from the others' to k's. Where k alone
+    /// covers the box, the cells not k's are the uncovered ones: the distance to them within
+    /// the feather gives the cross-fade (saturated beyond half the feather) the weight the
+    /// seam's would, and the distance to k's cells is read at no cell that weighs (each cell
+    /// not k's is uncovered and weighs 0).
+    fn seam(&self) -> (&[f32], &[f32]) {
+        match &self.seam {
+            Some([to_others, to_mine]) => (to_others, to_mine),
+            None => (&self.to_uncovered, &self.to_uncovered),
+        }
+    }
 }
 
 /// Whether the frame leaves uncovered each cell of window row `r`, columns [c0, c1) (those
