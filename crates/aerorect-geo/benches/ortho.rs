@@ -94,6 +94,32 @@ fn ortho(c: &mut Criterion) {
         b.iter(|| warp_into(&src, &dem, &opts, &mut dst).unwrap())
     });
     g.finish();
+    heights_along(c);
+}
+
+/// The heights of the ortho grid's rows over the height grid (1 m nodes, 20 output pixels
+/// each): the bilinear lookup of `dem` alone.
+fn heights_along(c: &mut Criterion) {
+    let (_, _, grid, heights) = setup();
+    let mut g = c.benchmark_group("terrain/heights-along");
+    g.throughput(Throughput::Elements(grid.size.pixels() as u64));
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(3));
+    let mut xs = vec![0.0; grid.size.width];
+    g.bench_function("rows", |b| {
+        b.iter(|| {
+            for r in 0..grid.size.height {
+                let [x0, y] = grid.centre_of(0.0, r as f64);
+                for (i, x) in xs.iter_mut().enumerate() {
+                    *x = x0 + i as f64 * grid.gsd;
+                }
+                heights.heights_along(y, &mut xs);
+            }
+            xs[0]
+        })
+    });
+    g.finish();
 }
 
 criterion_group!(benches, ortho);

@@ -307,8 +307,10 @@ mod tests {
             },
         ];
         // 43: ten runs of four (the AVX2 loop's) and a tail of three; x off the grid's
-        // ends, exactly on its first and last nodes, not a number and infinite.
-        let mut xs0: Vec<f64> = (0..43).map(|i| 493.0 + i as f64 * 0.61).collect();
+        // ends, exactly on its first and last nodes, not a number and infinite. Spaced 0.61
+        // apart, four x's mostly straddle a node (gathered); 0.1 apart, 25 share each cell
+        // (the nodes broadcast), across the first node and off the grid's start.
+        let mut coarse: Vec<f64> = (0..43).map(|i| 493.0 + i as f64 * 0.61).collect();
         let odd = [
             (3, f64::NAN),
             (8, 500.0),
@@ -317,19 +319,23 @@ mod tests {
             (41, f64::NEG_INFINITY),
         ];
         for (k, x) in odd {
-            xs0[k] = x;
+            coarse[k] = x;
         }
+        let mut fine: Vec<f64> = (0..43).map(|i| 498.0 + i as f64 * 0.1).collect();
+        fine[13] = f64::NAN;
         let mut checked = 0;
         for g in &grids {
             for y in [2003.0, 2000.0, 1996.3, 1994.9, 1990.0, 1980.0, f64::NAN] {
-                let mut xs = xs0.clone();
-                g.heights_along(y, &mut xs);
-                for (x, got) in xs0.iter().zip(&xs) {
-                    assert_eq!(got.to_bits(), g.height_at(*x, y).to_bits(), "({x}, {y})");
-                    checked += got.is_finite() as usize;
+                for xs0 in [&coarse, &fine] {
+                    let mut xs = xs0.clone();
+                    g.heights_along(y, &mut xs);
+                    for (x, got) in xs0.iter().zip(&xs) {
+                        assert_eq!(got.to_bits(), g.height_at(*x, y).to_bits(), "({x}, {y})");
+                        checked += got.is_finite() as usize;
+                    }
                 }
             }
         }
-        assert!(checked > 150, "{checked}");
+        assert!(checked > 400, "{checked}");
     }
 }

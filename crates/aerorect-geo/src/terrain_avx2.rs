@@ -1,7 +1,9 @@
 //! [`super::HeightGrid::heights_along`]'s loop four heights at a time (AVX2), bit for bit the
 //! scalar loop's: the same IEEE operations in the same order, no fused multiply-add. The
 //! scalar loop is bound by its instruction count, not by a division or a lookup: about 8 ns
-//! a height, an eighth of the snowpeak mosaic's CPU time over its tie surface.
+//! a height, an eighth of the snowpeak mosaic's CPU time over its tie surface. Gathering the
+//! nodes took most of this loop's time (`terrain/heights-along` in the geo crate's `ortho`
+//! bench: 14.6 ns a height gathered, 4.1 broadcast where four heights share a cell).
 
 use std::arch::x86_64::*;
 
@@ -61,15 +63,7 @@ pub(super) unsafe fn heights(nodes: &RowNodes<'_>, xs: &mut [f64]) -> usize {
         let i1 = _mm_min_epi32(_mm_add_epi32(i0, one_i), last);
         let fx = _mm256_sub_pd(col, _mm256_cvtepi32_pd(i0));
         // SAFETY: 0 <= i0, i1 <= w - 1 and both rows hold w values.
-        let [t0, t1, b0, b1] = unsafe {
-            [
-                (nodes.top, i0),
-                (nodes.top, i1),
-                (nodes.bottom, i0),
-                (nodes.bottom, i1),
-            ]
-            .map(|(row, i)| _mm256_cvtps_pd(_mm_i32gather_ps::<4>(row.as_ptr(), i)))
-        };
+        let [t0, t1, b0, b1] = unsafe { corners(nodes, i0, i1) };
         let v = lerp(lerp(t0, t1, fx), lerp(b0, b1, fx), fy);
         let finite = _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(v, magnitude), infinity);
         let v = _mm256_blendv_pd(nan, v, _mm256_and_pd(valid, finite));
@@ -77,4 +71,38 @@ pub(super) unsafe fn heights(nodes: &RowNodes<'_>, xs: &mut [f64]) -> usize {
         unsafe { _mm256_storeu_pd(chunk.as_mut_ptr(), v) };
     }
     done
+}
+
+/// The four nodes around four heights (top and bottom rows, at node columns `i0` and `i1`),
+/// widened to f64. The lanes of a row of heights lie mostly in one cell (a DEM's node spans
+/// many output pixels): there the nodes are loaded once and broadcast, where gathering them
+/// took most of the loop's time on AMD's cores (gathers are microcoded there).
+///
+/// # Safety
+/// The CPU must have AVX2; every lane of `i0` and `i1` must index both rows.
+#[target_feature(enable = "avx2")]
+unsafe fn corners(nodes: &RowNodes<'_>, i0: __m128i, i1: __m128i) -> [__m256d; 4] {
+    let first = _mm_shuffle_epi32::<0>(i0);
+    if _mm_movemask_epi8(_mm_cmpeq_epi32(i0, first)) == 0xffff {
+        // Every lane's i0 (and so its i1) is lane 0's.
+        let (c0, c1) = (
+            _mm_cvtsi128_si32(i0) as usize,
+            _mm_cvtsi128_si32(i1) as usize,
+        );
+        let at = |row: &[f32], c: usize| _mm256_set1_pd(f64::from(row[c]));
+        return [
+            at(nodes.top, c0),
+            at(nodes.top, c1),
+            at(nodes.bottom, c0),
+            at(nodes.bottom, c1),
+        ];
+    }
+    [
+        (nodes.top, i0),
+        (nodes.top, i1),
+        (nodes.bottom, i0),
+        (nodes.bottom, i1),
+    ]
+    // SAFETY: the caller's: every lane indexes the row.
+    .map(|(row, i)| unsafe { _mm256_cvtps_pd(_mm_i32gather_ps::<4>(row.as_ptr(), i)) })
 }
