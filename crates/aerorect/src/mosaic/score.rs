@@ -235,17 +235,20 @@ impl MosaicPlan {
             let (r_start, r_end) = (line.max(rows.0), (line + SCORE_LATTICE).min(rows.1));
             let (mine, tail) = std::mem::take(&mut rest).split_at_mut((r_end - r_start) * bw);
             rest = tail;
-            tasks.push((b, r_start, mine));
+            tasks.push((b, (r_start, r_end), mine));
         }
-        tasks.into_par_iter().for_each(|(b, r_start, block)| {
-            let band = BlockRow {
-                k,
-                node_rows: [nrows[b], nrows[b + 1]],
-                rules: &rules[b][bc.0..bc.1],
-                r_start,
-            };
-            self.score_block_row(&band, ncols, cols, &mut block.chunks_mut(bw))
-        });
+        tasks
+            .into_par_iter()
+            .for_each(|(b, (r_start, r_end), block)| {
+                let band = BlockRow {
+                    k,
+                    node_rows: [nrows[b], nrows[b + 1]],
+                    rules: &rules[b][bc.0..bc.1],
+                    r_start,
+                    r_end,
+                };
+                self.score_block_row(&band, ncols, cols, &mut block.chunks_mut(bw))
+            });
         Some(BoxScores { cells, values })
     }
 
@@ -299,6 +302,8 @@ impl MosaicPlan {
                 }
             })
             .collect();
+        let corners = self.cell_corners(band, ncols, cols);
+        let cw = cols.1 - cols.0 + 1;
         let [n0, n1] = band.node_rows;
         for (j, row) in rows.enumerate() {
             let pr = band.r_start + j;
@@ -314,13 +319,81 @@ impl MosaicPlan {
                     }
                     Block::Outside => {}
                     Block::Cells => {
-                        for (o, pc) in out.iter_mut().zip(c_start..c_end) {
-                            if let Some(v) = self.exact(k, pc, pr).score {
-                                *o = v;
-                            }
-                        }
+                        let at = |line: usize| {
+                            let i = line * cw + c_start - cols.0;
+                            &corners[i..i + c_end - c_start + 1]
+                        };
+                        let cells = CellRow {
+                            cols: (c_start, c_end),
+                            pr,
+                            top: at(j),
+                            bottom: at(j + 1),
+                        };
+                        self.exact_row(k, &cells, out);
                     }
                 }
+            }
+        }
+    }
+
+    /// The frame pixels of the cells' corners of a band's blocks scored cell by cell: line
+    /// `j` (from 0) holds the corners at frame row `r_start + j - 0.5`, `cols.1 - cols.0 + 1`
+    /// columns from `cols.0 - 0.5` (`None` in the other blocks' columns, and where the
+    /// frame's map has no source). A corner is the same point, bit for bit, from the cells
+    /// either side of it (`pc + 0.5 = (pc + 1) - 0.5` exactly): projected once, not four
+    /// times as [`Self::exact`] does.
+    fn cell_corners(
+        &self,
+        band: &BlockRow<'_>,
+        ncols: &[usize],
+        cols: (usize, usize),
+    ) -> Vec<Option<[f64; 2]>> {
+        if !band.rules.iter().any(|q| matches!(q, Block::Cells)) {
+            return Vec::new();
+        }
+        let p = &self.frames[band.k].plan;
+        let cw = cols.1 - cols.0 + 1;
+        let mut corners = vec![None; cw * (band.r_end - band.r_start + 1)];
+        for (line, row) in corners.chunks_exact_mut(cw).enumerate() {
+            let y = (band.r_start + line) as f64 - 0.5;
+            for (pair, quad) in ncols.windows(2).zip(band.rules) {
+                if !matches!(quad, Block::Cells) {
+                    continue;
+                }
+                let (c_start, c_end) = (pair[0].max(cols.0), (pair[0] + SCORE_LATTICE).min(cols.1));
+                for (c, pc) in row[c_start - cols.0..=c_end - cols.0]
+                    .iter_mut()
+                    .zip(c_start..)
+                {
+                    *c = p.frame_pixel_of(pc as f64 - 0.5, y);
+                }
+            }
+        }
+        corners
+    }
+
+    /// [`Self::exact`]'s scores of a row of cells into `out` (left as they are where the
+    /// frame does not cover), from the corners projected once.
+    fn exact_row(&self, k: usize, cells: &CellRow<'_>, out: &mut [f64]) {
+        let p = &self.frames[k].plan;
+        let y = cells.pr as f64;
+        for (i, (o, pc)) in out.iter_mut().zip(cells.cols.0..cells.cols.1).enumerate() {
+            let Some(centre) = p.frame_pixel_of(pc as f64, y) else {
+                continue;
+            };
+            if !self.in_frame(k, centre) {
+                continue;
+            }
+            let (t, b) = (&cells.top[i..i + 2], &cells.bottom[i..i + 2]);
+            let [Some(q0), Some(q1), Some(q2), Some(q3)] = [t[0], t[1], b[1], b[0]] else {
+                continue;
+            };
+            let cell = [
+                (pc as i64 + self.offsets[k][0]) as f64,
+                (cells.pr as i64 + self.offsets[k][1]) as f64,
+            ];
+            if let Some(v) = self.score_from(k, [q0, q1, q2, q3], cell) {
+                *o = v;
             }
         }
     }
@@ -352,7 +425,18 @@ struct BlockRow<'a> {
     node_rows: [usize; 2],
     /// How each of the row's blocks the box holds is scored.
     rules: &'a [Block],
+    /// The box's frame rows in the band: [r_start, r_end).
     r_start: usize,
+    r_end: usize,
+}
+
+/// A row of cells scored one by one: frame columns [c0, c1) of frame row `pr`, and the frame
+/// pixels of their corners above and below (from `c0 - 0.5`, one more than the cells).
+struct CellRow<'a> {
+    cols: (usize, usize),
+    pr: usize,
+    top: &'a [Option<[f64; 2]>],
+    bottom: &'a [Option<[f64; 2]>],
 }
 
 /// The blocks (columns, rows: [first, last + 1)) whose rule is not [`Block::Outside`], as
