@@ -112,13 +112,7 @@ pub(super) fn assemble(
             .map(|a| {
                 let mut plane = vec![nodata; wsum.len()];
                 if !empty {
-                    // Divided everywhere (a cell without weight divides to NaN and is
-                    // nodata): one pass the compiler vectorises, every cell stored (a store
-                    // only where weighed became masked stores, slow on AMD's cores).
-                    for ((o, &v), &w) in plane.iter_mut().zip(a).zip(wsum) {
-                        let q = T::from_f32(v / w);
-                        *o = if w > 0.0 { q } else { nodata };
-                    }
+                    divide(&mut plane, a, wsum, nodata);
                 }
                 plane
             })
@@ -139,6 +133,18 @@ pub(super) fn assemble(
         "u16" => AnyRaster::U16(build(size, acc, wsum, opts)?),
         _ => AnyRaster::F32(build(size, acc, wsum, opts)?),
     })
+}
+
+/// Each cell's weighted sum `a` divided by its weight, `nodata` where it has none. Divided
+/// everywhere (a cell without weight divides to NaN and is nodata): one pass the compiler
+/// vectorises, every cell stored (a store only where weighed became masked stores, slow on
+/// AMD's cores), with `nodata` a value of its own (read through the closure's reference, it
+/// was loaded per cell and the loop stayed scalar).
+fn divide<T: Sample>(plane: &mut [T], a: &[f32], wsum: &[f32], nodata: T) {
+    for ((o, &v), &w) in plane.iter_mut().zip(a).zip(wsum) {
+        let q = T::from_f32(v / w);
+        *o = if w > 0.0 { q } else { nodata };
+    }
 }
 
 /// Copies `tile` into the mosaic `whole` (made, of the tile's type and bands, at the first).
