@@ -320,10 +320,7 @@ fn oracle(s: &Scene, plan: &MosaicPlan, n: usize) -> (Vec<f64>, Vec<bool>) {
             let fg = s.frames[k].plan.grid;
             let fc = (c as f64 + (g.top_left[0] - fg.top_left[0]) / GSD).round() as usize;
             let fr = (r as f64 + (fg.top_left[1] - g.top_left[1]) / GSD).round() as usize;
-            let AnyRaster::F32(o) = &orthos[k] else {
-                panic!()
-            };
-            sum += weight * o.plane(0)[fr * fg.size.width + fc] as f64;
+            sum += weight * sample(&orthos[k], 0, fr * fg.size.width + fc);
             wsum += weight;
         }
         if wsum > 0.0 {
@@ -366,6 +363,34 @@ fn tiles_equal_the_whole_mosaic_composited_in_one_piece() {
             loads.iter().sum::<usize>() > 3,
             "a cache of 2 frames reloads: {loads:?}"
         );
+    }
+}
+
+#[test]
+fn integer_tiles_are_the_oracles_weighted_mean_rounded() {
+    // u8 frames: where one frame alone weighs in a tile its weights divide out (the tiles
+    // leave them 1 and 0); where frames meet, the feather's. Either way each cell is the slow
+    // composite's weighted mean, rounded.
+    let s = scene_u8([0.0, 20.0, -20.0]);
+    for n in [3, 8] {
+        let opts = MosaicOptions {
+            feather_px: n,
+            tile_px: 48,
+            ..MosaicOptions::default()
+        };
+        let (plan, v, a, _) = run_all(&s, opts);
+        let (want, covered) = oracle(&s, &plan, n);
+        let (mut worst, mut blended): (f64, usize) = (0.0, 0);
+        for i in 0..v.len() {
+            assert_eq!(a[i] > 0.0, covered[i], "feather {n}, cell {i}");
+            if covered[i] {
+                worst = worst.max((v[i] as f64 - want[i]).abs());
+                blended += ((want[i] - want[i].round()).abs() > 0.1) as usize;
+            }
+        }
+        println!("feather {n}: {blended} cells blended, largest difference {worst}");
+        assert!(worst <= 0.5 + 1e-4, "feather {n}: {worst}");
+        assert!(blended > 100, "feather {n}: {blended}");
     }
 }
 

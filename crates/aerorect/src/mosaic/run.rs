@@ -98,6 +98,15 @@ where
         }
         let labels = best_of(&cands, &scores, win.size);
         self.count_cells(tile, win, &labels);
+        // A cell's value is its frames' weighted mean, and where one frame is the best of
+        // every covered cell of the window it alone weighs in the tile, with a positive weight
+        // on each of its cells. Integer samples then come out the same for any positive
+        // weight (w v / w is v within 2 ulp, far inside the rounding), so its weights are
+        // left 1 and 0, without the feather's distances (f32 samples would keep the ulps).
+        let blend = match format.sample != "f32" && one_frame(&labels) {
+            true => Blend::None,
+            false => plan.opts.blend,
+        };
         let mut acc = vec![vec![0f32; n]; format.bands];
         let mut wsum = vec![0f32; n];
         for (j, &k) in cands.iter().enumerate() {
@@ -106,7 +115,13 @@ where
             // window only where the warp evaluates a homography relative to the window's
             // origin, in its last bit (as it did relative to the tile's): on the snowpeak
             // flight 4 of 1.3 billion samples moved by 1 DN.
-            let Some(w) = weights(&plan.opts, k, (win, tile), &labels, &scores[j]) else {
+            let Some(w) = weights(
+                (blend, plan.opts.feather_px),
+                k,
+                (win, tile),
+                &labels,
+                &scores[j],
+            ) else {
                 continue;
             };
             let Some(b) = w.positive_box() else {
@@ -145,6 +160,12 @@ where
             }
         }
     }
+}
+
+/// Whether the labels name one frame at most.
+fn one_frame(labels: &[usize]) -> bool {
+    let first = labels.iter().find(|&&l| l != NO_FRAME);
+    first.is_none_or(|&k| labels.iter().all(|&l| l == k || l == NO_FRAME))
 }
 
 /// The plan of a mosaic written to `out` and its georeference, after refusing an `out` that

@@ -3,7 +3,7 @@
 
 use super::distance::distance_within;
 use super::score::{BoxScores, CellBox};
-use super::{Blend, MosaicOptions, Window};
+use super::{Blend, Window};
 use aerorect_core::ImageSize;
 
 /// Frame k's weights over a box of a tile's cells (tile coordinates); 0 elsewhere.
@@ -29,18 +29,17 @@ impl Weights {
 /// Frame k's weight over the cells of `tile` (within `win`, which `labels` and `scores` cover);
 /// `None` where it weighs none.
 pub(super) fn weights(
-    opts: &MosaicOptions,
+    (blend, cap): (Blend, usize),
     k: usize,
     (win, tile): (Window, Window),
     labels: &[usize],
     scores: &BoxScores,
 ) -> Option<Weights> {
     let ww = win.size.width;
-    let cap = opts.feather_px;
     // Beyond the box of k's covered cells k's weight is 0. Feathered, the weights read
     // distances at covered cells to features within the feather's width, so the transforms
     // run over that box grown by one more: the whole window's distances there.
-    let grow = match opts.blend {
+    let grow = match blend {
         Blend::Feather => cap + 1,
         Blend::None => 0,
     };
@@ -55,8 +54,7 @@ pub(super) fn weights(
     if !mine.contains(&true) {
         return None;
     }
-    let feathered =
-        (opts.blend == Blend::Feather).then(|| Distances::new(&mine, &uncovered, bw, cap));
+    let feathered = (blend == Blend::Feather).then(|| Distances::new(&mine, &uncovered, bw, cap));
     // The tile's cells in the box (window coordinates).
     let (tc, tr) = (tile.col0 - win.col0, tile.row0 - win.row0);
     let cells = CellBox {

@@ -121,15 +121,43 @@ pub fn run_all(s: &Scene, opts: MosaicOptions) -> (MosaicPlan, Vec<f32>, Vec<f32
         Ok(s.images[k].clone())
     });
     for t in plan.tile_windows().collect::<Vec<_>>() {
-        let AnyRaster::F32(r) = run.tile(t).unwrap() else {
-            panic!("f32 frames give an f32 mosaic")
-        };
+        let r = run.tile(t).unwrap();
         for i in 0..t.size.pixels() {
             let (c, row) = (t.col0 + i % t.size.width, t.row0 + i / t.size.width);
-            v[row * size.width + c] = r.plane(0)[i];
-            a[row * size.width + c] = r.plane(1)[i];
+            v[row * size.width + c] = sample(&r, 0, i) as f32;
+            a[row * size.width + c] = sample(&r, 1, i) as f32;
         }
     }
     let loads = run.loads();
     (plan, v, a, loads)
+}
+
+/// Sample `i` of band `band` of a u8 or f32 raster.
+pub fn sample(r: &AnyRaster, band: usize, i: usize) -> f64 {
+    match r {
+        AnyRaster::U8(r) => f64::from(r.plane(band)[i]),
+        AnyRaster::F32(r) => f64::from(r.plane(band)[i]),
+        AnyRaster::U16(_) => panic!("the scene's frames are u8 or f32"),
+    }
+}
+
+/// The scene with its frames rounded to u8 (rendered with an alpha band, as photos are).
+pub fn scene_u8(offsets: [f64; 3]) -> Scene {
+    let mut s = scene(offsets);
+    for f in &mut s.frames {
+        f.plan.warp.nodata = 0.0;
+        f.plan.warp.alpha = true;
+    }
+    for im in &mut s.images {
+        let AnyRaster::F32(r) = &*im else {
+            panic!("the scene's frames are f32")
+        };
+        let px = r
+            .plane(0)
+            .iter()
+            .map(|v| v.round().clamp(0.0, 255.0) as u8)
+            .collect();
+        *im = AnyRaster::U8(Raster::from_planes(r.size(), vec![px]).unwrap());
+    }
+    s
 }
