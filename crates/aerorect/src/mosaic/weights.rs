@@ -46,15 +46,18 @@ pub(super) fn weights(
     let b = covered_box(scores, win.size, grow)?;
     let bw = b.width();
     let cells = bw * b.height();
-    let (mut mine, mut uncovered) = (Vec::with_capacity(cells), Vec::with_capacity(cells));
+    let feather = blend == Blend::Feather;
+    let (mut mine, mut uncovered) = (Vec::with_capacity(cells), Vec::new());
     for r in b.r0..b.r1 {
         mine.extend(labels[r * ww + b.c0..r * ww + b.c1].iter().map(|&l| l == k));
-        uncovered_row(scores, r, (b.c0, b.c1), &mut uncovered);
+        if feather {
+            uncovered_row(scores, r, (b.c0, b.c1), &mut uncovered);
+        }
     }
     if !mine.contains(&true) {
         return None;
     }
-    let feathered = (blend == Blend::Feather).then(|| Distances::new(&mine, &uncovered, bw, cap));
+    let feathered = feather.then(|| Distances::new(&mine, &uncovered, bw, cap));
     // The tile's cells in the box (window coordinates).
     let (tc, tr) = (tile.col0 - win.col0, tile.row0 - win.row0);
     let cells = CellBox {
