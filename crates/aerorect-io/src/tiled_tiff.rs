@@ -378,14 +378,17 @@ fn tile_bytes(t: &AnyRaster, tile: usize) -> Vec<u8> {
 
 /// The tile's samples pixel-interleaved and padded with zeros to `tile` x `tile`, through the
 /// sample type's predictor ([`StripSample::delta`], the strips' too: integer samples minus the
-/// same band's sample to their left, the padding included), made from the planes in one pass.
+/// same band's sample to their left, the padding included), made from the planes row by row
+/// (every band of an output row while it is in cache: band by band over the whole tile, each
+/// pass swept the tile's buffer again).
 fn padded<T: StripSample>(r: &aerorect_raster::Raster<T>, tile: usize) -> Vec<T> {
     let (w, b) = (r.width(), r.bands());
     let mut out = vec![T::default(); tile * tile * b];
-    for (band, plane) in r.planes().iter().enumerate() {
-        for (row, dst) in plane.chunks_exact(w).zip(out.chunks_exact_mut(tile * b)) {
+    let planes = r.planes();
+    for (y, dst) in out.chunks_exact_mut(tile * b).take(r.height()).enumerate() {
+        for (band, plane) in planes.iter().enumerate() {
             let mut left = T::default();
-            for (px, &v) in dst.chunks_exact_mut(b).zip(row) {
+            for (px, &v) in dst.chunks_exact_mut(b).zip(&plane[y * w..(y + 1) * w]) {
                 px[band] = v.delta(left);
                 left = v;
             }
