@@ -22,6 +22,7 @@
 //! as over the whole mosaic (both terms saturate within N px).
 
 mod distance;
+mod labels;
 mod score;
 
 use crate::Error;

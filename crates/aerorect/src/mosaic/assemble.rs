@@ -1,7 +1,7 @@
 //! A tile from the frames' weighted sums, and tiles pasted into one raster.
 
 use super::cache::Format;
-use super::score::CellBox;
+use super::labels::CellBox;
 use super::weights::Weights;
 use super::{MosaicOptions, Window};
 use crate::Error;

@@ -3,7 +3,7 @@
 
 use super::assemble::{accumulate, assemble, paste};
 use super::cache::FrameCache;
-use super::score::{NO_FRAME, best_of};
+use super::labels::{NO_FRAME, best_of};
 use super::weights::weights;
 use super::{Blend, MosaicFrame, MosaicOptions, MosaicPlan, Window};
 use crate::Error;

@@ -2,7 +2,7 @@
 //! `feather_px` across each seam and faded out towards the edge of its cover.
 
 use super::distance::distance_within;
-use super::score::{BoxScores, CellBox};
+use super::labels::{BoxScores, CellBox};
 use super::{Blend, Window};
 use aerorect_core::ImageSize;
 
