@@ -211,31 +211,40 @@ pub(super) fn scatter_scalar(
     }
 }
 
-/// The first bin of each of a sample's four pairs of adjacent bins (orientations `o0` and
-/// `o0 + 1` of cells (`r0`, `c0`), (`r0`, `c0 + 1`), (`r0 + 1`, `c0`), (`r0 + 1`, `c0 + 1`)),
-/// `None` for a pair in the border ring: the fold reads only cell rows and columns 1..=D, so
-/// a pair whose row or column is 0 or D + 1 is never read and is not written.
+/// Offsets of a sample's four pairs of adjacent bins from its first bin: orientations `o0`
+/// and `o0 + 1` of cells (`r0`, `c0`), (`r0`, `c0 + 1`), (`r0 + 1`, `c0`), (`r0 + 1`, `c0 + 1`).
+const PAIR_OFF: [usize; 4] = [
+    0,
+    DESCR_HIST_BINS + 2,
+    (DESCR_WIDTH + 2) * (DESCR_HIST_BINS + 2),
+    (DESCR_WIDTH + 3) * (DESCR_HIST_BINS + 2),
+];
+
+/// The histogram span a sample's pairs lie in: its first bin to its last pair's second bin.
+const SAMPLE_SPAN: usize = PAIR_OFF[3] + 2;
+
+/// A sample's first bin: orientation `o0` of cell (`r0`, `c0`), in the histogram with its
+/// ring of border cells (`r0`, `c0` in -1..=D - 1 by the collection's bin test, `o0` in 0..N).
 #[inline(always)]
-fn pair_bins(r0: i32, c0: i32, o0: i32) -> [Option<usize>; 4] {
+fn first_bin(r0: i32, c0: i32, o0: i32) -> usize {
     const D: usize = DESCR_WIDTH;
     const N: usize = DESCR_HIST_BINS;
-    const OFF: [usize; 4] = [0, N + 2, (D + 2) * (N + 2), (D + 3) * (N + 2)];
-    let (rlo, rhi) = (r0 >= 0, r0 <= D as i32 - 2);
-    let (clo, chi) = (c0 >= 0, c0 <= D as i32 - 2);
-    let live = [rlo && clo, rlo && chi, rhi && clo, rhi && chi];
-    let idx = (((r0 + 1) as usize * (D + 2) + (c0 + 1) as usize) * (N + 2)) + o0 as usize;
-    std::array::from_fn(|q| live[q].then_some(idx + OFF[q]))
+    ((r0 + 1) as usize * (D + 2) + (c0 + 1) as usize) * (N + 2) + o0 as usize
 }
 
 /// One sample's eight trilinear weights `v` (in the order 000, 001, 010, ..., 111 of row,
-/// column and orientation) added to its bins ([`pair_bins`]), in that order.
+/// column and orientation) added to its four pairs of bins, in that order. Every pair is
+/// added, as the reference does, those in the border ring included: the fold reads only cell
+/// rows and columns 1..=D, and no pair of the ring shares a bin with a pair inside it, so what
+/// the ring holds never reaches the descriptor (testing each pair instead cost a branch per
+/// pair, the scatter's largest share of instructions).
 #[inline(always)]
 fn add_sample(hist: &mut [f32], r0: i32, c0: i32, o0: i32, v: &[f32; 8]) {
-    for (q, first) in pair_bins(r0, c0, o0).into_iter().enumerate() {
-        if let Some(i) = first {
-            hist[i] += v[2 * q];
-            hist[i + 1] += v[2 * q + 1];
-        }
+    let b = first_bin(r0, c0, o0);
+    let h = &mut hist[b..b + SAMPLE_SPAN];
+    for (q, &off) in PAIR_OFF.iter().enumerate() {
+        h[off] += v[2 * q];
+        h[off + 1] += v[2 * q + 1];
     }
 }
 
@@ -254,6 +263,7 @@ fn scatter_lanes(
 ) -> usize {
     use std::arch::x86_64::*;
     const N: i32 = DESCR_HIST_BINS as i32;
+    const D: i32 = DESCR_WIDTH as i32;
     let (rbin, cbin) = (&sc.rbin[..len], &sc.cbin[..len]);
     let (ang, mag, wt) = (&sc.ang[..len], &sc.mag[..len], &sc.wt[..len]);
     let mut k = 0;
@@ -308,14 +318,19 @@ fn scatter_lanes(
                 _mm256_storeu_ps(pair.as_mut_ptr(), _mm256_unpacklo_ps(a, b));
                 _mm256_storeu_ps(pair.as_mut_ptr().add(8), _mm256_unpackhi_ps(a, b));
             }
-            let (mut r, mut c, mut o) = ([0i32; 8], [0i32; 8], [0i32; 8]);
-            _mm256_storeu_si256(r.as_mut_ptr().cast(), r0);
-            _mm256_storeu_si256(c.as_mut_ptr().cast(), c0);
-            _mm256_storeu_si256(o.as_mut_ptr().cast(), o0);
+            // Each sample's first bin ([`first_bin`]), 8 at a time.
+            let one = _mm256_set1_epi32(1);
+            let cell = _mm256_add_epi32(
+                _mm256_mullo_epi32(_mm256_add_epi32(r0, one), _mm256_set1_epi32(D + 2)),
+                _mm256_add_epi32(c0, one),
+            );
+            let first = _mm256_add_epi32(_mm256_mullo_epi32(cell, _mm256_set1_epi32(N + 2)), o0);
+            let mut firsts = [0i32; 8];
+            _mm256_storeu_si256(firsts.as_mut_ptr().cast(), first);
             // Where sample t's pair lies in the interleaved halves [0 1 4 5 | 2 3 6 7].
             const AT: [usize; 8] = [0, 2, 8, 10, 4, 6, 12, 14];
             for t in 0..8 {
-                add_pairs(hist, (r[t], c[t], o[t]), &pairs, AT[t]);
+                add_pairs(hist, firsts[t] as usize, &pairs, AT[t]);
             }
             k += 8;
         }
@@ -324,26 +339,24 @@ fn scatter_lanes(
 }
 
 /// [`add_sample`] with each pair of bins added as one 64-bit read-modify-write: pair q of the
-/// sample (000/001, 010/011, 100/101, 110/111) is `pairs[q][at..at + 2]`. Elementwise addition
-/// of two lanes gives the scalar additions' bits. Both sides are indexed with bounds checks:
-/// `r0`, `c0` in -1..=D - 1 and `o0` in 0..N (the collection's bin test) keep them inside.
+/// sample (000/001, 010/011, 100/101, 110/111) is `pairs[q][at..at + 2]`, and `first` its first
+/// bin. Elementwise addition of two lanes gives the scalar additions' bits. The span is indexed
+/// with a bounds check: `r0`, `c0` in -1..=D - 1 and `o0` in 0..N keep it inside.
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 #[inline(always)]
-fn add_pairs(hist: &mut [f32], (r0, c0, o0): (i32, i32, i32), pairs: &[[f32; 16]; 4], at: usize) {
+fn add_pairs(hist: &mut [f32], first: usize, pairs: &[[f32; 16]; 4], at: usize) {
     use std::arch::x86_64::*;
-    for (q, first) in pair_bins(r0, c0, o0).into_iter().enumerate() {
-        if let Some(i) = first {
-            let h = &mut hist[i..i + 2];
-            let v = &pairs[q][at..at + 2];
-            // SAFETY: AVX2 (and so SSE2) is enabled at compile time; each 64-bit load and
-            // store touches the two floats of a slice two long.
-            unsafe {
-                let sum = _mm_add_ps(
-                    _mm_castpd_ps(_mm_load_sd(h.as_ptr().cast())),
-                    _mm_castpd_ps(_mm_load_sd(v.as_ptr().cast())),
-                );
-                _mm_store_sd(h.as_mut_ptr().cast(), _mm_castps_pd(sum));
-            }
+    let h = &mut hist[first..first + SAMPLE_SPAN];
+    for (q, &off) in PAIR_OFF.iter().enumerate() {
+        let (h, v) = (&mut h[off..off + 2], &pairs[q][at..at + 2]);
+        // SAFETY: AVX2 (and so SSE2) is enabled at compile time; each 64-bit load and store
+        // touches the two floats of a slice two long.
+        unsafe {
+            let sum = _mm_add_ps(
+                _mm_castpd_ps(_mm_load_sd(h.as_ptr().cast())),
+                _mm_castpd_ps(_mm_load_sd(v.as_ptr().cast())),
+            );
+            _mm_store_sd(h.as_mut_ptr().cast(), _mm_castps_pd(sum));
         }
     }
 }
