@@ -150,11 +150,16 @@ pub fn compute_descriptor(
     let i_lo = (-radius).max(1 - py);
     let i_hi = radius.min(h as i32 - 2 - py);
     let cap = (i_hi - i_lo + 1).max(0) as usize * (2 * radius + 1) as usize;
-    grow_to(&mut sc.dx, cap);
-    grow_to(&mut sc.dy, cap);
-    grow_to(&mut sc.rbin, cap);
-    grow_to(&mut sc.cbin, cap);
-    grow_to(&mut sc.wt, cap);
+    // Eight spare values: the x86 lanes store whole blocks (see below).
+    for buf in [
+        &mut sc.dx,
+        &mut sc.dy,
+        &mut sc.rbin,
+        &mut sc.cbin,
+        &mut sc.wt,
+    ] {
+        grow_to(buf, cap + 8);
+    }
     let mut n = 0usize;
 
     // The row bound is exactly the reference's `r > 0 && r < rows - 1`, hoisted
@@ -291,9 +296,13 @@ pub fn compute_descriptor(
             }
         }
 
-        // The same body 8 wide on x86-64 (AVX2). Each lane repeats the scalar's expressions:
-        // `(r_rot + D / 2) - 0.5` as the scalar associates it (the NEON block above adds 1.5,
-        // its own order), and no fused multiply-add.
+        // The same body 8 wide on x86-64 (AVX2), to the row's end. Each lane repeats the
+        // scalar's expressions: `(r_rot + D / 2) - 0.5` as the scalar associates it (the NEON
+        // block above adds 1.5, its own order), and no fused multiply-add. The samples a block
+        // keeps are one run of its lanes (both bin coordinates are monotonic in `j`, so each
+        // test keeps an interval of the row): the block's lanes are turned so that the run's
+        // first lands at `n`, and what follows the run is overwritten by the next block (the
+        // buffers have 8 spare values). The row's last block reads its pixels through a mask.
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         unsafe {
             use std::arch::x86_64::*;
@@ -304,45 +313,52 @@ pub fn compute_descriptor(
             let (lo, hi) = (_mm256_set1_ps(-1.0), _mm256_set1_ps(D as f32));
             let scale = _mm256_set1_ps(exp_scale);
             let lanes = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
+            let ramp = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
             let inside = |v| {
                 _mm256_and_ps(
                     _mm256_cmp_ps::<_CMP_GT_OQ>(v, lo),
                     _mm256_cmp_ps::<_CMP_LT_OQ>(v, hi),
                 )
             };
-            while j + 7 <= j_hi {
+            while j <= j_hi {
+                // Lanes j..=j_hi of the block.
+                let in_row = _mm256_cmpgt_epi32(_mm256_set1_epi32((j_hi - j + 1).min(8)), ramp);
                 let jv = _mm256_add_ps(_mm256_set1_ps(j as f32), lanes);
                 let c_rot = _mm256_sub_ps(_mm256_mul_ps(jv, cv), isin);
                 let r_rot = _mm256_add_ps(_mm256_mul_ps(jv, sv), icos);
                 let rbin = _mm256_sub_ps(_mm256_add_ps(r_rot, mid), half);
                 let cbin = _mm256_sub_ps(_mm256_add_ps(c_rot, mid), half);
-                if _mm256_movemask_ps(_mm256_and_ps(inside(rbin), inside(cbin))) != 0xFF {
-                    // Partial block: rejects only at run ends; scalar keeps the order.
-                    for jj in j..j + 8 {
+                let keep = _mm256_and_ps(inside(rbin), inside(cbin));
+                let kept = _mm256_movemask_ps(_mm256_and_ps(keep, _mm256_castsi256_ps(in_row)));
+                let (first, count) = (kept.trailing_zeros(), kept.count_ones());
+                if kept != 0 && kept >> first != (1 << count) - 1 {
+                    // Not one run (never seen): sample by sample, in order.
+                    for jj in j..=j_hi.min(j + 7) {
                         push_sample!(jj);
                     }
-                } else {
-                    // SAFETY: j..j+8 lie within [1 - px, w - 2 - px] (the row's clipped
-                    // run), so every load reads inside the image, and n + 8 <= cap.
+                } else if kept != 0 {
+                    // SAFETY: the lanes read are j..=min(j + 7, j_hi), within [1 - px,
+                    // w - 2 - px] (the row's clipped run), so every pixel read lies inside
+                    // the image; masked-off lanes are not read. n + 8 <= cap + 8, the
+                    // buffers' length.
                     let (p, c0) = (img.as_ptr(), (px + j) as usize);
+                    let load = |at: usize| _mm256_maskload_ps(p.add(at), in_row);
                     let wt = _mm256_mul_ps(
                         _mm256_add_ps(_mm256_mul_ps(c_rot, c_rot), _mm256_mul_ps(r_rot, r_rot)),
                         scale,
                     );
-                    let dxv = _mm256_sub_ps(
-                        _mm256_loadu_ps(p.add(row + c0 + 1)),
-                        _mm256_loadu_ps(p.add(row + c0 - 1)),
-                    );
-                    let dyv = _mm256_sub_ps(
-                        _mm256_loadu_ps(p.add(up + c0)),
-                        _mm256_loadu_ps(p.add(dn + c0)),
-                    );
-                    _mm256_storeu_ps(sc.dx.as_mut_ptr().add(n), dxv);
-                    _mm256_storeu_ps(sc.dy.as_mut_ptr().add(n), dyv);
-                    _mm256_storeu_ps(sc.rbin.as_mut_ptr().add(n), rbin);
-                    _mm256_storeu_ps(sc.cbin.as_mut_ptr().add(n), cbin);
-                    _mm256_storeu_ps(sc.wt.as_mut_ptr().add(n), wt);
-                    n += 8;
+                    let dxv = _mm256_sub_ps(load(row + c0 + 1), load(row + c0 - 1));
+                    let dyv = _mm256_sub_ps(load(up + c0), load(dn + c0));
+                    let turn = _mm256_add_epi32(ramp, _mm256_set1_epi32(first as i32));
+                    let put = |buf: &mut Vec<f32>, v| {
+                        _mm256_storeu_ps(buf.as_mut_ptr().add(n), _mm256_permutevar8x32_ps(v, turn))
+                    };
+                    put(&mut sc.dx, dxv);
+                    put(&mut sc.dy, dyv);
+                    put(&mut sc.rbin, rbin);
+                    put(&mut sc.cbin, cbin);
+                    put(&mut sc.wt, wt);
+                    n += count as usize;
                 }
                 j += 8;
             }
