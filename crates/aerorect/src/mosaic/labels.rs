@@ -29,6 +29,24 @@ impl CellBox {
     }
 }
 
+/// The bounding box of the cells of a grid `width` cells wide (`values` row by row) where
+/// `keep` holds; `None` where it holds nowhere.
+pub(super) fn box_where<T>(
+    values: &[T],
+    width: usize,
+    keep: impl Fn(&T) -> bool,
+) -> Option<CellBox> {
+    let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
+    for (r, row) in values.chunks_exact(width).enumerate() {
+        let (Some(first), Some(last)) = (row.iter().position(&keep), row.iter().rposition(&keep))
+        else {
+            continue;
+        };
+        (c0, c1, r0, r1) = (c0.min(first), c1.max(last + 1), r0.min(r), r + 1);
+    }
+    (c0 < c1).then_some(CellBox { c0, c1, r0, r1 })
+}
+
 /// A frame's scores over a box of a window's cells (row-major; infinity where it does not
 /// cover); the window's other cells it does not cover.
 pub(super) struct BoxScores {

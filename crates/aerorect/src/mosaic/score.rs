@@ -15,7 +15,7 @@
 //! On snowpeak's 440-Mpx mosaic, scoring each cell exactly (two to five projections through
 //! the camera and the terrain per frame and cell) took about half the mosaic's CPU time.
 
-use super::labels::{BoxScores, CellBox, NO_FRAME, best_of};
+use super::labels::{BoxScores, CellBox, NO_FRAME, best_of, box_where};
 use super::{MosaicPlan, Window};
 use rayon::prelude::*;
 
@@ -212,7 +212,9 @@ impl MosaicPlan {
             .flat_map_iter(|&r| ncols.iter().map(move |&c| self.exact(k, c, r)))
             .collect();
         let rules = self.block_rules(k, &nodes, (&ncols, &nrows));
-        let (bc, br) = seen_blocks(&rules)?;
+        let nb = ncols.len() - 1;
+        let seen = box_where(&rules, nb, |q| !matches!(q, Block::Outside))?;
+        let (bc, br) = ((seen.c0, seen.c1), (seen.r0, seen.r1));
         // The cells of the blocks seen: [lo, hi) per axis, within the window's.
         let trim = |(lo, hi): (usize, usize), lines: &[usize], (b0, b1): (usize, usize)| {
             (lines[b0].max(lo), (lines[b1 - 1] + SCORE_LATTICE).min(hi))
@@ -244,7 +246,7 @@ impl MosaicPlan {
                 let band = BlockRow {
                     k,
                     node_rows: [nrows[b], nrows[b + 1]],
-                    rules: &rules[b][bc.0..bc.1],
+                    rules: &rules[b * nb + bc.0..b * nb + bc.1],
                     r_start,
                     r_end,
                 };
@@ -253,26 +255,19 @@ impl MosaicPlan {
         Some(BoxScores { cells, values })
     }
 
-    /// How each block of a frame's lattice is scored, block row by block row, from the nodes
-    /// (row-major over the node lines `lines`: columns, rows).
-    fn block_rules(
-        &self,
-        k: usize,
-        nodes: &[Node],
-        lines: (&[usize], &[usize]),
-    ) -> Vec<Vec<Block>> {
+    /// How each block of a frame's lattice is scored, row-major (one fewer per row than the
+    /// node columns), from the nodes (row-major over the node lines `lines`: columns, rows).
+    fn block_rules(&self, k: usize, nodes: &[Node], lines: (&[usize], &[usize])) -> Vec<Block> {
         let (ncols, nrows) = lines;
         let nc = ncols.len();
         (0..nrows.len() - 1)
             .into_par_iter()
-            .map(|b| {
+            .flat_map_iter(|b| {
                 let (top, bottom) = (&nodes[b * nc..(b + 1) * nc], &nodes[(b + 1) * nc..]);
-                (0..nc - 1)
-                    .map(|c| {
-                        let q = [top[c], top[c + 1], bottom[c], bottom[c + 1]];
-                        self.block(k, [ncols[c], ncols[c + 1]], [nrows[b], nrows[b + 1]], q)
-                    })
-                    .collect()
+                (0..nc - 1).map(move |c| {
+                    let q = [top[c], top[c + 1], bottom[c], bottom[c + 1]];
+                    self.block(k, [ncols[c], ncols[c + 1]], [nrows[b], nrows[b + 1]], q)
+                })
             })
             .collect()
     }
@@ -438,21 +433,6 @@ struct CellRow<'a> {
     pr: usize,
     top: &'a [Option<[f64; 2]>],
     bottom: &'a [Option<[f64; 2]>],
-}
-
-/// The blocks (columns, rows: [first, last + 1)) whose rule is not [`Block::Outside`], as
-/// the box that holds them; `None` when all are outside.
-fn seen_blocks(rules: &[Vec<Block>]) -> Option<((usize, usize), (usize, usize))> {
-    let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
-    for (b, row) in rules.iter().enumerate() {
-        let seen = |q: &Block| !matches!(q, Block::Outside);
-        let (Some(first), Some(last)) = (row.iter().position(seen), row.iter().rposition(seen))
-        else {
-            continue;
-        };
-        (c0, c1, r0, r1) = (c0.min(first), c1.max(last + 1), r0.min(b), b + 1);
-    }
-    (c0 < c1).then_some(((c0, c1), (r0, r1)))
 }
 
 /// The block of cell `p` on an axis of `n` cells: its two node lines and `p`'s fraction of

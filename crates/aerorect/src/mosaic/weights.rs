@@ -2,7 +2,7 @@
 //! `feather_px` across each seam and faded out towards the edge of its cover.
 
 use super::distance::distance_within;
-use super::labels::{BoxScores, CellBox};
+use super::labels::{BoxScores, CellBox, box_where};
 use super::{Blend, Window};
 use aerorect_core::ImageSize;
 
@@ -170,20 +170,6 @@ fn uncovered_row(scores: &BoxScores, r: usize, (c0, c1): (usize, usize), out: &m
         out.extend(row.iter().map(|v| !v.is_finite()));
     }
     out.extend(std::iter::repeat_n(true, c1 - hi));
-}
-
-/// The bounding box of the cells of a grid `width` cells wide (`values` row by row) where
-/// `keep` holds; `None` where it holds nowhere.
-fn box_where<T>(values: &[T], width: usize, keep: impl Fn(&T) -> bool) -> Option<CellBox> {
-    let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
-    for (r, row) in values.chunks_exact(width).enumerate() {
-        let (Some(first), Some(last)) = (row.iter().position(&keep), row.iter().rposition(&keep))
-        else {
-            continue;
-        };
-        (c0, c1, r0, r1) = (c0.min(first), c1.max(last + 1), r0.min(r), r + 1);
-    }
-    (c0 < c1).then_some(CellBox { c0, c1, r0, r1 })
 }
 
 /// The bounding box of the finite `scores` in a window of `size`, grown by `by` cells (within
