@@ -6,7 +6,7 @@
 
 use aerorect_core::distortion::{Distortion, OpenCv};
 use aerorect_core::{Camera, CameraRotation, Homography, ImageSize, Intrinsics};
-use aerorect_geo::{GroundMap, HeightGrid, OrthoGrid, Pose, Terrain};
+use aerorect_geo::{Crs, Dem, GroundMap, HeightGrid, OrthoGrid, Pose, Terrain};
 use aerorect_raster::{Interp, LensDirection, LensMap, Raster, Then, WarpOptions, warp_into};
 use aerorect_testkit::textured_scene;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -95,6 +95,7 @@ fn ortho(c: &mut Criterion) {
     });
     g.finish();
     heights_along(c);
+    dem_range(c);
 }
 
 /// The heights of the ortho grid's rows over the height grid (1 m nodes, 20 output pixels
@@ -119,6 +120,32 @@ fn heights_along(c: &mut Criterion) {
             xs[0]
         })
     });
+    g.finish();
+}
+
+/// The lowest and highest heights of a DEM the size of the 1,000-frame flight's tie surface
+/// (642 x 757 nodes, a few without a height), which each frame's plan over it reads.
+fn dem_range(c: &mut Criterion) {
+    let (w, h) = (642, 757);
+    let mut values: Vec<f32> = (0..w * h)
+        .map(|i| ((i * 7919) % 6000) as f32 * 0.01)
+        .collect();
+    values.iter_mut().step_by(997).for_each(|v| *v = f32::NAN);
+    let dem = Dem {
+        name: "bench".into(),
+        values,
+        width: w,
+        height: h,
+        top_left: [0.0, 0.0],
+        cell_size: [2.0, -2.0],
+        crs: Crs::from_epsg(32635).unwrap(),
+    };
+    let mut g = c.benchmark_group("terrain/range");
+    g.throughput(Throughput::Elements((w * h) as u64));
+    g.sample_size(20)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
+    g.bench_function("642x757", |b| b.iter(|| dem.range()));
     g.finish();
 }
 
