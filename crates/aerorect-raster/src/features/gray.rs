@@ -36,6 +36,13 @@ impl GrayLevel for f32 {
     }
 }
 
+/// ITU-R BT.601 luma of one pixel's first three samples (OpenCV's `cvtColor` weights), each
+/// sample's [`GrayLevel`]: the one place the reduction's colour weights are written.
+#[inline(always)]
+fn bt601<T: GrayLevel>(a: T, b: T, c: T) -> f32 {
+    0.299 * a.level() + 0.587 * b.level() + 0.114 * c.level()
+}
+
 /// One pixel's gray value, read from a raster's planes: one band as is, two bands (gray +
 /// alpha) the first, three or more ITU-R BT.601 luma of the first three (OpenCV's `cvtColor`
 /// weights), each sample's [`GrayLevel`].
@@ -60,11 +67,7 @@ impl<'a, T: GrayLevel> Luma<'a, T> {
         let [a, b, c] = self.planes.map(|p| &p[start..start + len]);
         out.clear();
         match self.colour {
-            true => {
-                out.extend(a.iter().zip(b).zip(c).map(|((&a, &b), &c)| {
-                    0.299 * a.level() + 0.587 * b.level() + 0.114 * c.level()
-                }))
-            }
+            true => out.extend(a.iter().zip(b).zip(c).map(|((&a, &b), &c)| bt601(a, b, c))),
             false => out.extend(a.iter().map(|&a| a.level())),
         }
     }
@@ -73,7 +76,7 @@ impl<'a, T: GrayLevel> Luma<'a, T> {
     fn at(&self, i: usize) -> f32 {
         let [a, b, c] = self.planes;
         match self.colour {
-            true => 0.299 * a[i].level() + 0.587 * b[i].level() + 0.114 * c[i].level(),
+            true => bt601(a[i], b[i], c[i]),
             false => a[i].level(),
         }
     }
