@@ -15,10 +15,12 @@ if [[ ! -x "$venv/bin/python" ]]; then
     python3 -m venv "$venv"
 fi
 "$venv/bin/pip" install -q pytest numpy rasterio "dask[distributed]" fsspec
-# The wheel, built from this tree (CARGO_TARGET_DIR keeps its Rust build under target/).
+# The wheel, built from this tree in the workspace's own target folder: python/ is a workspace
+# member and crates/workspace-hack gives it the features the tests resolved, so maturin compiles
+# only pyo3's crates and the extension module again, not the whole tree.
 rm -rf "$root/target/wheels"
 started=$(date +%s)
-CARGO_TARGET_DIR="$root/target/python" "$venv/bin/pip" wheel -q --no-deps -w "$root/target/wheels" ./python
+CARGO_TARGET_DIR="$root/target" "$venv/bin/pip" wheel -q --no-deps -w "$root/target/wheels" ./python
 echo "wheel: $(basename "$root"/target/wheels/aerorect-*.whl) built in $(( $(date +%s) - started )) s"
 "$venv/bin/pip" install -q --force-reinstall --no-deps "$root"/target/wheels/aerorect-*.whl
 # From target/ so that python/aerorect (the sources, without the native module) is not imported.
