@@ -10,7 +10,7 @@ use crate::error::{CodecError, IoError};
 use crate::geotiff::GeoReference;
 use crate::strip_tiff::StripSample;
 use aerorect_core::ImageSize;
-use aerorect_raster::AnyRaster;
+use aerorect_raster::{AnyRaster, SampleKind};
 use rayon::prelude::*;
 use std::io::{Seek, Write};
 use std::path::Path;
@@ -131,8 +131,7 @@ impl Layout {
 struct Packed {
     bytes: Vec<u8>,
     bands: usize,
-    sample: &'static str,
-    sample_bytes: usize,
+    sample: SampleKind,
 }
 
 /// Why a tile is missing: its source failed, or it could not be written.
@@ -172,8 +171,7 @@ fn pack<E>(
     Ok(Packed {
         bytes,
         bands: t.bands(),
-        sample: t.sample_name(),
-        sample_bytes: t.sample_bytes(),
+        sample: t.sample_kind(),
     })
 }
 
@@ -214,7 +212,7 @@ where
 }
 
 /// A tile format: sample type and bands.
-type Format = (&'static str, usize);
+type Format = (SampleKind, usize);
 
 /// The compressed all-zero tile of each format a writer has met.
 #[derive(Default)]
@@ -224,7 +222,7 @@ impl ZeroTiles {
     /// The compressed bytes of an all-zero tile of `t`'s format (padded to `tile`: the same
     /// for any tile size).
     fn get<E>(&self, t: &AnyRaster, tile: usize) -> Result<Vec<u8>, TileError<E>> {
-        let key = (t.sample_name(), t.bands());
+        let key = (t.sample_kind(), t.bands());
         let mut known = self.0.lock().unwrap_or_else(|e| e.into_inner());
         if let Some((_, bytes)) = known.iter().find(|(k, _)| *k == key) {
             return Ok(bytes.clone());
@@ -255,8 +253,9 @@ fn write_packed<E: From<IoError>>(
         };
         let result = match next(0, 0) {
             Ok(Some(first)) => {
-                let bytes =
-                    layout.size.pixels() as u128 * first.bands as u128 * first.sample_bytes as u128;
+                let bytes = layout.size.pixels() as u128
+                    * first.bands as u128
+                    * first.sample.bytes() as u128;
                 if bytes > CLASSIC_LIMIT_BYTES {
                     let enc = TiffEncoder::new_big(w).map_err(CodecError::from);
                     enc.and_then(|e| encode::<_, TiffKindBig>(e, layout, geo, first, &mut next))
@@ -297,11 +296,9 @@ fn encode<W: Write + Seek, K: TiffKind>(
     if !(1..=4).contains(&bands) {
         return Err(format!("TIFF output holds 1 to 4 bands, this image has {bands}").into());
     }
-    let (bits, format, integer) = match kind {
-        "u8" => (8u16, 1u16, true),
-        "u16" => (16, 1, true),
-        _ => (32, 3, false),
-    };
+    // SampleFormat 1 (unsigned integer) or 3 (IEEE float).
+    let integer = kind.is_integer();
+    let (bits, format) = (8 * kind.bytes() as u16, if integer { 1u16 } else { 3 });
     let Layout { size, tile } = layout;
     let mut dir = enc.image_directory().map_err(e)?;
     let (mut offsets, mut counts) = (Vec::new(), Vec::new());

@@ -12,12 +12,13 @@ pub mod features;
 pub mod map;
 pub mod pyramid;
 pub mod raster;
+mod sample_kind;
 pub mod shift;
 pub mod warp;
 
 pub use error::RasterError;
 pub use map::{LensDirection, LensMap, PixelMap, Then};
-pub use raster::{AnyRaster, Raster, Sample};
+pub use raster::{AnyRaster, Raster, Sample, SampleKind};
 pub use warp::{
     Coordinates, Interp, ReducedLevels, WarpOptions, warp, warp_into, warp_into_avx2,
     warp_into_portable, warp_levels,

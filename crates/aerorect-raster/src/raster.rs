@@ -1,13 +1,16 @@
 //! Planar rasters of u8, u16 or f32 samples.
 
 use crate::error::RasterError;
+pub use crate::sample_kind::SampleKind;
 use aerorect_core::ImageSize;
 use rayon::prelude::*;
 
 /// A sample type the warp engine can resample.
 pub trait Sample: Copy + Default + Send + Sync + PartialEq + std::fmt::Debug + 'static {
+    /// The type as a value.
+    const KIND: SampleKind;
     /// The type's name in messages and reports.
-    const NAME: &'static str;
+    const NAME: &'static str = Self::KIND.name();
     /// The alpha value of a valid pixel (255, 65535 or 1.0).
     const OPAQUE: Self;
     fn to_f32(self) -> f32;
@@ -73,7 +76,7 @@ pub(crate) fn bilinear_u8(p: [u8; 4], f: (f32, f32)) -> u8 {
 }
 
 impl Sample for u8 {
-    const NAME: &'static str = "u8";
+    const KIND: SampleKind = SampleKind::U8;
     const OPAQUE: Self = u8::MAX;
     #[inline(always)]
     fn to_f32(self) -> f32 {
@@ -103,7 +106,7 @@ impl Sample for u8 {
 }
 
 impl Sample for u16 {
-    const NAME: &'static str = "u16";
+    const KIND: SampleKind = SampleKind::U16;
     const OPAQUE: Self = u16::MAX;
     #[inline(always)]
     fn to_f32(self) -> f32 {
@@ -123,7 +126,7 @@ impl Sample for u16 {
 }
 
 impl Sample for f32 {
-    const NAME: &'static str = "f32";
+    const KIND: SampleKind = SampleKind::F32;
     const OPAQUE: Self = 1.0;
     #[inline(always)]
     fn to_f32(self) -> f32 {
@@ -323,22 +326,23 @@ impl AnyRaster {
         }
     }
 
+    /// The sample type held.
+    pub fn sample_kind(&self) -> SampleKind {
+        match self {
+            AnyRaster::U8(_) => u8::KIND,
+            AnyRaster::U16(_) => u16::KIND,
+            AnyRaster::F32(_) => f32::KIND,
+        }
+    }
+
     /// "u8", "u16" or "f32".
     pub fn sample_name(&self) -> &'static str {
-        match self {
-            AnyRaster::U8(_) => u8::NAME,
-            AnyRaster::U16(_) => u16::NAME,
-            AnyRaster::F32(_) => f32::NAME,
-        }
+        self.sample_kind().name()
     }
 
     /// Bytes of one sample: 1, 2 or 4.
     pub fn sample_bytes(&self) -> usize {
-        match self {
-            AnyRaster::U8(_) => std::mem::size_of::<u8>(),
-            AnyRaster::U16(_) => std::mem::size_of::<u16>(),
-            AnyRaster::F32(_) => std::mem::size_of::<f32>(),
-        }
+        self.sample_kind().bytes()
     }
 
     /// Band `b` as f32 values (for metrics).

@@ -6,7 +6,7 @@ use super::weights::Weights;
 use super::{MosaicOptions, Window};
 use crate::Error;
 use aerorect_core::ImageSize;
-use aerorect_raster::{AnyRaster, Raster, Sample};
+use aerorect_raster::{AnyRaster, Raster, Sample, SampleKind};
 
 /// Adds a frame's cells `r` (rendered over box `b` of a tile `tw` cells wide: `bands` bands,
 /// then an alpha band when `alpha`), weighted by `w`, to the tile's weighted sums and weights.
@@ -129,9 +129,9 @@ pub(super) fn assemble(
         Ok(Raster::from_planes(size, planes)?)
     }
     Ok(match format.sample {
-        "u8" => AnyRaster::U8(build(size, acc, wsum, opts)?),
-        "u16" => AnyRaster::U16(build(size, acc, wsum, opts)?),
-        _ => AnyRaster::F32(build(size, acc, wsum, opts)?),
+        SampleKind::U8 => AnyRaster::U8(build(size, acc, wsum, opts)?),
+        SampleKind::U16 => AnyRaster::U16(build(size, acc, wsum, opts)?),
+        SampleKind::F32 => AnyRaster::F32(build(size, acc, wsum, opts)?),
     })
 }
 

@@ -9,14 +9,14 @@
 
 use super::MosaicFrame;
 use crate::Error;
-use aerorect_raster::AnyRaster;
+use aerorect_raster::{AnyRaster, SampleKind};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 
 /// Sample type and bands of the frames.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) struct Format {
-    pub sample: &'static str,
+    pub sample: SampleKind,
     pub bands: usize,
     /// Bytes of one pixel (every band).
     pub pixel_bytes: usize,
@@ -25,7 +25,7 @@ pub(super) struct Format {
 impl Format {
     fn of(img: &AnyRaster) -> Self {
         Self {
-            sample: img.sample_name(),
+            sample: img.sample_kind(),
             bands: img.bands(),
             pixel_bytes: img.bands() * img.sample_bytes(),
         }

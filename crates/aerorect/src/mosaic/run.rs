@@ -103,7 +103,7 @@ where
         // on each of its cells. Integer samples then come out the same for any positive
         // weight (w v / w is v within 2 ulp, far inside the rounding), so its weights are
         // left 1 and 0, without the feather's distances (f32 samples would keep the ulps).
-        let blend = match format.sample != "f32" && one_frame(&labels) {
+        let blend = match format.sample.is_integer() && one_frame(&labels) {
             true => Blend::None,
             false => plan.opts.blend,
         };
