@@ -46,23 +46,24 @@ mod tests {
     use crate::{AnyRaster, Raster, Sample};
     use aerorect_core::ImageSize;
 
-    /// Each kind's size and name are its type's, the rasters of each type say their kind, and
-    /// only the float type resamples without rounding (`from_f32` keeps 0.4).
+    /// Each kind's size is its type's and its name the Rust type's (the reports' convention),
+    /// the rasters of each type say their kind, and only the float type resamples without
+    /// rounding (`from_f32` keeps 0.4).
     #[test]
     fn each_kind_is_its_sample_types() {
-        fn check<T: Sample>(any: fn(Raster<T>) -> AnyRaster) {
+        fn check<T: Sample>(any: fn(Raster<T>) -> AnyRaster, name: &str) {
             let kind = T::KIND;
             assert_eq!(kind.bytes(), std::mem::size_of::<T>(), "{kind}");
-            assert_eq!(kind.name(), T::NAME);
-            assert_eq!(kind.to_string(), T::NAME);
+            assert_eq!((kind.name(), T::NAME), (name, name));
+            assert_eq!(kind.to_string(), name);
             let raster = any(Raster::<T>::new(ImageSize::new(2, 1), 3).unwrap());
             assert_eq!(raster.sample_kind(), kind);
             assert_eq!(raster.sample_bytes(), std::mem::size_of::<T>());
             let rounds = T::from_f32(0.4).to_f32() != 0.4;
             assert_eq!(kind.is_integer(), rounds, "{kind}");
         }
-        check::<u8>(AnyRaster::U8);
-        check::<u16>(AnyRaster::U16);
-        check::<f32>(AnyRaster::F32);
+        check::<u8>(AnyRaster::U8, "u8");
+        check::<u16>(AnyRaster::U16, "u16");
+        check::<f32>(AnyRaster::F32, "f32");
     }
 }
