@@ -18,8 +18,6 @@ use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 pub(super) struct Format {
     pub sample: SampleKind,
     pub bands: usize,
-    /// Bytes of one pixel (every band).
-    pub pixel_bytes: usize,
 }
 
 impl Format {
@@ -27,8 +25,12 @@ impl Format {
         Self {
             sample: img.sample_kind(),
             bands: img.bands(),
-            pixel_bytes: img.bands() * img.sample_bytes(),
         }
+    }
+
+    /// Bytes of one pixel (every band).
+    fn pixel_bytes(self) -> usize {
+        self.bands * self.sample.bytes()
     }
 }
 
@@ -120,7 +122,7 @@ where
     /// holds once the format is known.
     fn capacity(&self) -> usize {
         let by_bytes = match self.format.get() {
-            Some(f) => self.bytes / (self.largest_px * f.pixel_bytes).max(1),
+            Some(f) => self.bytes / (self.largest_px * f.pixel_bytes()).max(1),
             None => 0,
         };
         self.frames_held.max(by_bytes)
